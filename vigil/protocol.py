@@ -1,0 +1,167 @@
+"""Robot <-> backend wire protocol (JSON text messages over a websocket), version 1.
+
+Robot -> server: ``hello`` (first message), ``transport_start``, ``frames``, ``transport_end``,
+``heartbeat``.  Server -> robot: ``welcome``, ``ack`` (highest sequence number committed to the
+database, never sent before the commit), ``assign_model``, ``error``.
+
+A message that does not validate closes the connection with one of the CLOSE_* codes and a
+reason naming the bad field; frames stored before it are unaffected.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Annotated, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, TypeAdapter, field_validator
+
+from vigil.classes import Decision, TransportMode
+from vigil.skeleton import N_KEYPOINTS
+
+PROTOCOL_VERSION = 1
+MAX_MESSAGE_BYTES = 1_000_000
+MAX_FRAMES_PER_BATCH = 500
+
+# Websocket close codes (application range 4000-4999).
+CLOSE_BAD_MESSAGE = 4400  # not JSON, unknown type, missing or invalid field
+CLOSE_UNAUTHORIZED = 4401  # wrong or revoked robot token
+CLOSE_PROTOCOL_VERSION = 4406  # protocol version the server does not speak
+CLOSE_HELLO_TIMEOUT = 4408  # no hello in time
+CLOSE_TOO_LARGE = 4413  # message larger than MAX_MESSAGE_BYTES
+CLOSE_REPLACED = 4409  # the same robot connected again; the older connection is closed
+
+
+class _Message(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+def _finite(value: float, name: str) -> float:
+    if not math.isfinite(value):
+        raise ValueError(f"{name} must be a finite number")
+    return value
+
+
+class Hello(_Message):
+    type: Literal["hello"] = "hello"
+    protocol: int = PROTOCOL_VERSION
+    robot_id: str = Field(min_length=1, max_length=64)
+    token: str = Field(min_length=1, max_length=256)
+    agent_version: str = Field(default="unknown", max_length=64)
+    running_model: str | None = Field(default=None, max_length=64)
+
+
+class TransportStart(_Message):
+    type: Literal["transport_start"] = "transport_start"
+    transport_id: str = Field(min_length=1, max_length=64)
+    mode: TransportMode
+    patient: str | None = Field(default=None, max_length=64, description="patient pseudonym")
+    location: str | None = Field(default=None, max_length=128)
+    ts: float
+
+
+class TransportEnd(_Message):
+    type: Literal["transport_end"] = "transport_end"
+    transport_id: str = Field(min_length=1, max_length=64)
+    ts: float
+
+
+class FrameRecord(_Message):
+    """One classified frame. keypoints: 25 x [x, y, confidence]; depth: 25 metres or null."""
+
+    seq: int = Field(ge=0)
+    ts: float
+    transport_id: str | None = Field(default=None, max_length=64)
+    keypoints: list[list[float]]
+    depth: list[float | None] | None = None
+    decision: Decision | None = None
+    scores: dict[Decision, float] = Field(default_factory=dict)
+    model_version: str | None = Field(default=None, max_length=64)
+    threshold: float | None = None
+    delay_ms: int | None = Field(default=None, ge=0)
+    shadow: bool = False
+
+    @field_validator("ts", "threshold")
+    @classmethod
+    def _check_finite(cls, value: float | None, info) -> float | None:
+        return None if value is None else _finite(value, info.field_name)
+
+    @field_validator("keypoints")
+    @classmethod
+    def _check_keypoints(cls, value: list[list[float]]) -> list[list[float]]:
+        if len(value) != N_KEYPOINTS:
+            raise ValueError(f"keypoints must hold {N_KEYPOINTS} points, got {len(value)}")
+        for i, point in enumerate(value):
+            if len(point) != 3:
+                raise ValueError(f"keypoints[{i}] must be [x, y, confidence]")
+            for v in point:
+                _finite(v, f"keypoints[{i}]")
+        return value
+
+    @field_validator("depth")
+    @classmethod
+    def _check_depth(cls, value: list[float | None] | None) -> list[float | None] | None:
+        if value is not None and len(value) != N_KEYPOINTS:
+            raise ValueError(f"depth must hold {N_KEYPOINTS} values, got {len(value)}")
+        # JSON has no NaN: unknown depth travels as null.
+        return value
+
+    @field_validator("scores")
+    @classmethod
+    def _check_scores(cls, value: dict[Decision, float]) -> dict[Decision, float]:
+        for key, v in value.items():
+            _finite(v, f"scores.{key}")
+        return value
+
+
+class FrameBatch(_Message):
+    type: Literal["frames"] = "frames"
+    frames: list[FrameRecord] = Field(min_length=1, max_length=MAX_FRAMES_PER_BATCH)
+
+
+class Heartbeat(_Message):
+    type: Literal["heartbeat"] = "heartbeat"
+    ts: float
+    running_model: str | None = None
+
+
+RobotMessage = Annotated[
+    Hello | TransportStart | TransportEnd | FrameBatch | Heartbeat, Field(discriminator="type")
+]
+robot_message_adapter: TypeAdapter[RobotMessage] = TypeAdapter(RobotMessage)
+
+
+class ModelAssignment(_Message):
+    type: Literal["assign_model"] = "assign_model"
+    version: str
+    url: str
+    sha256: str
+    manifest: dict
+    shadow: bool = False
+
+
+class Welcome(_Message):
+    type: Literal["welcome"] = "welcome"
+    protocol: int = PROTOCOL_VERSION
+    robot_id: str
+    last_seq: int | None = Field(description="highest sequence number already committed")
+
+
+class Ack(_Message):
+    type: Literal["ack"] = "ack"
+    seq: int
+
+
+class ServerError(_Message):
+    type: Literal["error"] = "error"
+    message: str
+
+
+ServerMessage = Annotated[
+    Welcome | Ack | ModelAssignment | ServerError, Field(discriminator="type")
+]
+server_message_adapter: TypeAdapter[ServerMessage] = TypeAdapter(ServerMessage)
+
+
+def parse_robot_message(raw: str | bytes) -> RobotMessage:
+    """Parse and validate one robot message; raises pydantic.ValidationError or ValueError."""
+    return robot_message_adapter.validate_json(raw)

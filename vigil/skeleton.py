@@ -1,0 +1,77 @@
+"""The canonical skeleton: OpenPose BODY_25 keypoints (x, y, confidence) plus depth per keypoint."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+BODY_25: tuple[str, ...] = (
+    "nose", "neck",
+    "r_shoulder", "r_elbow", "r_wrist",
+    "l_shoulder", "l_elbow", "l_wrist",
+    "mid_hip",
+    "r_hip", "r_knee", "r_ankle",
+    "l_hip", "l_knee", "l_ankle",
+    "r_eye", "l_eye", "r_ear", "l_ear",
+    "l_big_toe", "l_small_toe", "l_heel",
+    "r_big_toe", "r_small_toe", "r_heel",
+)  # fmt: skip
+N_KEYPOINTS = len(BODY_25)
+INDEX = {name: i for i, name in enumerate(BODY_25)}
+
+#: Bones for drawing: pairs of keypoint indices.
+BONES: tuple[tuple[int, int], ...] = (
+    (1, 0), (0, 15), (15, 17), (0, 16), (16, 18),
+    (1, 2), (2, 3), (3, 4), (1, 5), (5, 6), (6, 7),
+    (1, 8), (8, 9), (9, 10), (10, 11), (11, 24), (11, 22), (22, 23),
+    (8, 12), (12, 13), (13, 14), (14, 21), (14, 19), (19, 20),
+)  # fmt: skip
+
+
+@dataclass(slots=True)
+class SkeletonFrame:
+    """One person in one frame.
+
+    keypoints: (25, 3) float32, x and y in image units (pixels or normalised), confidence 0..1;
+    a missing keypoint has confidence 0 (its x, y are meaningless, never real zeros).
+    depth: (25,) float32 metres, NaN where unknown.
+    """
+
+    keypoints: np.ndarray
+    depth: np.ndarray = field(default_factory=lambda: np.full(N_KEYPOINTS, np.nan, np.float32))
+    timestamp: float = 0.0
+
+    def __post_init__(self) -> None:
+        self.keypoints = np.asarray(self.keypoints, dtype=np.float32)
+        self.depth = np.asarray(self.depth, dtype=np.float32)
+        if self.keypoints.shape != (N_KEYPOINTS, 3):
+            raise ValueError(f"keypoints must have shape (25, 3), got {self.keypoints.shape}")
+        if self.depth.shape != (N_KEYPOINTS,):
+            raise ValueError(f"depth must have shape (25,), got {self.depth.shape}")
+
+    @property
+    def present(self) -> np.ndarray:
+        return self.keypoints[:, 2] > 0
+
+
+def empty_keypoints() -> np.ndarray:
+    return np.zeros((N_KEYPOINTS, 3), np.float32)
+
+
+def encode_keypoints(keypoints: np.ndarray) -> bytes:
+    """Compact storage: 25 x 3 little-endian float32 (300 bytes)."""
+    return np.ascontiguousarray(keypoints, dtype="<f4").tobytes()
+
+
+def decode_keypoints(blob: bytes) -> np.ndarray:
+    return np.frombuffer(blob, dtype="<f4").reshape(N_KEYPOINTS, 3).copy()
+
+
+def encode_depth(depth: np.ndarray) -> bytes:
+    """Compact storage: 25 little-endian float32 metres, NaN for unknown (100 bytes)."""
+    return np.ascontiguousarray(depth, dtype="<f4").tobytes()
+
+
+def decode_depth(blob: bytes) -> np.ndarray:
+    return np.frombuffer(blob, dtype="<f4").copy()
