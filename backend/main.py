@@ -12,7 +12,7 @@ from fastapi.staticfiles import StaticFiles
 from prometheus_client import CONTENT_TYPE_LATEST, generate_latest
 from sqlalchemy import func, select
 
-from backend.api import alarms, auth, misc, robots, videos
+from backend.api import alarms, auth, labelling, misc, robots, videos
 from backend.db import make_engine, make_session_factory
 from backend.deps import CurrentUser
 from backend.ingest import robot_ws
@@ -52,6 +52,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.state.robots = RobotRegistry(on_change=metrics.connected_robots.set)
     for router in ROUTERS:
         app.include_router(router)
+    labelling.install(app, settings)
     app.include_router(robot_ws.router)
     app.include_router(browser_ws.router)
 

@@ -42,6 +42,16 @@ class Settings(BaseSettings):
         default=5.0,
         description="no frame for this long during a transport raises a technical alarm",
     )
+    urfd_dir: Path | None = Field(
+        default=None,
+        description="URFD dataset directory; None = ../shared/datasets/urfd next to the repo",
+    )
+    labelling_model_dir: Path | None = Field(
+        default=REPO_ROOT / "var" / "models" / "default-walking",
+        description="model that fills the labelling timeline's probability lane when a video "
+        "has no stored scores; None disables it",
+    )
+    rgb_cache_frames: int = Field(default=600, description="decoded RGB frames kept in memory")
     robot_hello_timeout_s: float = Field(default=5.0, description="time a robot has to say hello")
 
 
