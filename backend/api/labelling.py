@@ -8,7 +8,7 @@ from typing import Literal
 
 from fastapi import APIRouter, FastAPI, Query, Request, Response, UploadFile, status
 from fastapi.responses import JSONResponse
-from sqlalchemy import distinct, select
+from sqlalchemy import select
 
 from backend.deps import CurrentUser, SessionDep
 from backend.labelling import exchange, export, segments
@@ -137,7 +137,7 @@ def list_videos(
 @router.get("/facets")
 def facets(session: SessionDep, user: CurrentUser) -> Facets:
     def values(column) -> list[str]:
-        return sorted(v for v in session.scalars(select(distinct(column))) if v)
+        return sorted(v for v in session.scalars(select(column).distinct()) if v)
 
     return Facets(
         persons=values(Video.person),

@@ -28,7 +28,7 @@ def add_video(
     """keypoints (n, 25, 3); depth (n, 25) metres with NaN for unknown, or None."""
     if video_by_name(session, video.name) is not None:
         raise Conflict(f"name: a video called {video.name!r} already exists")
-    indices = list(range(len(keypoints))) if indices is None else list(indices)
+    indices = list(range(len(keypoints))) if indices is None else [int(i) for i in indices]
     video.frame_count = (max(indices) + 1) if indices else 0
     session.add(video)
     session.flush()

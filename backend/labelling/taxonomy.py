@@ -21,7 +21,7 @@ class LabelClasses:
     combined: Decision
 
     def decision(self, mode: TransportMode | str) -> Decision:
-        return getattr(self, TransportMode(mode).value)
+        return Decision(getattr(self, TransportMode(mode).value))
 
 
 @dataclass(frozen=True, slots=True)
