@@ -25,7 +25,10 @@ def test_create_update_delete_keep_exact_frames_and_history(client, urfd_videos,
         headers=annotator.headers,
     )
     assert moved.status_code == 200 and moved.json()["last_frame"] == 121
-    assert client.delete(f"{API}/segments/{segment['id']}", headers=annotator.headers).status_code == 204
+    assert (
+        client.delete(f"{API}/segments/{segment['id']}", headers=annotator.headers).status_code
+        == 204
+    )
     listed = client.get(f"{API}/videos/{video}/segments", headers=annotator.headers).json()
     assert segment["id"] not in [s["id"] for s in listed]
     history = client.get(f"{API}/segments/{segment['id']}/history", headers=annotator.headers)
@@ -47,7 +50,9 @@ def test_bad_frames_and_labels_are_rejected_with_the_field_named(client, urfd_vi
     assert _create(client, annotator, video, 159, 159).status_code == 201
 
 
-def test_submit_then_another_annotator_reviews(client, urfd_videos, annotator, annotator2, make_account):
+def test_submit_then_another_annotator_reviews(
+    client, urfd_videos, annotator, annotator2, make_account
+):
     video = urfd_videos["fall-01"]
     ids = [_create(client, annotator, video, a, b, k).json()["id"]
            for a, b, k in ((95, 104, "falling"), (105, 159, "lying_on_floor"))]  # fmt: skip
