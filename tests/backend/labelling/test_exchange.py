@@ -32,13 +32,17 @@ def test_json_round_trip_reproduces_frames_and_segments(client, urfd_videos, ann
     first = _export(client, annotator, urfd_videos["fall-01"], "json").json()
     created = _import(client, annotator, "json", json.dumps(first), name="fall-01-copy")
     assert created.status_code == 201, created.text
-    copy_id = next(v["id"] for v in client.get(f"{API}/videos", headers=annotator.headers).json()
-                   if v["name"] == "fall-01-copy")  # fmt: skip
+    copy_id = next(
+        v["id"]
+        for v in client.get(f"{API}/videos", headers=annotator.headers).json()
+        if v["name"] == "fall-01-copy"
+    )
     second = _export(client, annotator, copy_id, "json").json()
     assert second["frames"] == first["frames"]
-    strip = lambda segs: [
-        (s["first_frame"], s["last_frame"], s["label_key"], s["status"]) for s in segs
-    ]  # noqa: E731
+
+    def strip(segs):
+        return [(s["first_frame"], s["last_frame"], s["label_key"], s["status"]) for s in segs]
+
     assert strip(second["segments"]) == strip(first["segments"])
     assert {k: v for k, v in second["video"].items() if k != "name"} == {
         k: v for k, v in first["video"].items() if k != "name"
@@ -54,8 +58,11 @@ def test_csv_round_trip_onto_a_video_without_labels(client, urfd_videos, annotat
     exported = _export(client, annotator, urfd_videos["fall-01"], "csv").text
     renamed = exported.replace("fall-01,", "bare,")
     assert _import(client, annotator, "csv", renamed).json() == {"videos": ["bare"], "segments": 3}
-    bare = next(v["id"] for v in client.get(f"{API}/videos", headers=annotator.headers).json()
-                if v["name"] == "bare")  # fmt: skip
+    bare = next(
+        v["id"]
+        for v in client.get(f"{API}/videos", headers=annotator.headers).json()
+        if v["name"] == "bare"
+    )
     assert _export(client, annotator, bare, "csv").text == renamed
 
 
@@ -66,8 +73,11 @@ def test_coco_round_trip_keeps_the_17_keypoints_and_labels(client, urfd_videos, 
     assert (
         _import(client, annotator, "coco", json.dumps(first), name="from-coco").status_code == 201
     )
-    copy = next(v["id"] for v in client.get(f"{API}/videos", headers=annotator.headers).json()
-                if v["name"] == "from-coco")  # fmt: skip
+    copy = next(
+        v["id"]
+        for v in client.get(f"{API}/videos", headers=annotator.headers).json()
+        if v["name"] == "from-coco"
+    )
     second = _export(client, annotator, copy, "coco").json()
     assert second["annotations"] == first["annotations"]
     assert [i["label_key"] for i in second["images"]] == [i["label_key"] for i in first["images"]]

@@ -31,8 +31,10 @@ def test_rgb_frame_is_the_exact_clip_frame(client, urfd_videos, annotator):
         assert response.headers["content-type"] == "image/jpeg"
         picture = _decode(response.content)
         assert picture.shape == (240, 320, 3)
-        errors = [np.abs(picture.astype(int) - _clip_frame(n).astype(int)).mean()
-                  for n in (frame - 2, frame - 1, frame)]  # fmt: skip
+        errors = [
+            np.abs(picture.astype(int) - _clip_frame(n).astype(int)).mean()
+            for n in (frame - 2, frame - 1, frame)
+        ]
         assert int(np.argmin(errors)) == 1, errors  # skeleton frame i shows clip frame i - 1
 
 
@@ -61,9 +63,13 @@ def test_probability_lane_from_stored_scores_suggests_the_fall(
     video = urfd_videos["fall-01"]
     with transaction(session_factory) as session:
         for lo, hi, p in ((0, 99, 0.1), (100, 159, 0.9)):
-            session.execute(update(Frame).where(Frame.video_id == video, Frame.index.between(lo, hi))
-                            .values(scores={"normal": 1 - p, "emergency": p}, threshold=0.5,
-                                    model_version="m-1"))  # fmt: skip
+            session.execute(
+                update(Frame)
+                .where(Frame.video_id == video, Frame.index.between(lo, hi))
+                .values(
+                    scores={"normal": 1 - p, "emergency": p}, threshold=0.5, model_version="m-1"
+                )
+            )
     lane = client.get(f"{API}/videos/{video}/probability", headers=annotator.headers).json()
     assert lane["source"] == "stored" and lane["model_version"] == "m-1"
     assert lane["probability"][99] == 0.1 and lane["probability"][100] == 0.9

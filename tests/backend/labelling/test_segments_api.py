@@ -54,25 +54,35 @@ def test_submit_then_another_annotator_reviews(
     client, urfd_videos, annotator, annotator2, make_account
 ):
     video = urfd_videos["fall-01"]
-    ids = [_create(client, annotator, video, a, b, k).json()["id"]
-           for a, b, k in ((95, 104, "falling"), (105, 159, "lying_on_floor"))]  # fmt: skip
+    ids = [
+        _create(client, annotator, video, a, b, k).json()["id"]
+        for a, b, k in ((95, 104, "falling"), (105, 159, "lying_on_floor"))
+    ]
     submitted = client.post(f"{API}/videos/{video}/submit", headers=annotator.headers)
     assert sorted(submitted.json()["submitted"]) == sorted(ids)
     editing_submitted = client.patch(
         f"{API}/segments/{ids[0]}", json={"first_frame": 90}, headers=annotator.headers
     )
     assert editing_submitted.status_code == 422
-    own = client.post(f"{API}/segments/{ids[0]}/review", json={"decision": "accept"},
-                      headers=annotator.headers)  # fmt: skip
+    own = client.post(
+        f"{API}/segments/{ids[0]}/review", json={"decision": "accept"}, headers=annotator.headers
+    )
     assert own.status_code == 403
-    no_comment = client.post(f"{API}/segments/{ids[1]}/review", json={"decision": "reject"},
-                             headers=annotator2.headers)  # fmt: skip
+    no_comment = client.post(
+        f"{API}/segments/{ids[1]}/review", json={"decision": "reject"}, headers=annotator2.headers
+    )
     assert no_comment.status_code == 422 and "comment" in no_comment.json()["detail"]
-    accepted = client.post(f"{API}/segments/{ids[0]}/review",
-                           json={"decision": "accept", "comment": "ok"}, headers=annotator2.headers)  # fmt: skip
+    accepted = client.post(
+        f"{API}/segments/{ids[0]}/review",
+        json={"decision": "accept", "comment": "ok"},
+        headers=annotator2.headers,
+    )
     assert accepted.json()["status"] == "accepted" and accepted.json()["reviewer"] == "bert"
-    again = client.post(f"{API}/segments/{ids[0]}/review", json={"decision": "reject", "comment": "x"},
-                        headers=annotator2.headers)  # fmt: skip
+    again = client.post(
+        f"{API}/segments/{ids[0]}/review",
+        json={"decision": "reject", "comment": "x"},
+        headers=annotator2.headers,
+    )
     assert again.status_code == 409
     nurse = make_account(Role.NURSE, "ward-a", "nina")
     forbidden = _create(client, nurse, video, 1, 2)
@@ -87,10 +97,19 @@ def test_video_list_shows_progress_and_filters(client, urfd_videos, annotator, a
     client.post(f"{API}/videos/{urfd_videos['adl-01']}/submit", headers=annotator.headers)
     waiting = client.get(f"{API}/videos?unreviewed=true", headers=annotator.headers).json()
     assert [v["name"] for v in waiting] == ["adl-01"] and waiting[0]["status"] == "in_review"
-    assert client.patch(f"{API}/videos/{urfd_videos['adl-01']}", json={"split": "test"},
-                        headers=annotator.headers).status_code == 403  # fmt: skip
-    changed = client.patch(f"{API}/videos/{urfd_videos['adl-01']}",
-                           json={"split": "test", "person": "P-07"}, headers=admin.headers)  # fmt: skip
+    assert (
+        client.patch(
+            f"{API}/videos/{urfd_videos['adl-01']}",
+            json={"split": "test"},
+            headers=annotator.headers,
+        ).status_code
+        == 403
+    )
+    changed = client.patch(
+        f"{API}/videos/{urfd_videos['adl-01']}",
+        json={"split": "test", "person": "P-07"},
+        headers=admin.headers,
+    )
     assert changed.json()["split"] == "test" and changed.json()["person"] == "P-07"
     tests_only = client.get(f"{API}/videos?split=test&person=P-07", headers=annotator.headers)
     assert [v["name"] for v in tests_only.json()] == ["adl-01"]

@@ -23,8 +23,9 @@ def test_fall_video_carries_official_labels_as_accepted_segments(urfd_videos, se
             .order_by(AnnotationSegment.first_frame)
         ).all()
     assert [s.label_key for s in segments] == ["walking", "falling", "lying_on_floor"]
-    assert all(s.status == SegmentStatus.ACCEPTED and s.source == SegmentSource.IMPORT
-               for s in segments)  # fmt: skip
+    assert all(
+        s.status == SegmentStatus.ACCEPTED and s.source == SegmentSource.IMPORT for s in segments
+    )
     expected = {-1: "walking", 0: "falling", 1: "lying_on_floor"}
     for s in segments:
         labels = sequence.urfd_label[s.first_frame : s.last_frame + 1]
