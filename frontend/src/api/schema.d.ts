@@ -140,6 +140,74 @@ export interface paths {
         patch?: never;
         trace?: never;
     };
+    "/api/alarms/{alarm_id}/replay": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /** Replay */
+        get: operations["replay_api_alarms__alarm_id__replay_get"];
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/alarm-history": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /** History */
+        get: operations["history_api_alarm_history_get"];
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/alarm-fatigue": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /** Fatigue */
+        get: operations["fatigue_api_alarm_fatigue_get"];
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/robots": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /** Robots */
+        get: operations["robots_api_robots_get"];
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
 }
 export type webhooks = Record<string, never>;
 export interface components {
@@ -230,6 +298,40 @@ export interface components {
             /** Delay Ms */
             delay_ms: number | null;
         };
+        /** AlarmPageOut */
+        AlarmPageOut: {
+            /** Total */
+            total: number;
+            /** Items */
+            items: components["schemas"]["AlarmOut"][];
+        };
+        /** AlarmReplayOut */
+        AlarmReplayOut: {
+            alarm: components["schemas"]["AlarmOut"];
+            /** Before S */
+            before_s: number;
+            /** After S */
+            after_s: number;
+            /** Frames */
+            frames: components["schemas"]["ReplayFrameOut"][];
+        };
+        /** FatigueOut */
+        FatigueOut: {
+            /**
+             * Since
+             * Format: date-time
+             */
+            since: string;
+            /**
+             * Until
+             * Format: date-time
+             */
+            until: string;
+            /** Shifts */
+            shifts: components["schemas"]["ShiftRow"][];
+            /** By Model */
+            by_model: components["schemas"]["ModelRow"][];
+        };
         /** HTTPValidationError */
         HTTPValidationError: {
             /** Detail */
@@ -242,6 +344,40 @@ export interface components {
             /** Password */
             password: string;
         };
+        /** ModelRow */
+        ModelRow: {
+            /** Model Version */
+            model_version: string | null;
+            /** Alarms */
+            alarms: number;
+            /** Resolved */
+            resolved: number;
+            /** False Alarms */
+            false_alarms: number;
+            /** False Share */
+            false_share: number | null;
+            /** Median Ack S */
+            median_ack_s: number | null;
+        };
+        /** ReplayFrameOut */
+        ReplayFrameOut: {
+            /** Seq */
+            seq: number;
+            /** Ts */
+            ts: number;
+            /** Keypoints */
+            keypoints: number[][];
+            /** Depth */
+            depth: (number | null)[] | null;
+            /** Decision */
+            decision: string | null;
+            /** Scores */
+            scores: {
+                [key: string]: number;
+            };
+            /** Model Version */
+            model_version: string | null;
+        };
         /** ResolveIn */
         ResolveIn: {
             /**
@@ -253,6 +389,31 @@ export interface components {
             reason?: ("bending" | "sitting_down" | "lying_down_deliberately" | "other") | null;
             /** Comment */
             comment?: string | null;
+        };
+        /** ShiftRow */
+        ShiftRow: {
+            /**
+             * Shift Start
+             * Format: date-time
+             */
+            shift_start: string;
+            /**
+             * Shift
+             * @enum {string}
+             */
+            shift: "early" | "late" | "night";
+            /** Ward */
+            ward: string | null;
+            /** Alarms */
+            alarms: number;
+            /** Emergencies */
+            emergencies: number;
+            /** Resolved */
+            resolved: number;
+            /** False Alarms */
+            false_alarms: number;
+            /** Median Ack S */
+            median_ack_s: number | null;
         };
         /** TokenOut */
         TokenOut: {
@@ -548,6 +709,134 @@ export interface operations {
                 };
                 content: {
                     "application/json": components["schemas"]["VideoOut"][];
+                };
+            };
+        };
+    };
+    replay_api_alarms__alarm_id__replay_get: {
+        parameters: {
+            query?: {
+                before_s?: number;
+                after_s?: number;
+            };
+            header?: never;
+            path: {
+                alarm_id: number;
+            };
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["AlarmReplayOut"];
+                };
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+        };
+    };
+    history_api_alarm_history_get: {
+        parameters: {
+            query?: {
+                ward?: string | null;
+                robot_id?: string | null;
+                kind?: string | null;
+                verdict?: string | null;
+                model_version?: string | null;
+                since?: string | null;
+                until?: string | null;
+                limit?: number;
+                offset?: number;
+            };
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["AlarmPageOut"];
+                };
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+        };
+    };
+    fatigue_api_alarm_fatigue_get: {
+        parameters: {
+            query?: {
+                since?: string | null;
+                until?: string | null;
+                ward?: string | null;
+            };
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["FatigueOut"];
+                };
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+        };
+    };
+    robots_api_robots_get: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": {
+                        [key: string]: unknown;
+                    }[];
                 };
             };
         };
