@@ -65,6 +65,12 @@ class TransportEnd(_Message):
     ts: float
 
 
+class ShadowDecision(_Message):
+    decision: Decision
+    scores: dict[Decision, float] = Field(default_factory=dict)
+    model_version: str = Field(max_length=64)
+
+
 class FrameRecord(_Message):
     """One classified frame. keypoints: 25 x [x, y, confidence]; depth: 25 metres or null."""
 
@@ -78,7 +84,9 @@ class FrameRecord(_Message):
     model_version: str | None = Field(default=None, max_length=64)
     threshold: float | None = None
     delay_ms: int | None = Field(default=None, ge=0)
-    shadow: bool = False
+    shadow: ShadowDecision | None = Field(
+        default=None, description="a candidate model's decision, stored but never alarmed"
+    )
 
     @field_validator("ts", "threshold")
     @classmethod

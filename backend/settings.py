@@ -1,0 +1,48 @@
+"""Backend settings: one pydantic-settings class, read from VIGIL_* environment variables."""
+
+from pathlib import Path
+
+from pydantic import Field
+from pydantic_settings import BaseSettings, SettingsConfigDict
+
+REPO_ROOT = Path(__file__).resolve().parent.parent
+
+
+class Settings(BaseSettings):
+    model_config = SettingsConfigDict(env_prefix="VIGIL_", env_file=".env", extra="ignore")
+
+    database_url: str = Field(
+        default=f"sqlite:///{REPO_ROOT / 'var' / 'vigil.db'}",
+        description="SQLAlchemy URL; postgresql+psycopg://... selects PostgreSQL",
+    )
+    secret_key: str = Field(
+        default="dev-only-change-me",
+        description="HMAC key signing browser access tokens; set a long random value in production",
+    )
+    access_token_minutes: int = Field(default=12 * 60, description="browser session lifetime")
+    cookie_secure: bool = Field(default=False, description="mark the session cookie Secure")
+    frontend_dir: Path = Field(
+        default=REPO_ROOT / "frontend" / "dist", description="built frontend served at /"
+    )
+    model_store_dir: Path = Field(
+        default=REPO_ROOT / "var" / "models", description="registered model files"
+    )
+    redis_url: str | None = Field(
+        default=None, description="redis://... enables alarm fan-out across backend replicas"
+    )
+    ingest_flush_ms: int = Field(default=50, description="frame batch commit interval")
+    ingest_flush_frames: int = Field(default=500, description="frames that force an early commit")
+    escalation_seconds: int = Field(
+        default=60, description="an open Emergency not acknowledged in this time escalates"
+    )
+    realarm_minutes: int = Field(
+        default=15, description="an acknowledged alarm not resolved in this time re-alarms"
+    )
+    stream_stall_seconds: float = Field(
+        default=5.0, description="no frame for this long during a transport raises a technical alarm"
+    )
+    robot_hello_timeout_s: float = Field(default=5.0, description="time a robot has to say hello")
+
+
+def get_settings() -> Settings:
+    return Settings()
