@@ -1,4 +1,4 @@
-"""Alarm-fatigue statistics: alarm load per shift and ward, false-alarm share, time to acknowledge."""
+"""Alarm-fatigue statistics: load per shift and ward, false-alarm share, time to acknowledge."""
 
 from __future__ import annotations
 
