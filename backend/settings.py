@@ -39,7 +39,8 @@ class Settings(BaseSettings):
         default=15, description="an acknowledged alarm not resolved in this time re-alarms"
     )
     stream_stall_seconds: float = Field(
-        default=5.0, description="no frame for this long during a transport raises a technical alarm"
+        default=5.0,
+        description="no frame for this long during a transport raises a technical alarm",
     )
     robot_hello_timeout_s: float = Field(default=5.0, description="time a robot has to say hello")
 

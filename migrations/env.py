@@ -1,6 +1,7 @@
 from logging.config import fileConfig
 
 from alembic import context
+
 from backend import models  # noqa: F401  (registers every table on Base.metadata)
 from backend.db import Base, make_engine
 from backend.settings import Settings

@@ -2,10 +2,11 @@ from datetime import datetime
 from enum import StrEnum
 
 from sqlalchemy import ForeignKey, Index, String, Text, text
-from sqlalchemy.orm import Mapped, mapped_column
+from sqlalchemy.orm import Mapped, mapped_column, relationship
 
 from backend.db import Base
 from backend.models._types import UTCDateTime, utcnow
+from backend.models.users import User
 
 
 class AlarmKind(StrEnum):
@@ -96,6 +97,21 @@ class Alarm(Base):
     model_version: Mapped[str | None] = mapped_column(String(64))
     threshold: Mapped[float | None] = mapped_column()
     delay_ms: Mapped[int | None] = mapped_column()
+
+    acknowledged_by_user: Mapped[User | None] = relationship(
+        foreign_keys=[acknowledged_by_id], lazy="joined"
+    )
+    resolved_by_user: Mapped[User | None] = relationship(
+        foreign_keys=[resolved_by_id], lazy="joined"
+    )
+
+    @property
+    def acknowledged_by(self) -> str | None:
+        return self.acknowledged_by_user.username if self.acknowledged_by_user else None
+
+    @property
+    def resolved_by(self) -> str | None:
+        return self.resolved_by_user.username if self.resolved_by_user else None
 
 
 class AlarmEvent(Base):

@@ -1,0 +1,98 @@
+"""The FastAPI application. `create_app()` builds it; the engine is made in the lifespan."""
+
+from __future__ import annotations
+
+import logging
+from contextlib import asynccontextmanager
+from pathlib import Path
+
+from fastapi import FastAPI, HTTPException, Response, status
+from fastapi.responses import FileResponse
+from fastapi.staticfiles import StaticFiles
+from prometheus_client import CONTENT_TYPE_LATEST, generate_latest
+from sqlalchemy import func, select
+
+from backend.api import alarms, auth, misc, robots, videos
+from backend.db import make_engine, make_session_factory
+from backend.deps import CurrentUser
+from backend.ingest import robot_ws
+from backend.ingest.registry import RobotRegistry
+from backend.metrics import Metrics
+from backend.models.alarms import Alarm, AlarmState
+from backend.realtime import browser_ws
+from backend.realtime.hub import BrowserHub
+from backend.settings import Settings
+
+log = logging.getLogger("vigil.backend")
+
+ROUTERS = (auth.router, misc.router, robots.router, alarms.router, videos.router)
+
+
+def create_app(settings: Settings | None = None) -> FastAPI:
+    settings = settings or Settings()
+
+    @asynccontextmanager
+    async def lifespan(app: FastAPI):
+        engine = make_engine(settings.database_url)
+        app.state.engine = engine
+        app.state.session_factory = make_session_factory(engine)
+        log.info("database %s", engine.url.render_as_string(hide_password=True))
+        yield
+        engine.dispose()
+
+    app = FastAPI(
+        title="Vigil",
+        version="0.1.0",
+        description="Emergency detection for autonomous hospital patient transports.",
+        lifespan=lifespan,
+    )
+    app.state.settings = settings
+    app.state.metrics = metrics = Metrics()
+    app.state.hub = BrowserHub()
+    app.state.robots = RobotRegistry(on_change=metrics.connected_robots.set)
+    for router in ROUTERS:
+        app.include_router(router)
+    app.include_router(robot_ws.router)
+    app.include_router(browser_ws.router)
+
+    @app.get("/metrics", tags=["system"], response_class=Response)
+    def prometheus_metrics(user: CurrentUser) -> Response:
+        with app.state.session_factory() as session:
+            counts = dict(
+                session.execute(
+                    select(Alarm.kind, func.count())
+                    .where(Alarm.state != AlarmState.RESOLVED)
+                    .group_by(Alarm.kind)
+                ).all()
+            )
+        for kind in ("emergency", "pause", "robot_offline", "stream_stalled"):
+            metrics.open_alarms.labels(kind).set(counts.get(kind, 0))
+        return Response(generate_latest(metrics.registry), media_type=CONTENT_TYPE_LATEST)
+
+    _mount_frontend(app, settings.frontend_dir)
+    return app
+
+
+def _mount_frontend(app: FastAPI, frontend_dir: Path) -> None:
+    """Serve the built single-page app; unknown non-API paths get index.html."""
+    index = frontend_dir / "index.html"
+    assets = frontend_dir / "assets"
+    if assets.is_dir():
+        app.mount("/assets", StaticFiles(directory=assets), name="assets")
+
+    @app.get("/{path:path}", include_in_schema=False)
+    def single_page_app(path: str) -> FileResponse:
+        if path.startswith(("api/", "ws/")) or path == "metrics":
+            raise HTTPException(status.HTTP_404_NOT_FOUND, "not found")
+        candidate = (frontend_dir / path).resolve()
+        if path and candidate.is_file() and candidate.is_relative_to(frontend_dir.resolve()):
+            return FileResponse(candidate)
+        if not index.is_file():
+            raise HTTPException(
+                status.HTTP_503_SERVICE_UNAVAILABLE,
+                "frontend not built: run `make frontend` (make run does it)",
+            )
+        return FileResponse(index)
+
+
+app = create_app()

@@ -1,0 +1,41 @@
+"""The one permission table: which roles may call each route.
+
+Every HTTP route of the API is listed here (a test walks the OpenAPI and fails on a route
+missing from this table) and depends on `require(route_key)` which enforces it.
+"""
+
+from backend.models.users import Role
+
+ANNOTATOR, NURSE, ENGINEER, ADMIN = Role.ANNOTATOR, Role.NURSE, Role.ENGINEER, Role.ADMIN
+EVERYONE = frozenset(Role)
+PUBLIC: frozenset[Role] = frozenset()  # no login needed
+
+#: (method, path template) -> roles allowed. PUBLIC routes need no credentials at all.
+PERMISSIONS: dict[tuple[str, str], frozenset[Role]] = {
+    ("POST", "/api/auth/login"): PUBLIC,
+    ("POST", "/api/auth/logout"): EVERYONE,
+    ("GET", "/api/auth/me"): EVERYONE,
+    ("GET", "/api/health"): PUBLIC,
+    ("GET", "/api/users"): frozenset({ADMIN}),
+    ("POST", "/api/users"): frozenset({ADMIN}),
+    ("GET", "/api/robots"): frozenset({NURSE, ENGINEER, ADMIN}),
+    ("POST", "/api/robots"): frozenset({ADMIN}),
+    ("POST", "/api/robots/{robot_id}/token"): frozenset({ADMIN}),
+    ("DELETE", "/api/robots/{robot_id}/token"): frozenset({ADMIN}),
+    ("GET", "/api/transports"): frozenset({NURSE, ENGINEER, ADMIN}),
+    ("GET", "/api/alarms"): frozenset({NURSE, ENGINEER, ADMIN}),
+    ("GET", "/api/alarms/{alarm_id}"): frozenset({NURSE, ENGINEER, ADMIN}),
+    ("GET", "/api/alarms/{alarm_id}/events"): frozenset({NURSE, ENGINEER, ADMIN}),
+    ("POST", "/api/alarms/{alarm_id}/acknowledge"): frozenset({NURSE, ADMIN}),
+    ("POST", "/api/alarms/{alarm_id}/resolve"): frozenset({NURSE, ADMIN}),
+    ("GET", "/api/videos"): frozenset({ANNOTATOR, ENGINEER, ADMIN}),
+    ("GET", "/api/videos/{video_id}"): frozenset({ANNOTATOR, ENGINEER, ADMIN}),
+    ("GET", "/api/videos/{video_id}/frames"): frozenset({ANNOTATOR, NURSE, ENGINEER, ADMIN}),
+    ("GET", "/api/taxonomy"): EVERYONE,
+    ("GET", "/metrics"): frozenset({ENGINEER, ADMIN}),
+}
+
+
+def allowed(method: str, path: str, role: Role) -> bool:
+    roles = PERMISSIONS[(method, path)]
+    return not roles or role in roles
