@@ -30,9 +30,16 @@ def posed_keypoints(tilt_rad: float, x0: float = 320.0, y0: float = 400.0) -> li
 
 
 def fall_frames(
-    start_seq: int, t0: float, transport_id: str, fps: float = 10.0, normal_s: float = 2.0,
-    fall_s: float = 1.0, lying_s: float = 2.0, model_version: str = "sim-1",
-    threshold: float = 0.6, delay_ms: int = 300,
+    start_seq: int,
+    t0: float,
+    transport_id: str,
+    fps: float = 10.0,
+    normal_s: float = 2.0,
+    fall_s: float = 1.0,
+    lying_s: float = 2.0,
+    model_version: str = "sim-1",
+    threshold: float = 0.6,
+    delay_ms: int = 300,
 ) -> list[FrameRecord]:
     """Normal walking, a fall, then lying: per-frame Emergency scores and decisions as a robot's
     classifier with delay filter would send them."""
@@ -80,7 +87,9 @@ class SimulatedRobot:
     def receive(self, expected_type: str, timeout: float = 10.0) -> dict:
         deadline = time.monotonic() + timeout
         while True:
-            message = json.loads(self.connection.recv(timeout=max(0.01, deadline - time.monotonic())))
+            message = json.loads(
+                self.connection.recv(timeout=max(0.01, deadline - time.monotonic()))
+            )
             if message.get("type") == expected_type:
                 return message
             if message.get("type") == "error":
