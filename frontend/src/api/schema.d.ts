@@ -21,6 +21,23 @@ export interface paths {
         patch?: never;
         trace?: never;
     };
+    "/api/auth/logout": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        get?: never;
+        put?: never;
+        /** Logout */
+        post: operations["logout_api_auth_logout_post"];
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
     "/api/auth/me": {
         parameters: {
             query?: never;
@@ -38,6 +55,111 @@ export interface paths {
         patch?: never;
         trace?: never;
     };
+    "/api/health": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /** Health */
+        get: operations["health_api_health_get"];
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/taxonomy": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /** Taxonomy */
+        get: operations["taxonomy_api_taxonomy_get"];
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/users": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /** List Users */
+        get: operations["list_users_api_users_get"];
+        put?: never;
+        /** Create User */
+        post: operations["create_user_api_users_post"];
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/robots": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /** List Robots */
+        get: operations["list_robots_api_robots_get"];
+        put?: never;
+        /** Create Robot */
+        post: operations["create_robot_api_robots_post"];
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/robots/{robot_id}/token": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        get?: never;
+        put?: never;
+        /** Rotate Token */
+        post: operations["rotate_token_api_robots__robot_id__token_post"];
+        /** Revoke Token */
+        delete: operations["revoke_token_api_robots__robot_id__token_delete"];
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/transports": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /** List Transports */
+        get: operations["list_transports_api_transports_get"];
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
     "/api/alarms": {
         parameters: {
             query?: never;
@@ -45,8 +167,8 @@ export interface paths {
             path?: never;
             cookie?: never;
         };
-        /** Alarms */
-        get: operations["alarms_api_alarms_get"];
+        /** List Alarms */
+        get: operations["list_alarms_api_alarms_get"];
         put?: never;
         post?: never;
         delete?: never;
@@ -62,8 +184,25 @@ export interface paths {
             path?: never;
             cookie?: never;
         };
-        /** Alarm */
-        get: operations["alarm_api_alarms__alarm_id__get"];
+        /** Get Alarm */
+        get: operations["get_alarm_api_alarms__alarm_id__get"];
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/alarms/{alarm_id}/events": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /** Alarm Events */
+        get: operations["alarm_events_api_alarms__alarm_id__events_get"];
         put?: never;
         post?: never;
         delete?: never;
@@ -81,8 +220,8 @@ export interface paths {
         };
         get?: never;
         put?: never;
-        /** Ack */
-        post: operations["ack_api_alarms__alarm_id__acknowledge_post"];
+        /** Acknowledge */
+        post: operations["acknowledge_api_alarms__alarm_id__acknowledge_post"];
         delete?: never;
         options?: never;
         head?: never;
@@ -106,40 +245,6 @@ export interface paths {
         patch?: never;
         trace?: never;
     };
-    "/api/alarms/{alarm_id}/events": {
-        parameters: {
-            query?: never;
-            header?: never;
-            path?: never;
-            cookie?: never;
-        };
-        /** Events */
-        get: operations["events_api_alarms__alarm_id__events_get"];
-        put?: never;
-        post?: never;
-        delete?: never;
-        options?: never;
-        head?: never;
-        patch?: never;
-        trace?: never;
-    };
-    "/api/videos": {
-        parameters: {
-            query?: never;
-            header?: never;
-            path?: never;
-            cookie?: never;
-        };
-        /** Videos */
-        get: operations["videos_api_videos_get"];
-        put?: never;
-        post?: never;
-        delete?: never;
-        options?: never;
-        head?: never;
-        patch?: never;
-        trace?: never;
-    };
     "/api/alarms/{alarm_id}/replay": {
         parameters: {
             query?: never;
@@ -147,8 +252,8 @@ export interface paths {
             path?: never;
             cookie?: never;
         };
-        /** Replay */
-        get: operations["replay_api_alarms__alarm_id__replay_get"];
+        /** Alarm Replay */
+        get: operations["alarm_replay_api_alarms__alarm_id__replay_get"];
         put?: never;
         post?: never;
         delete?: never;
@@ -164,8 +269,8 @@ export interface paths {
             path?: never;
             cookie?: never;
         };
-        /** History */
-        get: operations["history_api_alarm_history_get"];
+        /** Alarm History */
+        get: operations["alarm_history_api_alarm_history_get"];
         put?: never;
         post?: never;
         delete?: never;
@@ -181,8 +286,8 @@ export interface paths {
             path?: never;
             cookie?: never;
         };
-        /** Fatigue */
-        get: operations["fatigue_api_alarm_fatigue_get"];
+        /** Alarm Fatigue */
+        get: operations["alarm_fatigue_api_alarm_fatigue_get"];
         put?: never;
         post?: never;
         delete?: never;
@@ -191,15 +296,86 @@ export interface paths {
         patch?: never;
         trace?: never;
     };
-    "/api/robots": {
+    "/api/review-queue": {
         parameters: {
             query?: never;
             header?: never;
             path?: never;
             cookie?: never;
         };
-        /** Robots */
-        get: operations["robots_api_robots_get"];
+        /**
+         * Review Queue
+         * @description Pending labels for annotators to review; alarms nurses rejected as false come first.
+         */
+        get: operations["review_queue_api_review_queue_get"];
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/videos": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /** List Videos */
+        get: operations["list_videos_api_videos_get"];
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/videos/{video_id}": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /** Get Video */
+        get: operations["get_video_api_videos__video_id__get"];
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/videos/{video_id}/frames": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /** Get Frames */
+        get: operations["get_frames_api_videos__video_id__frames_get"];
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/metrics": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /** Prometheus Metrics */
+        get: operations["prometheus_metrics_metrics_get"];
         put?: never;
         post?: never;
         delete?: never;
@@ -212,6 +388,11 @@ export interface paths {
 export type webhooks = Record<string, never>;
 export interface components {
     schemas: {
+        /** AcknowledgeIn */
+        AcknowledgeIn: {
+            /** Comment */
+            comment?: string | null;
+        };
         /** AlarmEventOut */
         AlarmEventOut: {
             /** Id */
@@ -224,37 +405,30 @@ export interface components {
              */
             at: string;
             /** Actor */
-            actor: string | null;
-            /** From State */
-            from_state: string | null;
-            /** To State */
-            to_state: string;
+            actor: string;
+            /** Action */
+            action: string;
+            from_state: components["schemas"]["AlarmState"] | null;
+            to_state: components["schemas"]["AlarmState"];
             /** Comment */
             comment: string | null;
         };
+        /**
+         * AlarmKind
+         * @enum {string}
+         */
+        AlarmKind: "emergency" | "pause" | "robot_offline" | "stream_stalled";
         /** AlarmOut */
         AlarmOut: {
             /** Id */
             id: number;
-            /**
-             * Kind
-             * @enum {string}
-             */
-            kind: "emergency" | "pause" | "robot_offline" | "stream_stalled";
-            /**
-             * Priority
-             * @enum {string}
-             */
-            priority: "high" | "medium" | "technical";
-            /**
-             * State
-             * @enum {string}
-             */
-            state: "open" | "acknowledged" | "resolved";
+            kind: components["schemas"]["AlarmKind"];
+            priority: components["schemas"]["AlarmPriority"];
+            state: components["schemas"]["AlarmState"];
             /** Robot Id */
             robot_id: string;
             /** Ward */
-            ward: string | null;
+            ward: string;
             /** Transport Id */
             transport_id: string | null;
             /** Patient */
@@ -274,23 +448,27 @@ export interface components {
             /** Acknowledged At */
             acknowledged_at: string | null;
             /** Acknowledged By */
-            acknowledged_by: string | null;
+            acknowledged_by?: string | null;
             /** Resolved At */
             resolved_at: string | null;
             /** Resolved By */
-            resolved_by: string | null;
-            /** Verdict */
-            verdict: ("true_emergency" | "false_alarm" | "unsure") | null;
-            /** Reason */
-            reason: ("bending" | "sitting_down" | "lying_down_deliberately" | "other") | null;
+            resolved_by?: string | null;
+            verdict: components["schemas"]["Verdict"] | null;
+            reason: components["schemas"]["FalseAlarmReason"] | null;
             /** Comment */
             comment: string | null;
             /** Escalation Level */
             escalation_level: number;
+            /** Realarmed At */
+            realarmed_at: string | null;
+            /** Video Id */
+            video_id: number | null;
             /** First Seq */
             first_seq: number | null;
             /** Last Seq */
             last_seq: number | null;
+            /** Decision Count */
+            decision_count: number;
             /** Model Version */
             model_version: string | null;
             /** Threshold */
@@ -305,6 +483,11 @@ export interface components {
             /** Items */
             items: components["schemas"]["AlarmOut"][];
         };
+        /**
+         * AlarmPriority
+         * @enum {string}
+         */
+        AlarmPriority: "high" | "medium" | "technical";
         /** AlarmReplayOut */
         AlarmReplayOut: {
             alarm: components["schemas"]["AlarmOut"];
@@ -315,6 +498,21 @@ export interface components {
             /** Frames */
             frames: components["schemas"]["ReplayFrameOut"][];
         };
+        /**
+         * AlarmState
+         * @enum {string}
+         */
+        AlarmState: "open" | "acknowledged" | "resolved";
+        /**
+         * Decision
+         * @enum {string}
+         */
+        Decision: "normal" | "emergency" | "pause";
+        /**
+         * FalseAlarmReason
+         * @enum {string}
+         */
+        FalseAlarmReason: "bending" | "sitting_down" | "lying_down_deliberately" | "other";
         /** FatigueOut */
         FatigueOut: {
             /**
@@ -331,6 +529,33 @@ export interface components {
             shifts: components["schemas"]["ShiftRow"][];
             /** By Model */
             by_model: components["schemas"]["ModelRow"][];
+        };
+        /** FrameOut */
+        FrameOut: {
+            /** Index */
+            index: number;
+            /** Ts */
+            ts: number;
+            /** Seq */
+            seq: number | null;
+            /** Keypoints */
+            keypoints: number[][];
+            /** Depth */
+            depth: (number | null)[] | null;
+            decision: components["schemas"]["Decision"] | null;
+            /** Scores */
+            scores: {
+                [key: string]: number;
+            } | null;
+            /** Model Version */
+            model_version: string | null;
+            /** Threshold */
+            threshold: number | null;
+            /** Delay Ms */
+            delay_ms: number | null;
+            shadow_decision: components["schemas"]["Decision"] | null;
+            /** Shadow Model Version */
+            shadow_model_version: string | null;
         };
         /** HTTPValidationError */
         HTTPValidationError: {
@@ -362,7 +587,9 @@ export interface components {
         /** ReplayFrameOut */
         ReplayFrameOut: {
             /** Seq */
-            seq: number;
+            seq: number | null;
+            /** Index */
+            index: number;
             /** Ts */
             ts: number;
             /** Keypoints */
@@ -380,16 +607,99 @@ export interface components {
         };
         /** ResolveIn */
         ResolveIn: {
-            /**
-             * Verdict
-             * @enum {string}
-             */
-            verdict: "true_emergency" | "false_alarm" | "unsure";
-            /** Reason */
-            reason?: ("bending" | "sitting_down" | "lying_down_deliberately" | "other") | null;
+            verdict: components["schemas"]["Verdict"];
+            /** @description required when the verdict is false_alarm */
+            reason?: components["schemas"]["FalseAlarmReason"] | null;
             /** Comment */
             comment?: string | null;
         };
+        /** ReviewItemOut */
+        ReviewItemOut: {
+            /** Id */
+            id: number;
+            /** Video Id */
+            video_id: number;
+            /** First Frame */
+            first_frame: number;
+            /** Last Frame */
+            last_frame: number;
+            /** Label Key */
+            label_key: string;
+            /** Taxonomy Version */
+            taxonomy_version: number;
+            /** Status */
+            status: string;
+            /** Source */
+            source: string;
+            /** Priority */
+            priority: number;
+            /** Alarm Id */
+            alarm_id: number | null;
+            /** Model Version */
+            model_version: string | null;
+            /** Review Comment */
+            review_comment: string | null;
+            /**
+             * Created At
+             * Format: date-time
+             */
+            created_at: string;
+        };
+        /** RobotIn */
+        RobotIn: {
+            /** Id */
+            id: string;
+            /**
+             * Name
+             * @default
+             */
+            name: string;
+            /** Ward */
+            ward: string;
+        };
+        /** RobotOut */
+        RobotOut: {
+            /** Id */
+            id: string;
+            /** Name */
+            name: string;
+            /** Ward */
+            ward: string;
+            /** Has Token */
+            has_token: boolean;
+            /** Assigned Model Id */
+            assigned_model_id: number | null;
+            /** Shadow Model Id */
+            shadow_model_id: number | null;
+            /** Running Model Version */
+            running_model_version: string | null;
+            /** Agent Version */
+            agent_version: string | null;
+            /** Last Seen At */
+            last_seen_at: string | null;
+            /** Last Seq */
+            last_seq: number | null;
+            /**
+             * Connected
+             * @default false
+             */
+            connected: boolean;
+        };
+        /** RobotTokenOut */
+        RobotTokenOut: {
+            /** Robot Id */
+            robot_id: string;
+            /**
+             * Token
+             * @description shown once; only its hash is stored
+             */
+            token: string;
+        };
+        /**
+         * Role
+         * @enum {string}
+         */
+        Role: "annotator" | "nurse" | "engineer" | "admin";
         /** ShiftRow */
         ShiftRow: {
             /**
@@ -403,7 +713,7 @@ export interface components {
              */
             shift: "early" | "late" | "night";
             /** Ward */
-            ward: string | null;
+            ward: string;
             /** Alarms */
             alarms: number;
             /** Emergencies */
@@ -415,16 +725,77 @@ export interface components {
             /** Median Ack S */
             median_ack_s: number | null;
         };
+        /**
+         * Split
+         * @enum {string}
+         */
+        Split: "train" | "test" | "unassigned";
+        /** TaxonomyLabelOut */
+        TaxonomyLabelOut: {
+            /** Key */
+            key: string;
+            /** Name */
+            name: string;
+            walking: components["schemas"]["Decision"];
+            wheelchair: components["schemas"]["Decision"];
+            combined: components["schemas"]["Decision"];
+        };
+        /** TaxonomyOut */
+        TaxonomyOut: {
+            /** Version */
+            version: number;
+            /** Labels */
+            labels: components["schemas"]["TaxonomyLabelOut"][];
+        };
         /** TokenOut */
         TokenOut: {
             /** Access Token */
             access_token: string;
             /**
              * Token Type
-             * @constant
+             * @default bearer
              */
-            token_type: "bearer";
+            token_type: string;
             user: components["schemas"]["UserOut"];
+        };
+        /**
+         * TransportMode
+         * @enum {string}
+         */
+        TransportMode: "walking" | "wheelchair" | "combined";
+        /** TransportOut */
+        TransportOut: {
+            /** Id */
+            id: string;
+            /** Robot Id */
+            robot_id: string;
+            mode: components["schemas"]["TransportMode"];
+            /** Patient */
+            patient: string | null;
+            /** Location */
+            location: string | null;
+            /**
+             * Started At
+             * Format: date-time
+             */
+            started_at: string;
+            /** Ended At */
+            ended_at: string | null;
+        };
+        /** UserIn */
+        UserIn: {
+            /** Username */
+            username: string;
+            /** Password */
+            password: string;
+            role: components["schemas"]["Role"];
+            /** Ward */
+            ward?: string | null;
+            /**
+             * Display Name
+             * @default
+             */
+            display_name: string;
         };
         /** UserOut */
         UserOut: {
@@ -432,11 +803,9 @@ export interface components {
             id: number;
             /** Username */
             username: string;
-            /**
-             * Role
-             * @enum {string}
-             */
-            role: "annotator" | "nurse" | "engineer" | "admin";
+            /** Display Name */
+            display_name: string;
+            role: components["schemas"]["Role"];
             /** Ward */
             ward: string | null;
         };
@@ -453,22 +822,47 @@ export interface components {
             /** Context */
             ctx?: Record<string, never>;
         };
+        /**
+         * Verdict
+         * @enum {string}
+         */
+        Verdict: "true_emergency" | "false_alarm" | "unsure";
         /** VideoOut */
         VideoOut: {
             /** Id */
             id: number;
+            /** Name */
+            name: string;
             /** Source */
             source: string;
-            /** Mode */
-            mode: string;
+            /** Generated */
+            generated: boolean;
+            mode: components["schemas"]["TransportMode"];
             /** Camera */
             camera: string | null;
+            /** Location */
+            location: string | null;
             /** Fps */
             fps: number;
             /** Person */
             person: string | null;
-            /** Split */
-            split: string | null;
+            split: components["schemas"]["Split"];
+            /** Transport Id */
+            transport_id: string | null;
+            /** Robot Id */
+            robot_id: string | null;
+            /** Frame Count */
+            frame_count: number;
+            /**
+             * Has Rgb
+             * @default false
+             */
+            has_rgb: boolean;
+            /**
+             * Created At
+             * Format: date-time
+             */
+            created_at: string;
         };
     };
     responses: never;
@@ -512,6 +906,24 @@ export interface operations {
             };
         };
     };
+    logout_api_auth_logout_post: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            204: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+        };
+    };
     me_api_auth_me_get: {
         parameters: {
             query?: never;
@@ -532,12 +944,266 @@ export interface operations {
             };
         };
     };
-    alarms_api_alarms_get: {
+    health_api_health_get: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": {
+                        [key: string]: string;
+                    };
+                };
+            };
+        };
+    };
+    taxonomy_api_taxonomy_get: {
         parameters: {
             query?: {
-                state?: string | null;
+                version?: number | null;
+            };
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["TaxonomyOut"];
+                };
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+        };
+    };
+    list_users_api_users_get: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["UserOut"][];
+                };
+            };
+        };
+    };
+    create_user_api_users_post: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        requestBody: {
+            content: {
+                "application/json": components["schemas"]["UserIn"];
+            };
+        };
+        responses: {
+            /** @description Successful Response */
+            201: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["UserOut"];
+                };
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+        };
+    };
+    list_robots_api_robots_get: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["RobotOut"][];
+                };
+            };
+        };
+    };
+    create_robot_api_robots_post: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        requestBody: {
+            content: {
+                "application/json": components["schemas"]["RobotIn"];
+            };
+        };
+        responses: {
+            /** @description Successful Response */
+            201: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["RobotTokenOut"];
+                };
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+        };
+    };
+    rotate_token_api_robots__robot_id__token_post: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path: {
+                robot_id: string;
+            };
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["RobotTokenOut"];
+                };
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+        };
+    };
+    revoke_token_api_robots__robot_id__token_delete: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path: {
+                robot_id: string;
+            };
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            204: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+        };
+    };
+    list_transports_api_transports_get: {
+        parameters: {
+            query?: {
+                robot_id?: string | null;
+                limit?: number;
+            };
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["TransportOut"][];
+                };
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+        };
+    };
+    list_alarms_api_alarms_get: {
+        parameters: {
+            query?: {
+                state?: components["schemas"]["AlarmState"] | null;
+                kind?: components["schemas"]["AlarmKind"] | null;
                 ward?: string | null;
-                kind?: string | null;
+                robot_id?: string | null;
+                since?: string | null;
+                until?: string | null;
             };
             header?: never;
             path?: never;
@@ -565,7 +1231,7 @@ export interface operations {
             };
         };
     };
-    alarm_api_alarms__alarm_id__get: {
+    get_alarm_api_alarms__alarm_id__get: {
         parameters: {
             query?: never;
             header?: never;
@@ -596,7 +1262,7 @@ export interface operations {
             };
         };
     };
-    ack_api_alarms__alarm_id__acknowledge_post: {
+    alarm_events_api_alarms__alarm_id__events_get: {
         parameters: {
             query?: never;
             header?: never;
@@ -606,6 +1272,41 @@ export interface operations {
             cookie?: never;
         };
         requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["AlarmEventOut"][];
+                };
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+        };
+    };
+    acknowledge_api_alarms__alarm_id__acknowledge_post: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path: {
+                alarm_id: number;
+            };
+            cookie?: never;
+        };
+        requestBody?: {
+            content: {
+                "application/json": components["schemas"]["AcknowledgeIn"] | null;
+            };
+        };
         responses: {
             /** @description Successful Response */
             200: {
@@ -662,61 +1363,12 @@ export interface operations {
             };
         };
     };
-    events_api_alarms__alarm_id__events_get: {
-        parameters: {
-            query?: never;
-            header?: never;
-            path: {
-                alarm_id: number;
-            };
-            cookie?: never;
-        };
-        requestBody?: never;
-        responses: {
-            /** @description Successful Response */
-            200: {
-                headers: {
-                    [name: string]: unknown;
-                };
-                content: {
-                    "application/json": components["schemas"]["AlarmEventOut"][];
-                };
-            };
-            /** @description Validation Error */
-            422: {
-                headers: {
-                    [name: string]: unknown;
-                };
-                content: {
-                    "application/json": components["schemas"]["HTTPValidationError"];
-                };
-            };
-        };
-    };
-    videos_api_videos_get: {
-        parameters: {
-            query?: never;
-            header?: never;
-            path?: never;
-            cookie?: never;
-        };
-        requestBody?: never;
-        responses: {
-            /** @description Successful Response */
-            200: {
-                headers: {
-                    [name: string]: unknown;
-                };
-                content: {
-                    "application/json": components["schemas"]["VideoOut"][];
-                };
-            };
-        };
-    };
-    replay_api_alarms__alarm_id__replay_get: {
+    alarm_replay_api_alarms__alarm_id__replay_get: {
         parameters: {
             query?: {
+                /** @description seconds before the alarm */
                 before_s?: number;
+                /** @description seconds after the alarm */
                 after_s?: number;
             };
             header?: never;
@@ -747,13 +1399,13 @@ export interface operations {
             };
         };
     };
-    history_api_alarm_history_get: {
+    alarm_history_api_alarm_history_get: {
         parameters: {
             query?: {
                 ward?: string | null;
                 robot_id?: string | null;
-                kind?: string | null;
-                verdict?: string | null;
+                kind?: components["schemas"]["AlarmKind"] | null;
+                verdict?: components["schemas"]["Verdict"] | null;
                 model_version?: string | null;
                 since?: string | null;
                 until?: string | null;
@@ -786,10 +1438,12 @@ export interface operations {
             };
         };
     };
-    fatigue_api_alarm_fatigue_get: {
+    alarm_fatigue_api_alarm_fatigue_get: {
         parameters: {
             query?: {
+                /** @description default: 7 days before until */
                 since?: string | null;
+                /** @description default: now */
                 until?: string | null;
                 ward?: string | null;
             };
@@ -819,7 +1473,138 @@ export interface operations {
             };
         };
     };
-    robots_api_robots_get: {
+    review_queue_api_review_queue_get: {
+        parameters: {
+            query?: {
+                limit?: number;
+            };
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ReviewItemOut"][];
+                };
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+        };
+    };
+    list_videos_api_videos_get: {
+        parameters: {
+            query?: {
+                mode?: components["schemas"]["TransportMode"] | null;
+                split?: components["schemas"]["Split"] | null;
+                source?: string | null;
+            };
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["VideoOut"][];
+                };
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+        };
+    };
+    get_video_api_videos__video_id__get: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path: {
+                video_id: number;
+            };
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["VideoOut"];
+                };
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+        };
+    };
+    get_frames_api_videos__video_id__frames_get: {
+        parameters: {
+            query?: {
+                /** @description first frame index (inclusive) */
+                start?: number;
+                /** @description last frame index (inclusive) */
+                end?: number | null;
+            };
+            header?: never;
+            path: {
+                video_id: number;
+            };
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["FrameOut"][];
+                };
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+        };
+    };
+    prometheus_metrics_metrics_get: {
         parameters: {
             query?: never;
             header?: never;
@@ -833,11 +1618,7 @@ export interface operations {
                 headers: {
                     [name: string]: unknown;
                 };
-                content: {
-                    "application/json": {
-                        [key: string]: unknown;
-                    }[];
-                };
+                content?: never;
             };
         };
     };

@@ -23,6 +23,9 @@ function alarm(over: Partial<Alarm>): Alarm {
     reason: null,
     comment: null,
     escalation_level: 0,
+    realarmed_at: null,
+    video_id: 1,
+    decision_count: 1,
     first_seq: 10,
     last_seq: 20,
     model_version: "m1",
@@ -84,7 +87,7 @@ describe("board ordering and sound", () => {
   });
 
   it("filters by ward and lists wards", () => {
-    const alarms = [alarm({ id: 1, ward: "B" }), alarm({ id: 2, ward: "A" }), alarm({ id: 3, ward: null })];
+    const alarms = [alarm({ id: 1, ward: "B" }), alarm({ id: 2, ward: "A" }), alarm({ id: 3, ward: "" })];
     expect(wardsOf(alarms)).toEqual(["A", "B"]);
     expect(inWard(alarms, "B").map((a) => a.id)).toEqual([1]);
     expect(inWard(alarms, null)).toHaveLength(3);

@@ -1,7 +1,7 @@
 // Alarm replay logic: the delay filter's state per frame and skeleton drawing geometry.
 
 export interface ReplayFrame {
-  seq: number;
+  seq: number | null;
   ts: number;
   keypoints: number[][];
   decision: string | null;

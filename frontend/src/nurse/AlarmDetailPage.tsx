@@ -30,7 +30,7 @@ export function AlarmDetailPage() {
       if (!live) return;
       if (!data) return setError(errorMessage(error, `Could not load alarm ${alarmId}`));
       setReplay(data);
-      const at = data.frames.findIndex((f) => f.seq >= (data.alarm.first_seq ?? Infinity));
+      const at = data.frames.findIndex((f) => (f.seq ?? -1) >= (data.alarm.first_seq ?? Infinity));
       setIndex(at >= 0 ? at : 0);
     });
     return () => { live = false; };
@@ -44,7 +44,9 @@ export function AlarmDetailPage() {
   );
   const span = useMemo(() => {
     if (!alarm || alarm.first_seq == null) return null;
-    const inSpan = frames.filter((f) => f.seq >= alarm.first_seq! && f.seq <= (alarm.last_seq ?? alarm.first_seq!));
+    const first = alarm.first_seq;
+    const last = alarm.last_seq ?? first;
+    const inSpan = frames.filter((f) => f.seq !== null && f.seq >= first && f.seq <= last);
     return inSpan.length ? ([inSpan[0].ts, inSpan[inSpan.length - 1].ts] as const) : null;
   }, [frames, alarm]);
 

@@ -20,12 +20,13 @@ export function AuditTrail({ alarmId, refreshKey }: { alarmId: number; refreshKe
   if (!events) return <p className="muted">Loading audit trail…</p>;
   return (
     <table className="table audit" aria-label="Audit trail">
-      <thead><tr><th>When</th><th>Who</th><th>Change</th><th>Comment</th></tr></thead>
+      <thead><tr><th>When</th><th>Who</th><th>Action</th><th>State</th><th>Comment</th></tr></thead>
       <tbody>
         {events.map((e) => (
           <tr key={e.id}>
             <td>{clockTime(e.at)}</td>
-            <td>{e.actor ?? "system"}</td>
+            <td>{e.actor}</td>
+            <td>{e.action}</td>
             <td>{e.from_state ? `${e.from_state} → ${e.to_state}` : e.to_state}</td>
             <td>{e.comment ?? ""}</td>
           </tr>

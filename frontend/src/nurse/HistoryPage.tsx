@@ -1,7 +1,7 @@
 import { useEffect, useState, type FormEvent } from "react";
 import { Link } from "react-router-dom";
 import { api, errorMessage } from "../api/client";
-import type { Alarm } from "../api/types";
+import type { Alarm, AlarmKind, Verdict } from "../api/types";
 import { KIND_LABEL } from "../lib/alarmBoard";
 import { clockTime, localInputToIso } from "../lib/time";
 import { VERDICT_LABEL, verdictText } from "./labels";
@@ -32,8 +32,8 @@ export function HistoryPage() {
     const query = {
       ward: filters.ward || undefined,
       robot_id: filters.robot_id || undefined,
-      kind: filters.kind || undefined,
-      verdict: filters.verdict || undefined,
+      kind: (filters.kind || undefined) as AlarmKind | undefined,
+      verdict: (filters.verdict || undefined) as Verdict | undefined,
       model_version: filters.model_version || undefined,
       since: localInputToIso(filters.since),
       until: localInputToIso(filters.until),

@@ -18,8 +18,10 @@ def _fall(client, robot: str) -> None:
     with client.websocket_connect("/ws/robot") as ws:
         ws.send_text(Hello(robot_id=robot, token=ROBOT_TOKEN).model_dump_json())
         ws.receive_text()
-        ws.send_text(TransportStart(transport_id="t-9", mode="walking", patient="P-3",
-                                    location="lift 2", ts=time.time()).model_dump_json())  # fmt: skip
+        start = TransportStart(
+            transport_id="t-9", mode="walking", patient="P-3", location="lift 2", ts=time.time()
+        )
+        ws.send_text(start.model_dump_json())
         frames = fall_frames(0, time.time() - 5, "t-9")
         for i in range(0, len(frames), 10):
             ws.send_text(FrameBatch(frames=frames[i : i + 10]).model_dump_json())
