@@ -72,14 +72,16 @@ class SimulatedRobot:
         self.welcome: dict | None = None
 
     def __enter__(self) -> SimulatedRobot:
-        self.connection = connect(self.ws_url, open_timeout=10)
+        self._context = connect(self.ws_url, open_timeout=10)
+        self.connection = self._context.__enter__()
         self.send(Hello(robot_id=self.robot_id, token=self.token, running_model="sim-1"))
         self.welcome = self.receive("welcome")
         return self
 
     def __exit__(self, *exc) -> None:
         if self.connection is not None:
-            self.connection.close()
+            self._context.__exit__(*exc)
+            self.connection = None
 
     def send(self, message) -> None:
         self.connection.send(message.model_dump_json())
@@ -98,6 +100,13 @@ class SimulatedRobot:
     def start_transport(self, transport_id: str, patient: str, location: str) -> None:
         self.send(TransportStart(transport_id=transport_id, mode="walking", patient=patient,
                                  location=location, ts=time.time()))  # fmt: skip
+
+    def send_batch(self, frames: list[FrameRecord]) -> None:
+        self.send(FrameBatch(frames=frames))
+
+    def wait_ack(self, seq: int) -> None:
+        while self.receive("ack")["seq"] < seq:
+            pass
 
     def stream(self, frames: list[FrameRecord], batch: int = 10, realtime: bool = False) -> int:
         """Send frames in batches; returns the last sequence number the server acknowledged."""

@@ -19,6 +19,7 @@ export function AuditTrail({ alarmId, refreshKey }: { alarmId: number; refreshKe
   if (error) return <p role="alert" className="error">{error}</p>;
   if (!events) return <p className="muted">Loading audit trail…</p>;
   return (
+    <div className="table-wrap">
     <table className="table audit" aria-label="Audit trail">
       <thead><tr><th>When</th><th>Who</th><th>Action</th><th>State</th><th>Comment</th></tr></thead>
       <tbody>
@@ -33,5 +34,6 @@ export function AuditTrail({ alarmId, refreshKey }: { alarmId: number; refreshKe
         ))}
       </tbody>
     </table>
+    </div>
   );
 }

@@ -83,7 +83,7 @@ export function NurseBoard() {
           </select>
         </label>
         <span className={`audio audio-${sound.state}`}>
-          {sound.state === "playing" ? "🔔 sounding" : sound.state === "ready" ? "sound on" : "sound locked"}
+          {sound.state === "playing" ? "● sounding" : sound.state === "ready" ? "sound on" : "sound locked"}
         </span>
       </div>
       {error && !resolving && <p role="alert" className="error">{error}</p>}
