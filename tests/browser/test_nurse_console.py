@@ -9,7 +9,10 @@ import pytest
 from playwright.sync_api import expect
 from sqlalchemy import select
 
-from backend.models import Alarm, AlarmEvent, AnnotationSegment, Frame, User
+from backend.alarms import service
+from backend.alarms.service import DecisionEvidence
+from backend.db import transaction
+from backend.models import Alarm, AlarmEvent, AlarmKind, AnnotationSegment, Frame, Robot, User
 
 from .conftest import ROBOT_TOKEN, SCREENSHOTS, sign_in
 from .simulated_robot import SimulatedRobot, fall_frames
@@ -134,3 +137,37 @@ def test_fall_alarm_sounds_is_acknowledged_resolved_and_becomes_a_label(live_ser
     rows = page.get_by_role("table", name="Alarms").locator("tbody tr")
     expect(rows).to_have_count(1)
     expect(rows.first).to_contain_text("False alarm (sitting down)")
+
+    page.goto(f"{live_server.base_url}/nurse/fatigue")
+    by_model = page.get_by_role("img", name="Share false by model version")
+    expect(by_model.locator("rect")).to_have_count(1)
+    expect(by_model).to_contain_text("mlp-7")
+    page.screenshot(path=str(SCREENSHOTS / "alarm_fatigue.png"), full_page=True)
+
+
+def test_board_reconnects_and_shows_alarms_raised_while_disconnected(live_server, page, db):
+    sign_in(page, live_server.base_url)
+    board = page.locator("main.board")
+    expect(board).to_have_attribute("data-link", "live")
+    expect(page.get_by_text("No open alarms.")).to_be_visible()
+
+    live_server.stop()
+    expect(board).to_have_attribute("data-link", "disconnected")
+    expect(page.get_by_role("alert")).to_contain_text("Disconnected")
+
+    # While the browser is cut off, the robot's alarm is raised (through the alarm service).
+    with transaction(db) as session:
+        robot = session.get(Robot, "robot-a")
+        evidence = DecisionEvidence(seq=None, ts=None)
+        alarm, created = service.raise_or_update(session, robot, None, AlarmKind.PAUSE, evidence)
+        assert created
+    live_server.start()
+
+    expect(board).to_have_attribute("data-link", "live", timeout=15_000)
+    expect(page.get_by_role("alert")).to_have_count(0)
+    card = _card(page, alarm.id)
+    expect(card).to_be_visible()
+    expect(card).to_contain_text("Pause")
+    expect(card).to_have_class(re.compile(r"alarm-pause"))
+    # A Pause alarm is amber and silent: only Emergencies sound.
+    expect(board).not_to_have_attribute("data-audio-state", "playing")

@@ -6,18 +6,26 @@ interface Props {
   format?: (v: number) => string;
   max?: number;
   color?: string;
+  /** Counts: only whole-number ticks. */
+  integer?: boolean;
 }
 
 const W = 560;
 const H = 220;
 const PAD = { left: 44, right: 8, top: 12, bottom: 52 };
+const MAX_BAR = 64;
 
 /** A plain SVG bar chart. */
-export function BarChart({ title, data, format = String, max, color = "#2563eb" }: Props) {
+export function BarChart({ title, data, format = String, max, color = "#2563eb", integer = false }: Props) {
   const pw = W - PAD.left - PAD.right;
   const ph = H - PAD.top - PAD.bottom;
   const top = max ?? niceMax(Math.max(0, ...data.map((d) => d.value)));
-  const rects = bars(data, pw, ph, top);
+  const rects = bars(data, pw, ph, top).map((r) => {
+    const width = Math.min(r.width, MAX_BAR);
+    return { ...r, x: r.x + (r.width - width) / 2, width };
+  });
+  const tickValues = integer && top < 4 ? ticks(top, Math.max(1, top)) : ticks(top);
+  const rotate = data.length > 6;
   return (
     <figure className="chart-figure">
       <figcaption>{title}</figcaption>
@@ -25,7 +33,7 @@ export function BarChart({ title, data, format = String, max, color = "#2563eb" 
         <p className="empty">No data in this period.</p>
       ) : (
         <svg viewBox={`0 0 ${W} ${H}`} className="chart" role="img" aria-label={title}>
-          {ticks(top).map((t) => (
+          {tickValues.map((t) => (
             <g key={t}>
               <line x1={PAD.left} x2={W - PAD.right} y1={PAD.top + ph - (t / top) * ph}
                 y2={PAD.top + ph - (t / top) * ph} className="grid" />
@@ -39,8 +47,11 @@ export function BarChart({ title, data, format = String, max, color = "#2563eb" 
               <rect x={r.x} y={r.y} width={r.width} height={r.height} fill={color}>
                 <title>{`${data[i].label}: ${format(r.value)}`}</title>
               </rect>
-              <text x={r.x + r.width / 2} y={ph + 12} textAnchor="end" className="tick"
-                transform={`rotate(-35 ${r.x + r.width / 2} ${ph + 12})`}>{data[i].label}</text>
+              <text x={r.x + r.width / 2} y={ph + 14} textAnchor={rotate ? "end" : "middle"}
+                className="tick"
+                transform={rotate ? `rotate(-35 ${r.x + r.width / 2} ${ph + 14})` : undefined}>
+                {data[i].label}
+              </text>
             </g>
           ))}
         </svg>

@@ -12,7 +12,8 @@ const PERIODS = [
 ];
 
 const pct = (v: number) => `${Math.round(v * 100)} %`;
-const secs = (v: number) => `${Math.round(v)} s`;
+const secs = (v: number) =>
+  v < 1 ? `${v.toFixed(2)} s` : v < 10 ? `${v.toFixed(1)} s` : `${Math.round(v)} s`;
 
 /** Alarm fatigue: load per shift and ward, share of false alarms and time to acknowledge. */
 export function FatiguePage() {
@@ -32,7 +33,7 @@ export function FatiguePage() {
   }, [days]);
 
   const shiftLabel = (s: Fatigue["shifts"][number]) =>
-    `${new Date(s.shift_start).toLocaleDateString(undefined, { month: "short", day: "numeric" })} ${s.shift} · ${s.ward ?? "no ward"}`;
+    `${new Date(s.shift_start).toLocaleDateString(undefined, { month: "short", day: "numeric", timeZone: "UTC" })} ${s.shift} · ${s.ward ?? "no ward"}`;
   const modelLabel = (m: Fatigue["by_model"][number]) => m.model_version ?? "unknown";
 
   return (
@@ -47,7 +48,7 @@ export function FatiguePage() {
       {error && <p role="alert" className="error">{error}</p>}
       {stats && (
         <div className="charts">
-          <BarChart title="Alarms per shift and ward"
+          <BarChart title="Alarms per shift and ward" integer
             data={stats.shifts.map((s) => ({ key: `${s.shift_start}-${s.ward}`, label: shiftLabel(s), value: s.alarms }))} />
           <BarChart title="Share resolved as false alarm, per shift and ward" max={1} format={pct} color="#d97706"
             data={stats.shifts.map((s) => ({ key: `${s.shift_start}-${s.ward}`, label: shiftLabel(s),
@@ -55,7 +56,7 @@ export function FatiguePage() {
           <BarChart title="Median time to acknowledge, per shift and ward" format={secs} color="#059669"
             data={stats.shifts.filter((s) => s.median_ack_s != null)
               .map((s) => ({ key: `${s.shift_start}-${s.ward}`, label: shiftLabel(s), value: s.median_ack_s! }))} />
-          <BarChart title="Alarms by model version"
+          <BarChart title="Alarms by model version" integer
             data={stats.by_model.map((m) => ({ key: modelLabel(m), label: modelLabel(m), value: m.alarms }))} />
           <BarChart title="Share false by model version" max={1} format={pct} color="#d97706"
             data={stats.by_model.map((m) => ({ key: modelLabel(m), label: modelLabel(m), value: m.false_share ?? 0 }))} />
