@@ -46,8 +46,10 @@ def test_emergency_reaches_nurse_and_acknowledgement_is_stored(
         assert json.loads(ws.receive_text()) == {
             "type": "welcome", "protocol": 1, "robot_id": robot, "last_seq": None
         }  # fmt: skip
-        ws.send_text(TransportStart(transport_id="t-1", mode="walking", patient="P-17",
-                                    location="corridor B", ts=time.time()).model_dump_json())  # fmt: skip
+        start = TransportStart(
+            transport_id="t-1", mode="walking", patient="P-17", location="corridor B", ts=0.0
+        )
+        ws.send_text(start.model_dump_json())
         batch = FrameBatch(frames=[frame(0), frame(1), frame(2, "emergency")])
         ws.send_text(batch.model_dump_json())
         assert json.loads(ws.receive_text()) == {"type": "ack", "seq": 2}
