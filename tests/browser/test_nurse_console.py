@@ -13,6 +13,7 @@ from backend.alarms import service
 from backend.alarms.service import DecisionEvidence
 from backend.db import transaction
 from backend.models import Alarm, AlarmEvent, AlarmKind, AnnotationSegment, Frame, Robot, User
+from backend.models._types import utcnow
 
 from .conftest import ROBOT_TOKEN, SCREENSHOTS, sign_in
 from .simulated_robot import SimulatedRobot, fall_frames
@@ -161,6 +162,8 @@ def test_board_reconnects_and_shows_alarms_raised_while_disconnected(live_server
         evidence = DecisionEvidence(seq=None, ts=None)
         alarm, created = service.raise_or_update(session, robot, None, AlarmKind.PAUSE, evidence)
         assert created
+        emergency, _ = service.raise_or_update(session, robot, None, AlarmKind.EMERGENCY, evidence)
+        service.escalate(session, emergency, utcnow())
     live_server.start()
 
     expect(board).to_have_attribute("data-link", "live", timeout=15_000)
@@ -169,5 +172,10 @@ def test_board_reconnects_and_shows_alarms_raised_while_disconnected(live_server
     expect(card).to_be_visible()
     expect(card).to_contain_text("Pause")
     expect(card).to_have_class(re.compile(r"alarm-pause"))
-    # A Pause alarm is amber and silent: only Emergencies sound.
-    expect(board).not_to_have_attribute("data-audio-state", "playing")
+    escalated = _card(page, emergency.id)
+    expect(escalated).to_contain_text("Escalated")
+    expect(escalated).to_have_class(re.compile(r"alarm-emergency"))
+    # Emergency first; the sound stays locked until the nurse starts the shift.
+    expect(_card(page).first).to_have_attribute("data-alarm-id", str(emergency.id))
+    expect(board).to_have_attribute("data-audio-state", "locked")
+    expect(page.get_by_text("Sound is locked")).to_be_visible()

@@ -1,6 +1,14 @@
 import { describe, expect, it } from "vitest";
 import type { Alarm } from "../api/types";
-import { applyMessage, emptyBoard, inWard, soundRequired, sortForBoard, wardsOf } from "./alarmBoard";
+import {
+  applyMessage,
+  emptyBoard,
+  inWard,
+  isRealarmed,
+  soundRequired,
+  sortForBoard,
+  wardsOf,
+} from "./alarmBoard";
 
 function alarm(over: Partial<Alarm>): Alarm {
   return {
@@ -79,6 +87,16 @@ describe("board ordering and sound", () => {
       alarm({ id: 5, raised_at: "2026-01-01T09:59:00Z" }),
     ];
     expect(sortForBoard(alarms).map((a) => a.id)).toEqual([5, 4, 3, 2, 1]);
+  });
+
+  it("sounds again for an acknowledged emergency that re-alarmed", () => {
+    const acked = alarm({ state: "acknowledged", acknowledged_at: "2026-01-01T10:00:10Z" });
+    expect(soundRequired([acked])).toBe(false);
+    const realarmed = { ...acked, realarmed_at: "2026-01-01T10:15:10Z" };
+    expect(isRealarmed(realarmed)).toBe(true);
+    expect(soundRequired([realarmed])).toBe(true);
+    expect(sortForBoard([alarm({ id: 2, kind: "pause", priority: "medium" }), { ...realarmed, id: 1 }])
+      .map((a) => a.id)).toEqual([1, 2]);
   });
 
   it("needs sound only for an unacknowledged emergency", () => {

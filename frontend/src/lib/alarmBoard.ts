@@ -25,11 +25,25 @@ export function isLive(alarm: Alarm): boolean {
 
 const PRIORITY_RANK: Record<Alarm["priority"], number> = { high: 0, medium: 1, technical: 2 };
 
-/** Unacknowledged first, then by priority, then oldest first (it has waited longest). */
+/** Re-alarmed: acknowledged, then not resolved in time, so it calls for attention again. */
+export function isRealarmed(alarm: Alarm): boolean {
+  return (
+    alarm.state === "acknowledged" &&
+    !!alarm.realarmed_at &&
+    (!alarm.acknowledged_at || Date.parse(alarm.realarmed_at) >= Date.parse(alarm.acknowledged_at))
+  );
+}
+
+/** Open or re-alarmed: the alarm wants a nurse now. */
+export function needsAttention(alarm: Alarm): boolean {
+  return alarm.state === "open" || isRealarmed(alarm);
+}
+
+/** Needing attention first, then by priority, then oldest first (it has waited longest). */
 export function sortForBoard(alarms: Iterable<Alarm>): Alarm[] {
   return [...alarms].sort(
     (a, b) =>
-      Number(a.state !== "open") - Number(b.state !== "open") ||
+      Number(!needsAttention(a)) - Number(!needsAttention(b)) ||
       PRIORITY_RANK[a.priority] - PRIORITY_RANK[b.priority] ||
       Date.parse(a.raised_at) - Date.parse(b.raised_at) ||
       a.id - b.id,
@@ -46,9 +60,10 @@ export function wardsOf(alarms: Iterable<Alarm>): string[] {
   return [...wards].sort();
 }
 
-/** The emergency sound repeats while any emergency on the shown board is unacknowledged. */
+/** The emergency sound repeats while any emergency on the shown board is unacknowledged (or
+ * re-alarmed because it was acknowledged but not resolved in time). */
 export function soundRequired(alarms: Iterable<Alarm>): boolean {
-  for (const a of alarms) if (a.kind === "emergency" && a.state === "open") return true;
+  for (const a of alarms) if (a.kind === "emergency" && needsAttention(a)) return true;
   return false;
 }
 

@@ -1,6 +1,6 @@
 import { Link } from "react-router-dom";
 import type { Alarm } from "../api/types";
-import { KIND_LABEL, styleOf } from "../lib/alarmBoard";
+import { isRealarmed, KIND_LABEL, styleOf } from "../lib/alarmBoard";
 import { elapsed } from "../lib/time";
 
 interface Props {
@@ -15,7 +15,7 @@ export function AlarmCard({ alarm, now, busy, onAcknowledge, onResolve }: Props)
   const style = styleOf(alarm);
   return (
     <article
-      className={`alarm alarm-${style} state-${alarm.state}`}
+      className={`alarm alarm-${style} state-${alarm.state}${isRealarmed(alarm) ? " realarmed" : ""}`}
       data-alarm-id={alarm.id}
       data-state={alarm.state}
       aria-label={`${KIND_LABEL[alarm.kind]} alarm ${alarm.id}`}
@@ -25,6 +25,11 @@ export function AlarmCard({ alarm, now, busy, onAcknowledge, onResolve }: Props)
         {alarm.escalation_level > 0 && (
           <span className="escalated" title="Not acknowledged in time: escalated">
             Escalated{alarm.escalation_level > 1 ? ` ×${alarm.escalation_level}` : ""}
+          </span>
+        )}
+        {isRealarmed(alarm) && (
+          <span className="escalated realarmed" title="Acknowledged but not resolved in time">
+            Re-alarm
           </span>
         )}
         <span className="since" title={alarm.raised_at}>{elapsed(alarm.raised_at, now)} ago</span>

@@ -2,7 +2,7 @@ import { useMemo, useState } from "react";
 import { api, errorMessage } from "../api/client";
 import type { Alarm } from "../api/types";
 import { useAuth } from "../auth/AuthContext";
-import { inWard, soundRequired, sortForBoard, wardsOf } from "../lib/alarmBoard";
+import { inWard, needsAttention, soundRequired, sortForBoard, wardsOf } from "../lib/alarmBoard";
 import { useNow } from "../lib/useNow";
 import { AlarmCard } from "./AlarmCard";
 import { ResolveDialog, type Resolution } from "./ResolveDialog";
@@ -51,7 +51,7 @@ export function NurseBoard() {
     } else setError(errorMessage(error, `Could not resolve alarm ${alarm.id}`));
   }
 
-  const openCount = shown.filter((a) => a.state === "open").length;
+  const openCount = shown.filter(needsAttention).length;
 
   return (
     <main className="board" data-audio-state={sound.state} data-link={status}>
@@ -73,7 +73,7 @@ export function NurseBoard() {
       <div className="board-head">
         <h1>Alarms</h1>
         <span className="count" aria-live="polite">
-          {openCount} unacknowledged · {shown.length} open
+          {openCount} need attention · {shown.length} open
         </span>
         <label className="ward-select">
           Ward{" "}
