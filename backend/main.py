@@ -12,7 +12,7 @@ from fastapi.staticfiles import StaticFiles
 from prometheus_client import CONTENT_TYPE_LATEST, generate_latest
 from sqlalchemy import func, select
 
-from backend.api import alarms, auth, labelling, misc, robots, videos
+from backend.api import alarm_review, alarms, auth, labelling, misc, robots, videos
 from backend.db import make_engine, make_session_factory
 from backend.deps import CurrentUser
 from backend.ingest import robot_ws
@@ -25,7 +25,14 @@ from backend.settings import Settings
 
 log = logging.getLogger("vigil.backend")
 
-ROUTERS = (auth.router, misc.router, robots.router, alarms.router, videos.router)
+ROUTERS = (
+    auth.router,
+    misc.router,
+    robots.router,
+    alarms.router,
+    alarm_review.router,
+    videos.router,
+)
 
 
 def create_app(settings: Settings | None = None) -> FastAPI:
