@@ -24,6 +24,9 @@ def main(argv: list[str] | None = None) -> int:
     urfd = commands.add_parser("import-urfd", help="import URFD (idempotent)")
     urfd.add_argument("--dir", type=Path, default=None, help="URFD directory (VIGIL_URFD_DIR)")
     urfd.add_argument("--only", nargs="*", default=None, help="sequence names, e.g. fall-01")
+    urfd.add_argument(
+        "--no-labels", action="store_true", help="recordings only, no official labels"
+    )
     openpose = commands.add_parser("import-openpose", help="import OpenPose JSON files")
     openpose.add_argument("directory", type=Path)
     openpose.add_argument("--name", required=True)
@@ -57,7 +60,9 @@ def run(session, args, settings: Settings) -> str:
     if args.command == "import-urfd":
         from backend.labelling.importers.urfd import import_urfd
 
-        report = import_urfd(session, args.dir or settings.urfd_dir, args.only)
+        report = import_urfd(
+            session, args.dir or settings.urfd_dir, args.only, labels=not args.no_labels
+        )
         return (
             f"URFD: {len(report.created)} videos imported with {report.segments} segments, "
             f"{len(report.skipped)} already there"

@@ -76,9 +76,13 @@ def _depth_for(directory: Path, sequence: urfd.Sequence) -> np.ndarray | None:
 
 
 def import_urfd(
-    session: Session, directory: Path | str | None = None, names: list[str] | None = None
+    session: Session,
+    directory: Path | str | None = None,
+    names: list[str] | None = None,
+    labels: bool = True,
 ) -> ImportReport:
-    """Idempotent: sequences already imported (by video name) are skipped."""
+    """Idempotent: sequences already imported (by video name) are skipped. labels=False
+    imports the recordings only (to label them from scratch)."""
     directory = Path(directory) if directory else urfd.default_dir()
     report = ImportReport()
     for sequence in urfd.load(directory, names):
@@ -113,11 +117,11 @@ def import_urfd(
             depth=_depth_for(directory, sequence),
             indices=indices,
         )
-        labels = [
-            None if np.isnan(value) else LABEL_MAP[kind][int(value)]
+        official = [
+            None if np.isnan(value) or not labels else LABEL_MAP[kind][int(value)]
             for value in sequence.urfd_label
         ]
-        for first, last, label in label_runs(labels):
+        for first, last, label in label_runs(official):
             create_segment(
                 session,
                 video,
