@@ -32,7 +32,7 @@ class Settings(BaseSettings):
     )
     redis_channel: str = Field(default="vigil:alarms", description="Redis pub/sub channel")
     ingest_flush_ms: float = Field(
-        default=40, description="longest a received frame waits before its batch is committed"
+        default=20, description="longest a received frame waits before its batch is committed"
     )
     ingest_flush_frames: int = Field(default=500, description="frames that force an early commit")
     escalation_seconds: float = Field(

@@ -3,23 +3,26 @@ that robot decisions raise. The caller commits; acknowledgements go out only aft
 
 from __future__ import annotations
 
+import json
+import struct
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
+from itertools import chain
 
-import numpy as np
-from sqlalchemy import insert, select
+from sqlalchemy import select
 from sqlalchemy.orm import Session
 
 from backend.alarms.service import DecisionEvidence, fold_evidence, raise_or_update
+from backend.ingest.bulk import insert_frame_rows
 from backend.models._types import utcnow
-from backend.models.alarms import Alarm, AlarmKind
+from backend.models.alarms import Alarm, AlarmKind, AlarmState
 from backend.models.robots import Robot, Transport
 from backend.models.videos import Frame, Video
 from backend.security import robot_token_matches
 from vigil.classes import Decision, TransportMode
 from vigil.protocol import FrameRecord, Hello, TransportEnd, TransportStart
-from vigil.skeleton import encode_depth, encode_keypoints
+from vigil.skeleton import N_KEYPOINTS
 
 ALARM_KIND_OF_DECISION = {Decision.EMERGENCY: AlarmKind.EMERGENCY, Decision.PAUSE: AlarmKind.PAUSE}
 
@@ -81,12 +84,14 @@ class IngestContext:
     robots: dict[str, Robot | None] = field(default_factory=dict)
     transports: dict[str, Transport | None] = field(default_factory=dict)
     videos: dict[str, Video] = field(default_factory=dict)
-    rows: list[dict] = field(default_factory=list)
+    rows: list[tuple] = field(default_factory=list)  # laid out as bulk.FRAME_COLUMNS
     pending_seqs: dict[str, set[int]] = field(default_factory=dict)
+    open_alarms: dict[tuple[str, str, AlarmKind], Alarm] = field(default_factory=dict)
 
-    def preload(
-        self, session: Session, robot_ids: set[str], transport_ids: set[str]
-    ) -> IngestContext:
+    def preload(self, session: Session, streams: set[tuple[str, str | None]]) -> IngestContext:
+        """Load, in a few queries, what the (robot id, transport id) streams of a flush touch."""
+        robot_ids = {robot_id for robot_id, _ in streams}
+        transport_ids = {tid for _, tid in streams if tid is not None}
         missing = robot_ids - self.robots.keys()
         if missing:
             found = {r.id: r for r in session.scalars(select(Robot).where(Robot.id.in_(missing)))}
@@ -97,12 +102,19 @@ class IngestContext:
                 t.id: t for t in session.scalars(select(Transport).where(Transport.id.in_(missing)))
             }
             self.transports.update({tid: found.get(tid) for tid in missing})
-        names = {
-            _video_name(robot_id, tid) for robot_id in robot_ids for tid in (*transport_ids, None)
-        } - self.videos.keys()
+        names = {_video_name(robot_id, tid) for robot_id, tid in streams} - self.videos.keys()
         if names:
             for video in session.scalars(select(Video).where(Video.name.in_(names))):
                 self.videos[video.name] = video
+        if robot_ids:
+            for alarm in session.scalars(
+                select(Alarm).where(
+                    Alarm.robot_id.in_(robot_ids),
+                    Alarm.state != AlarmState.RESOLVED,
+                    Alarm.kind.in_(ALARM_KIND_OF_DECISION.values()),
+                )
+            ).unique():
+                self.open_alarms[(alarm.robot_id, alarm.transport_key, alarm.kind)] = alarm
         return self
 
     def transport(self, session: Session, transport_id: str | None) -> Transport | None:
@@ -114,8 +126,7 @@ class IngestContext:
 
     def flush_rows(self, session: Session) -> int:
         stored = len(self.rows)
-        if self.rows:
-            session.execute(insert(Frame), self.rows)
+        insert_frame_rows(session, self.rows)
         self.rows = []
         self.pending_seqs = {}
         return stored
@@ -155,10 +166,28 @@ class IngestResult:
     new_alarm_ids: set[int] = field(default_factory=set)
 
 
-def _depth_blob(depth: list[float | None] | None) -> bytes | None:
+_KEYPOINTS = struct.Struct(f"<{N_KEYPOINTS * 3}f")
+_DEPTH = struct.Struct(f"<{N_KEYPOINTS}f")
+_NAN = float("nan")
+
+
+def pack_keypoints(keypoints: list[list[float]]) -> bytes:
+    """Same bytes as vigil.skeleton.encode_keypoints (25 x 3 little-endian float32), without
+    building a numpy array per frame."""
+    return _KEYPOINTS.pack(*chain.from_iterable(keypoints))
+
+
+def pack_depth(depth: list[float | None] | None) -> bytes | None:
+    """Same bytes as vigil.skeleton.encode_depth; null (unknown) becomes NaN."""
     if depth is None:
         return None
-    return encode_depth(np.array([np.nan if v is None else v for v in depth], np.float32))
+    return _DEPTH.pack(*(_NAN if v is None else v for v in depth))
+
+
+def _scores_json(scores: dict) -> str | None:
+    if not scores:
+        return None
+    return json.dumps({str(k): v for k, v in scores.items()})
 
 
 def _existing_seqs(
@@ -211,24 +240,25 @@ def store_frames(
             if transport is not None:
                 transport.last_frame_at = now
         shadow = frame.shadow
+        decision = frame.decision
         rows.append(
-            {
-                "video_id": video.id,
-                "index": video.frame_count,
-                "ts": frame.ts,
-                "robot_id": robot.id,
-                "seq": frame.seq,
-                "keypoints": encode_keypoints(np.asarray(frame.keypoints, np.float32)),
-                "depth": _depth_blob(frame.depth),
-                "decision": frame.decision,
-                "scores": dict(frame.scores) or None,
-                "model_version": frame.model_version,
-                "threshold": frame.threshold,
-                "delay_ms": frame.delay_ms,
-                "shadow_decision": shadow.decision if shadow else None,
-                "shadow_scores": dict(shadow.scores) if shadow else None,
-                "shadow_model_version": shadow.model_version if shadow else None,
-            }
+            (
+                video.id,
+                video.frame_count,
+                frame.ts,
+                robot.id,
+                frame.seq,
+                pack_keypoints(frame.keypoints),
+                pack_depth(frame.depth),
+                decision.value if decision else None,
+                _scores_json(frame.scores),
+                frame.model_version,
+                frame.threshold,
+                frame.delay_ms,
+                shadow.decision.value if shadow else None,
+                _scores_json(shadow.scores) if shadow else None,
+                shadow.model_version if shadow else None,
+            )
         )
         pending.add(frame.seq)
         video.frame_count += 1
@@ -242,14 +272,17 @@ def store_frames(
                 delay_ms=frame.delay_ms,
                 video_id=video.id,
             )
-            alarm = alarms.get((key, kind))
-            if alarm is not None:
+            alarm = alarms.get((key, kind)) or context.open_alarms.get((robot.id, key or "", kind))
+            if alarm is not None and alarm.state != AlarmState.RESOLVED:
                 fold_evidence(alarm, evidence, now)
             else:
-                alarm, is_new = raise_or_update(session, robot, transport, kind, evidence)
-                alarms[(key, kind)] = alarm
+                # Pending row updates cannot change which alarm is unresolved: no autoflush.
+                with session.no_autoflush:
+                    alarm, is_new = raise_or_update(session, robot, transport, kind, evidence)
+                context.open_alarms[(robot.id, key or "", kind)] = alarm
                 if is_new:
                     new_alarm_ids.add(alarm.id)
+            alarms[(key, kind)] = alarm
     stored = len(fresh)
     if own_context:
         context.flush_rows(session)

@@ -199,17 +199,13 @@ class FrameWriter:
 
     def _apply(self, session: Session, jobs: list[Job]) -> Outcome:
         outcome = Outcome()
-        context = service.IngestContext().preload(
-            session,
-            {job.link.robot_id for job in jobs},
-            {
-                f.transport_id
-                for job in jobs
-                if isinstance(job.message, FrameBatch)
-                for f in job.message.frames
-                if f.transport_id
-            },
-        )
+        streams: set[tuple[str, str | None]] = set()
+        for job in jobs:
+            if isinstance(job.message, FrameBatch):
+                streams.update((job.link.robot_id, f.transport_id) for f in job.message.frames)
+            else:
+                streams.add((job.link.robot_id, None))
+        context = service.IngestContext().preload(session, streams)
         touched = {}
         # Consecutive frame batches of one connection become one store_frames call.
         run: list[protocol.FrameRecord] = []
