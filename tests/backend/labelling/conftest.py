@@ -12,6 +12,12 @@ URFD_DIR = urfd.default_dir()
 
 
 @pytest.fixture
+def settings(settings):
+    """No model lane unless a test asks for one (the repo's var/ may hold a trained model)."""
+    return settings.model_copy(update={"labelling_model_dir": None})
+
+
+@pytest.fixture
 def urfd_videos(session_factory) -> dict[str, int]:
     """fall-01 (with RGB clip and depth) and adl-01, imported from the real URFD files."""
     with transaction(session_factory) as session:
