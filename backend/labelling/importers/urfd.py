@@ -80,12 +80,14 @@ def import_urfd(
     directory: Path | str | None = None,
     names: list[str] | None = None,
     labels: bool = True,
+    sequences: list[urfd.Sequence] | None = None,
 ) -> ImportReport:
     """Idempotent: sequences already imported (by video name) are skipped. labels=False
-    imports the recordings only (to label them from scratch)."""
+    imports the recordings only (to label them from scratch). `sequences` saves re-reading
+    the keypoint file when the caller has already loaded them."""
     directory = Path(directory) if directory else urfd.default_dir()
     report = ImportReport()
-    for sequence in urfd.load(directory, names):
+    for sequence in sequences if sequences is not None else urfd.load(directory, names):
         if video_by_name(session, sequence.name) is not None:
             report.skipped.append(sequence.name)
             continue

@@ -17,11 +17,16 @@ def settings(settings):
     return settings.model_copy(update={"labelling_model_dir": None})
 
 
+@pytest.fixture(scope="session")
+def urfd_sequences() -> list[urfd.Sequence]:
+    return urfd.load(URFD_DIR, ["fall-01", "adl-01"])
+
+
 @pytest.fixture
-def urfd_videos(session_factory) -> dict[str, int]:
+def urfd_videos(session_factory, urfd_sequences) -> dict[str, int]:
     """fall-01 (with RGB clip and depth) and adl-01, imported from the real URFD files."""
     with transaction(session_factory) as session:
-        import_urfd(session, URFD_DIR, ["fall-01", "adl-01"])
+        import_urfd(session, URFD_DIR, sequences=urfd_sequences)
     with session_factory() as session:
         return {v.name: v.id for v in session.query(Video)}
 
