@@ -83,6 +83,20 @@ def test_annotator_labels_fall_stages_reviewer_accepts_export_matches(live_serve
     )  # fmt: skip
     assert shown == sorted(stages)
 
+    # Playback: faster with ], space plays and pauses; V switches to skeleton only.
+    page.keyboard.press("]")
+    page.keyboard.press("]")
+    expect(page.get_by_test_id("speed")).to_have_text("4x")
+    page.keyboard.press("Home")
+    page.keyboard.press(" ")
+    expect(page.get_by_test_id("frame-counter")).not_to_contain_text("frame 0 /")
+    page.keyboard.press(" ")
+    page.keyboard.press("v")
+    expect(page.locator("[data-testid=player] img")).to_have_count(0)
+    page.keyboard.press("v")
+    frame = 0
+    page.keyboard.press("Home")
+
     page.keyboard.press("?")
     expect(page.get_by_role("dialog", name="Keyboard shortcuts")).to_be_visible()
     page.keyboard.press("Escape")

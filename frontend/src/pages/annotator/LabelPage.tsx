@@ -53,6 +53,8 @@ export function LabelPage() {
   const undo = useRef(new UndoStack());
   const searchBox = useRef<HTMLInputElement>(null);
   const frameCount = video?.frame_count ?? 0;
+  const frameRef = useRef(frame); // read by the key handler, never stale between renders
+  frameRef.current = frame;
   const mayUnblur = user?.role === "annotator";
 
   const loadSegments = useCallback(async () => {
@@ -247,8 +249,8 @@ export function LabelPage() {
       else if (key === "ArrowLeft") setFrame((f) => step(f, event.shiftKey ? -10 : -1, frameCount));
       else if (key === "Home") setFrame(0);
       else if (key === "End") setFrame(Math.max(frameCount - 1, 0));
-      else if (key === "i" || key === "I") setInPoint(frame);
-      else if (key === "o" || key === "O") setOutPoint(frame);
+      else if (key === "i" || key === "I") setInPoint(frameRef.current);
+      else if (key === "o" || key === "O") setOutPoint(frameRef.current);
       else if (/^[1-9]$/.test(key) && quick[Number(key) - 1]) void applyLabel(quick[Number(key) - 1].key);
       else if (key === "/") searchBox.current?.focus();
       else if (key === "?") setHelp((h) => !h);
@@ -263,7 +265,7 @@ export function LabelPage() {
     };
     window.addEventListener("keydown", onKey);
     return () => window.removeEventListener("keydown", onKey);
-  }, [frame, frameCount, quick, applyLabel, undoRedo, submit, deleteSelected, mayUnblur]);
+  }, [frameCount, quick, applyLabel, undoRedo, submit, deleteSelected, mayUnblur]);
 
   const rows: TimelineRow[] = useMemo(() => {
     const you = segments.filter(mine);
