@@ -64,6 +64,7 @@ PERMISSIONS: dict[tuple[str, str], frozenset[Role]] = {
         {ANNOTATOR, NURSE, ENGINEER, ADMIN}
     ),
     ("GET", "/api/labelling/videos/{video_id}/probability"): LABELLERS,
+    ("POST", "/api/labelling/videos/{video_id}/view3d"): LABELLERS,
     ("GET", "/metrics"): frozenset({ENGINEER, ADMIN}),
 }
 

@@ -67,6 +67,8 @@ class Settings(BaseSettings):
         "has no stored scores; None disables it",
     )
     rgb_cache_frames: int = Field(default=600, description="decoded RGB frames kept in memory")
+    viser_host: str = Field(default="127.0.0.1", description="3D view (viser) listens here")
+    viser_port: int = Field(default=8090, description="3D view (viser) port, started on first use")
     robot_hello_timeout_s: float = Field(default=5.0, description="time a robot has to say hello")
 
     def escalation_seconds_for(self, ward: str) -> float:

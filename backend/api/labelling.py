@@ -4,6 +4,7 @@ RGB frames and the model lane. Thin: the work is in backend.labelling."""
 from __future__ import annotations
 
 import json
+from contextlib import asynccontextmanager
 from typing import Literal
 
 from fastapi import APIRouter, FastAPI, Query, Request, Response, UploadFile, status
@@ -19,6 +20,7 @@ from backend.labelling.queries import (
     progress_by_video,
     user_by_name,
     usernames,
+    video_frames,
     video_segments,
 )
 from backend.labelling.review import review_queue
@@ -42,9 +44,11 @@ from backend.labelling.schemas import (
     SubmitAllOut,
     SuggestionOut,
     VideoPatch,
+    View3DOut,
 )
 from backend.labelling.status import IN_REVIEW
 from backend.labelling.taxonomy import load_taxonomy
+from backend.labelling.viewer3d import Viewer3D
 from backend.models.annotations import AnnotationSegment, SegmentSource, SegmentStatus
 from backend.models.users import Role
 from backend.models.videos import Frame, Split, Video
@@ -61,6 +65,16 @@ def install(app: FastAPI, settings: Settings) -> None:
     """Start-up wiring: frame cache, model lane, and 4xx for labelling errors."""
     app.state.rgb_frames = FrameCache(settings.rgb_cache_frames)
     app.state.model_lane = LaneComputer(settings.labelling_model_dir)
+    app.state.viewer3d = viewer = Viewer3D(settings.viser_host, settings.viser_port)
+    startup_shutdown = app.router.lifespan_context
+
+    @asynccontextmanager
+    async def lifespan(app_: FastAPI):
+        async with startup_shutdown(app_) as state:
+            yield state
+        viewer.stop()
+
+    app.router.lifespan_context = lifespan
 
     @app.exception_handler(LabellingError)
     def labelling_error(request: Request, error: LabellingError) -> JSONResponse:
@@ -460,4 +474,25 @@ def probability_lane(
             SuggestionOut(first_frame=f, last_frame=t, label_key=SUGGESTED_LABEL)
             for f, t in lane.suggestions
         ],
+    )
+
+
+@router.post("/videos/{video_id}/view3d")
+def view_3d(
+    video_id: int,
+    request: Request,
+    session: SessionDep,
+    user: CurrentUser,
+    frame: int = Query(ge=0, description="frame to show; the nearest frames with depth are used"),
+) -> View3DOut:
+    """Show the frame (and up to 30 nearby frames with depth) in 3D in the viser viewer."""
+    video = segments.get_video(session, video_id)
+    if frame >= video.frame_count:
+        raise LabellingError(f"frame: {frame} is outside 0..{video.frame_count - 1}")
+    indices, keypoints, depth = video_frames(session, video)
+    result = request.app.state.viewer3d.show(
+        video.name, indices, keypoints, depth, video.intrinsics, frame
+    )
+    return View3DOut(
+        url=result.url, frames_shown=result.frames_shown, centre_frame=result.centre_frame
     )

@@ -38,6 +38,7 @@ def _video_from_meta(meta: dict, name: str | None) -> Video:
             split=Split(meta.get("split") or "unassigned"),
             image_width=meta.get("image_width") or None,
             image_height=meta.get("image_height") or None,
+            intrinsics=meta.get("intrinsics"),
         )
     except KeyError as error:
         raise LabellingError(f"video.{error.args[0]}: missing") from error

@@ -31,7 +31,7 @@ COCO_SKELETON = [
 ]  # fmt: skip
 VIDEO_FIELDS = (
     "name", "source", "generated", "mode", "camera", "location", "fps", "person", "split",
-    "image_width", "image_height", "frame_count",
+    "image_width", "image_height", "frame_count", "intrinsics",
 )  # fmt: skip
 
 

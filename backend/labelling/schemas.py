@@ -162,3 +162,9 @@ class ProbabilityOut(BaseModel):
 class ImportOut(BaseModel):
     videos: list[str]
     segments: int
+
+
+class View3DOut(BaseModel):
+    url: str
+    frames_shown: list[int]
+    centre_frame: int = Field(description="the frame with depth nearest to the requested one")

@@ -38,6 +38,8 @@ class Video(Base):
     # Size of the keypoints' coordinate space (pixels); None when keypoints are normalised.
     image_width: Mapped[float | None] = mapped_column()
     image_height: Mapped[float | None] = mapped_column()
+    # Pinhole camera of the keypoints' image: {"fx", "fy", "cx", "cy"} in pixels (3D view).
+    intrinsics: Mapped[dict | None] = mapped_column(JSON)
     # Where the RGB picture sits in the clip's frames: {"x", "y", "width", "height"} in pixels
     # (URFD clips put depth left and RGB right); None = the whole frame.
     rgb_crop: Mapped[dict | None] = mapped_column(JSON)

@@ -1,4 +1,5 @@
-"""Labelling: coordinate space and RGB clip placement of a video, status index for the queue.
+"""Labelling: coordinate space, camera intrinsics and RGB clip placement of a video; status
+index for the review queue.
 
 Revision ID: 0003
 Revises: 0002
@@ -20,6 +21,7 @@ def upgrade() -> None:
         batch_op.add_column(sa.Column("image_width", sa.Float(), nullable=True))
         batch_op.add_column(sa.Column("image_height", sa.Float(), nullable=True))
         batch_op.add_column(sa.Column("rgb_crop", sa.JSON(), nullable=True))
+        batch_op.add_column(sa.Column("intrinsics", sa.JSON(), nullable=True))
         batch_op.add_column(
             sa.Column("rgb_frame_offset", sa.Integer(), nullable=False, server_default="0")
         )
@@ -32,6 +34,7 @@ def downgrade() -> None:
         batch_op.drop_index("ix_annotation_segments_status")
     with op.batch_alter_table("videos", schema=None) as batch_op:
         batch_op.drop_column("rgb_frame_offset")
+        batch_op.drop_column("intrinsics")
         batch_op.drop_column("rgb_crop")
         batch_op.drop_column("image_height")
         batch_op.drop_column("image_width")

@@ -43,6 +43,8 @@ RGB_CROP = {"x": 320, "y": 0, "width": 320, "height": 240}
 #: Depth PNG raw value -> metres (README: P * 6000 / 65535 mm for falls, 7000 for ADL).
 DEPTH_RANGE_MM = {"fall": 6000.0, "adl": 7000.0}
 DEPTH_NAME = re.compile(r"^(?P<seq>(fall|adl)-\d+)-cam0-d-(?P<frame>\d+)\.png$")
+#: Nominal Kinect v1 colour-camera intrinsics at 640x480 (URFD publishes no calibration).
+KINECT_INTRINSICS = {"fx": 525.0, "fy": 525.0, "cx": 319.5, "cy": 239.5}
 TEST_EVERY = 5  # every 5th sequence of each kind is a test video (split by video, never frame)
 
 
@@ -108,6 +110,7 @@ def import_urfd(
             rgb_path=str(clip) if clip.is_file() else None,
             rgb_crop=RGB_CROP if clip.is_file() else None,
             rgb_frame_offset=-1,
+            intrinsics=KINECT_INTRINSICS,
             depth_path=str(directory / "depth") if (directory / "depth").is_dir() else None,
         )
         indices = np.rint(sequence.timestamps * urfd.FPS).astype(int)

@@ -702,6 +702,26 @@ export interface paths {
         patch?: never;
         trace?: never;
     };
+    "/api/labelling/videos/{video_id}/view3d": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        get?: never;
+        put?: never;
+        /**
+         * View 3D
+         * @description Show the frame (and up to 30 nearby frames with depth) in 3D in the viser viewer.
+         */
+        post: operations["view_3d_api_labelling_videos__video_id__view3d_post"];
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
     "/metrics": {
         parameters: {
             query?: never;
@@ -1489,6 +1509,18 @@ export interface components {
             location?: string | null;
             /** Camera */
             camera?: string | null;
+        };
+        /** View3DOut */
+        View3DOut: {
+            /** Url */
+            url: string;
+            /** Frames Shown */
+            frames_shown: number[];
+            /**
+             * Centre Frame
+             * @description the frame with depth nearest to the requested one
+             */
+            centre_frame: number;
         };
     };
     responses: never;
@@ -2938,6 +2970,40 @@ export interface operations {
                 };
                 content: {
                     "application/json": components["schemas"]["ProbabilityOut"];
+                };
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+        };
+    };
+    view_3d_api_labelling_videos__video_id__view3d_post: {
+        parameters: {
+            query: {
+                /** @description frame to show; the nearest frames with depth are used */
+                frame: number;
+            };
+            header?: never;
+            path: {
+                video_id: number;
+            };
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["View3DOut"];
                 };
             };
             /** @description Validation Error */

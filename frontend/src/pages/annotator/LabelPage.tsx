@@ -227,6 +227,15 @@ export function LabelPage() {
     await loadSegments();
   }, [videoId, loadSegments]);
 
+  const open3d = useCallback(async () => {
+    const { data, error } = await api.POST("/api/labelling/videos/{video_id}/view3d", {
+      params: { path: { video_id: videoId }, query: { frame: frameRef.current } },
+    });
+    if (!data) return setError(errorMessage(error, "Could not open the 3D view"));
+    setMessage(`3D view: frame ${data.centre_frame} (nearest with depth) and ${data.frames_shown.length - 1} more`);
+    window.open(data.url, "vigil-3d");
+  }, [videoId]);
+
   const quick = useMemo(() => {
     const keys = QUICK_LABELS[video?.mode ?? "walking"] ?? QUICK_LABELS.walking;
     return keys.map((k) => labels.find((l) => l.key === k)).filter((l): l is TaxonomyLabel => !!l);
@@ -318,6 +327,9 @@ export function LabelPage() {
           {video.mode} · split {video.split} · {video.source}
           {video.generated ? " · GENERATED data" : ""} · {video.person ?? "person unknown"}
         </span>
+        <button type="button" onClick={() => void open3d()} title="Open the frame in 3D (viser)" disabled={!video.has_depth}>
+          3D view
+        </button>
         <button type="button" onClick={() => setHelp(true)} title="Keyboard shortcuts (?)">?</button>
       </div>
       <div className="label-main">
