@@ -111,15 +111,17 @@ def import_urfd(
             rgb_crop=RGB_CROP if clip.is_file() else None,
             rgb_frame_offset=-1,
             intrinsics=KINECT_INTRINSICS,
-            depth_path=str(directory / "depth") if (directory / "depth").is_dir() else None,
         )
+        depth = _depth_for(directory, sequence)
+        if depth is not None:
+            video.depth_path = str(directory / "depth")
         indices = np.rint(sequence.timestamps * urfd.FPS).astype(int)
         add_video(
             session,
             video,
             sequence.keypoints,
             sequence.timestamps,
-            depth=_depth_for(directory, sequence),
+            depth=depth,
             indices=indices,
         )
         official = [

@@ -57,6 +57,9 @@ def test_depth_pictures_give_depth_at_keypoints(urfd_videos, session_factory):
     metres = decode_depth(rows[10])
     seen = metres[~np.isnan(metres)]
     assert seen.size >= 5 and np.all((seen > 0.5) & (seen < 6.0))
+    with session_factory() as session:
+        assert session.get(Video, urfd_videos["fall-01"]).depth_path is not None
+        assert session.get(Video, urfd_videos["adl-01"]).depth_path is None  # no pictures
 
 
 def test_import_is_idempotent(urfd_videos, session_factory):
