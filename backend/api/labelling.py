@@ -474,6 +474,7 @@ def probability_lane(
             SuggestionOut(first_frame=f, last_frame=t, label_key=SUGGESTED_LABEL)
             for f, t in lane.suggestions
         ],
+        error=lane.error,
     )
 
 

@@ -7,6 +7,7 @@ vigil.runtime (results cached per video and model version).
 
 from __future__ import annotations
 
+import logging
 import threading
 from dataclasses import dataclass
 from pathlib import Path
@@ -19,6 +20,8 @@ from backend.models.videos import Frame, Video
 from vigil.classes import Decision
 from vigil.skeleton import SkeletonFrame, decode_keypoints
 
+log = logging.getLogger("vigil.labelling")
+
 MIN_SUGGESTION_FRAMES = 5
 SUGGESTED_LABEL = "falling"  # the annotator refines it into falling / impact / lying_on_floor
 
@@ -30,6 +33,7 @@ class Lane:
     threshold: float | None
     probability: list[float | None]  # per frame index, None where unknown
     suggestions: list[tuple[int, int]]
+    error: str | None = None
 
 
 def suggestions(probability: list[float | None], threshold: float) -> list[tuple[int, int]]:
@@ -62,15 +66,22 @@ class LaneComputer:
         if stored is not None or not self.available():
             return stored or Lane("none", None, None, [None] * video.frame_count, [])
         with self._lock:
-            if self._classifier is None:
-                from vigil.runtime import FrameClassifier  # onnxruntime only when needed
+            try:
+                if self._classifier is None:
+                    from vigil.runtime import FrameClassifier  # onnxruntime only when needed
 
-                self._classifier = FrameClassifier.from_dir(self.model_dir)
-            classifier = self._classifier
-            key = (video.id, classifier.manifest.version)
-            if key not in self._cache:
-                self._cache[key] = _computed_lane(session, video, classifier)
-            return self._cache[key]
+                    self._classifier = FrameClassifier.from_dir(self.model_dir)
+                classifier = self._classifier
+                key = (video.id, classifier.manifest.version)
+                if key not in self._cache:
+                    self._cache[key] = _computed_lane(session, video, classifier)
+                return self._cache[key]
+            except Exception as error:  # a broken or incompatible model must not break labelling
+                log.warning("model lane for video %s failed: %s", video.id, error)
+                return Lane(
+                    "none", None, None, [None] * video.frame_count, [],
+                    error=f"model in {self.model_dir} could not score this video: {error}",
+                )  # fmt: skip
 
 
 def _stored_lane(session: Session, video: Video) -> Lane | None:

@@ -157,6 +157,7 @@ class ProbabilityOut(BaseModel):
     threshold: float | None
     probability: list[float | None]
     suggestions: list[SuggestionOut]
+    error: str | None = None
 
 
 class ImportOut(BaseModel):

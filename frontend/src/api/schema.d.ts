@@ -1056,6 +1056,8 @@ export interface components {
             probability: (number | null)[];
             /** Suggestions */
             suggestions: components["schemas"]["SuggestionOut"][];
+            /** Error */
+            error?: string | null;
         };
         /** QueueItemOut */
         QueueItemOut: {

@@ -51,3 +51,23 @@ def test_lane_is_computed_when_no_scores_are_stored(settings, tiny_model, urfd_v
         i for s in lane["suggestions"] for i in range(s["first_frame"], s["last_frame"] + 1)
     }
     assert len(suggested & lying) > 0.5 * len(lying)
+
+
+def test_a_broken_model_leaves_labelling_usable(
+    settings, tiny_model, urfd_videos, annotator, tmp_path
+):
+    import shutil
+
+    broken = tmp_path / "broken"
+    shutil.copytree(tiny_model, broken)
+    with (broken / "model.onnx").open("ab") as handle:
+        handle.write(b"tampered")
+    app = create_app(settings.model_copy(update={"labelling_model_dir": broken}))
+    with TestClient(app) as client:
+        response = client.get(
+            f"/api/labelling/videos/{urfd_videos['fall-01']}/probability", headers=annotator.headers
+        )
+    assert response.status_code == 200
+    lane = response.json()
+    assert lane["source"] == "none" and lane["suggestions"] == []
+    assert "could not score" in lane["error"]

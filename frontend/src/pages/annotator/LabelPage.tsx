@@ -284,10 +284,14 @@ export function LabelPage() {
       const title = s.annotator ?? (s.source === "import" ? "imported" : s.source.replace("_", " "));
       others.set(title, [...(others.get(title) ?? []), s]);
     }
-    return [
+    const list: Omit<TimelineRow, "isEditable">[] = [
       { title: `you (${user?.username ?? ""})`, segments: you, editable: true },
-      ...[...others].map(([title, list]) => ({ title, segments: list, editable: user?.role === "admin" })),
+      ...[...others].map(([title, group]) => ({ title, segments: group, editable: user?.role === "admin" })),
     ];
+    return list.map((row) => ({
+      ...row,
+      isEditable: (s: Segment) => row.editable && EDITABLE.has(s.status),
+    }));
   }, [segments, mine, user]);
 
   const onResize = useCallback(
@@ -316,7 +320,8 @@ export function LabelPage() {
   const drafts = segments.filter((s) => mine(s) && (s.status === "draft" || s.status === "rejected")).length;
   const laneNote =
     lane?.source === "model" ? `computed · ${lane.model_version}`
-      : lane?.source === "stored" ? `stored · ${lane.model_version ?? ""}` : "no model scores";
+      : lane?.source === "stored" ? `stored · ${lane.model_version ?? ""}`
+        : lane?.error ? "model failed (see hover)" : "no model scores";
 
   return (
     <main className="page label-page">
@@ -414,6 +419,7 @@ export function LabelPage() {
         threshold={lane?.threshold ?? null}
         suggestions={lane?.suggestions ?? []}
         laneNote={laneNote}
+        laneError={lane?.error ?? null}
         onSeek={(f) => setFrame(clampFrame(f, frameCount))}
         onSelect={setSelectedId}
         onResize={onResize}

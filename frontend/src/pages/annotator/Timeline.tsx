@@ -6,6 +6,7 @@ export interface TimelineRow {
   title: string;
   segments: Segment[];
   editable: boolean;
+  isEditable: (segment: Segment) => boolean;
 }
 
 interface Props {
@@ -20,6 +21,7 @@ interface Props {
   threshold: number | null;
   suggestions: Span[];
   laneNote: string;
+  laneError: string | null;
   onSeek: (frame: number) => void;
   onSelect: (id: number | null) => void;
   onResize: (id: number, span: Span) => void;
@@ -163,7 +165,7 @@ export function Timeline(props: Props) {
                     <text x={left + 4} y={top + 19} fontSize={11} fill="#fff" pointerEvents="none">
                       {right - left > 40 ? (segment.label_name ?? segment.label_key) : ""}
                     </text>
-                    {row.editable &&
+                    {row.isEditable(segment) &&
                       (["first", "last"] as const).map((edge) => (
                         <rect
                           key={edge}
@@ -189,7 +191,10 @@ export function Timeline(props: Props) {
         })}
         <g data-testid="model-lane">
           <text x={4} y={modelTop + 16} fontSize={12} fill="#334155">Model P(emergency)</text>
-          <text x={4} y={modelTop + 32} fontSize={10} fill="#64748b">{props.laneNote}</text>
+          <text x={4} y={modelTop + 32} fontSize={10} fill={props.laneError ? "#b91c1c" : "#64748b"}>
+            {props.laneNote}
+            {props.laneError && <title>{props.laneError}</title>}
+          </text>
           <rect x={TITLE} y={modelTop} width={width} height={LANE} fill="#fff" stroke="#e2e8f0" />
           {props.suggestions.map((s) => (
             <g key={`${s.first_frame}-${s.last_frame}`} data-testid="suggestion">
