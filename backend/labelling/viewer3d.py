@@ -16,6 +16,18 @@ from backend.labelling.rgb import NECK
 from vigil.skeleton import BONES
 
 CLIP_FRAMES = 30  # frames with depth shown around the requested one
+#: A keypoint's depth pixel can miss the body and hit the wall behind it: readings further than
+#: this from the frame's median joint depth are dropped.
+MAX_DEPTH_SPREAD_M = 0.8
+
+
+def robust_depth(depth: np.ndarray) -> np.ndarray:
+    depth = depth.astype(np.float64).copy()
+    finite = np.isfinite(depth)
+    if finite.any():
+        median = np.median(depth[finite])
+        depth[finite & (np.abs(depth - median) > MAX_DEPTH_SPREAD_M)] = np.nan
+    return depth
 
 
 def back_project(keypoints: np.ndarray, depth: np.ndarray, intrinsics: dict) -> np.ndarray:
@@ -72,11 +84,18 @@ class Viewer3D:
             server = self._ensure_server()
             server.scene.reset()
             server.scene.add_frame("/camera", axes_length=0.3, axes_radius=0.01)
+            centre_points = None
             for row in chosen:
                 index = int(indices[row])
-                self._add_skeleton(server, f"/{name}/frame_{index:06d}",
-                                   back_project(keypoints[row], depth[row], intrinsics),
-                                   index == centre)  # fmt: skip
+                points = back_project(keypoints[row], robust_depth(depth[row]), intrinsics)
+                self._add_skeleton(server, f"/{name}/frame_{index:06d}", points, index == centre)
+                if index == centre:
+                    centre_points = points
+            if centre_points is not None and np.isfinite(centre_points).any():
+                target = np.nanmean(centre_points, axis=0)
+                server.initial_camera.look_at = tuple(float(v) for v in target)
+                server.initial_camera.position = (0.0, -0.3, 0.0)  # at the camera, a bit higher
+                server.initial_camera.up = (0.0, -1.0, 0.0)
         return ViewResult(
             f"http://{self.host}:{self.port}", [int(indices[r]) for r in chosen], centre
         )

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 from fastapi.testclient import TestClient
 
-from backend.labelling.viewer3d import back_project
+from backend.labelling.viewer3d import back_project, robust_depth
 from backend.main import create_app
 
 
@@ -21,6 +21,13 @@ def test_back_projection_inverts_the_pinhole_camera():
     assert points[0] == pytest.approx((2.0, 0.0, 2.0))
     assert points[1] == pytest.approx((0.0, -2.0, 4.0))
     assert np.isnan(points[2]).all() and np.isnan(points[3]).all()
+
+
+def test_depth_readings_off_the_body_are_dropped():
+    depth = np.full(25, np.nan)
+    depth[:6] = (2.0, 2.1, 2.05, 1.95, 4.5, 2.0)  # 4.5 m: the pixel hit the wall
+    cleaned = robust_depth(depth)
+    assert np.isnan(cleaned[4]) and np.isfinite(cleaned[[0, 1, 2, 3, 5]]).all()
 
 
 def _free_port() -> int:
