@@ -332,6 +332,12 @@ export function LabelPage() {
           {video.mode} · split {video.split} · {video.source}
           {video.generated ? " · GENERATED data" : ""} · {video.person ?? "person unknown"}
         </span>
+        <span className="exports">
+          export accepted:{" "}
+          {(["csv", "json", "coco"] as const).map((f) => (
+            <a key={f} href={`/api/labelling/videos/${video.id}/export?format=${f}`} download>{f.toUpperCase()}</a>
+          ))}
+        </span>
         <button type="button" onClick={() => void open3d()} title="Open the frame in 3D (viser)" disabled={!video.has_depth}>
           3D view
         </button>

@@ -1,6 +1,7 @@
 import { useCallback, useEffect, useState } from "react";
 import { Link } from "react-router-dom";
 import { api, errorMessage } from "../../api/client";
+import { currentToken } from "../../api/session";
 import { useAuth } from "../../auth/AuthContext";
 import type { LabellingVideo } from "./types";
 
@@ -17,6 +18,7 @@ export function VideosPage() {
   const [person, setPerson] = useState("");
   const [unreviewed, setUnreviewed] = useState(false);
   const [error, setError] = useState<string | null>(null);
+  const [imported, setImported] = useState<string | null>(null);
 
   const load = useCallback(async () => {
     const { data, error } = await api.GET("/api/labelling/videos", {
@@ -37,6 +39,27 @@ export function VideosPage() {
   useEffect(() => {
     void api.GET("/api/labelling/facets").then(({ data }) => data && setPersons(data.persons));
   }, []);
+
+  const importFile = async (form: HTMLFormElement) => {
+    const data = new FormData(form);
+    const format = String(data.get("format"));
+    const file = data.get("file");
+    if (!(file instanceof File) || !file.size) return setError("Choose a file to import");
+    const body = new FormData();
+    body.append("file", file);
+    const response = await fetch(`/api/labelling/import?format=${format}`, {
+      method: "POST",
+      body,
+      headers: { Authorization: `Bearer ${currentToken() ?? ""}` },
+    });
+    const result = await response.json();
+    if (response.ok) {
+      setError(null);
+      setImported(`Imported ${result.videos.join(", ")} with ${result.segments} segment(s)`);
+      form.reset();
+      await load();
+    } else setError(errorMessage(result, "Import failed"));
+  };
 
   const changeSplit = async (video: LabellingVideo, next: Split) => {
     const { error } = await api.PATCH("/api/labelling/videos/{video_id}", {
@@ -82,6 +105,23 @@ export function VideosPage() {
           has unreviewed segments
         </label>
       </div>
+      {user?.role !== "engineer" && (
+        <form className="filters" aria-label="Import"
+          onSubmit={(e) => { e.preventDefault(); void importFile(e.currentTarget); }}>
+          <label>Import a Vigil export
+            <input type="file" name="file" accept=".json,.csv" />
+          </label>
+          <label>Format
+            <select name="format" defaultValue="json">
+              <option value="json">Vigil JSON (new video)</option>
+              <option value="coco">COCO keypoints (new video)</option>
+              <option value="csv">CSV labels (existing videos)</option>
+            </select>
+          </label>
+          <button type="submit">Import</button>
+          {imported && <span role="status">{imported}</span>}
+        </form>
+      )}
       {error && <p role="alert" className="error">{error}</p>}
       {!videos ? <p className="muted">Loading…</p> : videos.length === 0 ? (
         <p className="empty">No videos match. Import some: <code>python -m backend.labelling.cli import-urfd</code></p>
