@@ -100,7 +100,7 @@ def test_annotator_labels_fall_stages_reviewer_accepts_export_matches(live_serve
     page.keyboard.press("?")
     expect(page.get_by_role("dialog", name="Keyboard shortcuts")).to_be_visible()
     page.keyboard.press("Escape")
-    _go_to(page, frame, stages[1][0] + 5)  # mid-fall for the picture
+    _go_to(page, frame, 90)  # mid-fall, and one of the frames with a depth picture (colours)
     page.wait_for_load_state("networkidle")
     page.locator(".label-main").screenshot(path=str(SCREENSHOTS / "annotator_player.png"))
     page.get_by_test_id("timeline").screenshot(path=str(SCREENSHOTS / "annotator_timeline.png"))
