@@ -138,6 +138,7 @@ def test_fall_alarm_sounds_is_acknowledged_resolved_and_becomes_a_label(live_ser
     rows = page.get_by_role("table", name="Alarms").locator("tbody tr")
     expect(rows).to_have_count(1)
     expect(rows.first).to_contain_text("False alarm (sitting down)")
+    page.screenshot(path=str(SCREENSHOTS / "alarm_history.png"), full_page=True)
 
     page.goto(f"{live_server.base_url}/nurse/fatigue")
     by_model = page.get_by_role("img", name="Share false by model version")
