@@ -12,14 +12,17 @@ from fastapi.staticfiles import StaticFiles
 from prometheus_client import CONTENT_TYPE_LATEST, generate_latest
 from sqlalchemy import func, select
 
-from backend.api import alarm_review, alarms, auth, misc, robots, videos
+from backend.alarms.monitor import AlarmMonitor
+from backend.api import alarm_review, alarms, audit, auth, misc, robots, videos
 from backend.db import make_engine, make_session_factory
 from backend.deps import CurrentUser
 from backend.ingest import robot_ws
 from backend.ingest.registry import RobotRegistry
+from backend.ingest.writer import FrameWriter
 from backend.metrics import Metrics
 from backend.models.alarms import Alarm, AlarmState
 from backend.realtime import browser_ws
+from backend.realtime.bus import AlarmBus
 from backend.realtime.hub import BrowserHub
 from backend.settings import Settings
 
@@ -31,6 +34,7 @@ ROUTERS = (
     robots.router,
     alarms.router,
     alarm_review.router,
+    audit.router,
     videos.router,
 )
 
@@ -42,10 +46,27 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     async def lifespan(app: FastAPI):
         engine = make_engine(settings.database_url)
         app.state.engine = engine
-        app.state.session_factory = make_session_factory(engine)
+        app.state.session_factory = factory = make_session_factory(engine)
         log.info("database %s", engine.url.render_as_string(hide_password=True))
-        yield
-        engine.dispose()
+        app.state.bus = bus = AlarmBus(app.state.hub, settings.redis_url, settings.redis_channel)
+        await bus.start()
+        app.state.writer = writer = FrameWriter(
+            factory,
+            metrics,
+            bus.publish,
+            flush_ms=settings.ingest_flush_ms,
+            flush_frames=settings.ingest_flush_frames,
+        )
+        writer.start()
+        app.state.monitor = monitor = AlarmMonitor(factory, settings, bus.publish)
+        monitor.start()
+        try:
+            yield
+        finally:
+            await monitor.stop()
+            await writer.stop()
+            await bus.stop()
+            engine.dispose()
 
     app = FastAPI(
         title="Vigil",

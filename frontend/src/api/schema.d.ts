@@ -125,6 +125,23 @@ export interface paths {
         patch?: never;
         trace?: never;
     };
+    "/api/robots/{robot_id}": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /** Get Robot */
+        get: operations["get_robot_api_robots__robot_id__get"];
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
     "/api/robots/{robot_id}/token": {
         parameters: {
             query?: never;
@@ -136,7 +153,10 @@ export interface paths {
         put?: never;
         /** Rotate Token */
         post: operations["rotate_token_api_robots__robot_id__token_post"];
-        /** Revoke Token */
+        /**
+         * Revoke Token
+         * @description Revoke the robot's token and close its live connection to this replica.
+         */
         delete: operations["revoke_token_api_robots__robot_id__token_delete"];
         options?: never;
         head?: never;
@@ -152,6 +172,23 @@ export interface paths {
         };
         /** List Transports */
         get: operations["list_transports_api_transports_get"];
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/transports/{transport_id}": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /** Get Transport */
+        get: operations["get_transport_api_transports__transport_id__get"];
         put?: never;
         post?: never;
         delete?: never;
@@ -308,6 +345,26 @@ export interface paths {
          * @description Pending labels for annotators to review; alarms nurses rejected as false come first.
          */
         get: operations["review_queue_api_review_queue_get"];
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/audit": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /**
+         * Audit Trail
+         * @description Every alarm transition (who, when, from, to, comment), newest first.
+         */
+        get: operations["audit_trail_api_audit_get"];
         put?: never;
         post?: never;
         delete?: never;
@@ -786,6 +843,8 @@ export interface components {
             started_at: string;
             /** Ended At */
             ended_at: string | null;
+            /** Last Frame At */
+            last_frame_at: string | null;
         };
         /** UserIn */
         UserIn: {
@@ -1108,6 +1167,37 @@ export interface operations {
             };
         };
     };
+    get_robot_api_robots__robot_id__get: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path: {
+                robot_id: string;
+            };
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["RobotOut"];
+                };
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+        };
+    };
     rotate_token_api_robots__robot_id__token_post: {
         parameters: {
             query?: never;
@@ -1172,6 +1262,8 @@ export interface operations {
         parameters: {
             query?: {
                 robot_id?: string | null;
+                /** @description only transports under way (true) */
+                active?: boolean | null;
                 limit?: number;
             };
             header?: never;
@@ -1187,6 +1279,37 @@ export interface operations {
                 };
                 content: {
                     "application/json": components["schemas"]["TransportOut"][];
+                };
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+        };
+    };
+    get_transport_api_transports__transport_id__get: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path: {
+                transport_id: string;
+            };
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["TransportOut"];
                 };
             };
             /** @description Validation Error */
@@ -1496,6 +1619,42 @@ export interface operations {
                 };
                 content: {
                     "application/json": components["schemas"]["ReviewItemOut"][];
+                };
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+        };
+    };
+    audit_trail_api_audit_get: {
+        parameters: {
+            query?: {
+                alarm_id?: number | null;
+                /** @description e.g. nurse:alice */
+                actor?: string | null;
+                since?: string | null;
+                until?: string | null;
+                limit?: number;
+            };
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["AlarmEventOut"][];
                 };
             };
             /** @description Validation Error */
