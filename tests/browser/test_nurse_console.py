@@ -81,6 +81,7 @@ def test_fall_alarm_sounds_is_acknowledged_resolved_and_becomes_a_label(live_ser
     assert shown_after < 1.0, f"alarm took {shown_after:.2f} s to show"
 
     expect(board).to_have_attribute("data-audio-state", "playing")
+    expect(page).to_have_title("(1) Alarms · Vigil")
     expect(card).to_have_class(re.compile(r"alarm-emergency"))
     for text in ("robot-a", "P-42", "ward A, corridor 3", "t-2", "ago"):
         expect(card).to_contain_text(text)
