@@ -168,6 +168,9 @@ def test_board_reconnects_and_shows_alarms_raised_while_disconnected(live_server
         assert created
         emergency, _ = service.raise_or_update(session, robot, None, AlarmKind.EMERGENCY, evidence)
         service.escalate(session, emergency, utcnow())
+        offline, _ = service.raise_or_update(
+            session, robot, None, AlarmKind.ROBOT_OFFLINE, evidence
+        )
     live_server.start()
 
     expect(board).to_have_attribute("data-link", "live", timeout=15_000)
@@ -183,3 +186,8 @@ def test_board_reconnects_and_shows_alarms_raised_while_disconnected(live_server
     expect(_card(page).first).to_have_attribute("data-alarm-id", str(emergency.id))
     expect(board).to_have_attribute("data-audio-state", "locked")
     expect(page.get_by_text("Sound is locked")).to_be_visible()
+    technical = _card(page, offline.id)
+    expect(technical).to_contain_text("Robot offline")
+    expect(technical).to_have_class(re.compile(r"alarm-technical"))
+    expect(_card(page).last).to_have_attribute("data-alarm-id", str(offline.id))
+    page.screenshot(path=str(SCREENSHOTS / "nurse_board_kinds.png"), full_page=True)
