@@ -1,7 +1,7 @@
 from datetime import datetime
 from typing import Literal
 
-from pydantic import BaseModel, ConfigDict
+from pydantic import BaseModel, ConfigDict, Field
 
 from backend.alarms.schemas import AlarmOut
 
@@ -21,6 +21,7 @@ class AlarmReplayOut(BaseModel):
     alarm: AlarmOut
     before_s: float
     after_s: float
+    generated: bool = Field(description="the frames are generated (simulation), not a real camera")
     frames: list[ReplayFrameOut]
 
 

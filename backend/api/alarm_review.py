@@ -19,7 +19,7 @@ from backend.alarm_review.schemas import (
 from backend.alarms import queries as alarm_queries
 from backend.alarms.schemas import AlarmOut
 from backend.deps import CurrentUser, SessionDep
-from backend.models import Frame
+from backend.models import Frame, Video
 from backend.models._types import utcnow
 from backend.models.alarms import AlarmKind, Verdict
 from backend.models.users import Role, User
@@ -67,10 +67,12 @@ def alarm_replay(
     if alarm is None:
         raise HTTPException(status.HTTP_404_NOT_FOUND, f"alarm {alarm_id} not found")
     frames = queries.frames_around(session, alarm, before_s, after_s)
+    video = session.get(Video, alarm.video_id) if alarm.video_id is not None else None
     return AlarmReplayOut(
         alarm=AlarmOut.model_validate(alarm),
         before_s=before_s,
         after_s=after_s,
+        generated=bool(video and video.generated),
         frames=[_replay_frame(f) for f in frames],
     )
 

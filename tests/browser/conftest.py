@@ -3,124 +3,24 @@
 
 from __future__ import annotations
 
-import os
-import socket
-import subprocess
-import sys
-import time
 from collections.abc import Iterator
-from dataclasses import dataclass
 from pathlib import Path
 
-import httpx
 import pytest
 
-from backend.db import make_engine, make_session_factory, transaction
-from backend.migrate import upgrade
-from backend.models import Robot, Role, User
-from backend.security import hash_password, hash_robot_token
+from backend.db import make_engine, make_session_factory
 
-REPO_ROOT = Path(__file__).resolve().parents[2]
-FRONTEND = REPO_ROOT / "frontend"
-SCREENSHOTS = REPO_ROOT / "docs" / "screenshots"
-CHROMIUM = os.environ.get("VIGIL_CHROMIUM", "/usr/bin/chromium")
-CHROMIUM_ARGS = [
-    "--no-sandbox", "--disable-gpu", "--disable-background-networking",
-    "--disable-component-update", "--disable-sync", "--no-first-run",
-]  # fmt: skip
-TABLET = {"width": 1024, "height": 768}
-PASSWORD = "nurse-password-1"
-ROBOT_TOKEN = "browser-test-robot-token"
-
-
-def _newest_mtime(paths) -> float:
-    return max((p.stat().st_mtime for p in paths if p.is_file()), default=0.0)
+from .live_server import CHROMIUM, CHROMIUM_ARGS, TABLET, LiveServer, build_frontend
 
 
 @pytest.fixture(scope="session")
 def frontend_dist() -> Path:
-    """The production build; rebuilt when a source file is newer than it."""
-    index = FRONTEND / "dist" / "index.html"
-    sources = [*FRONTEND.joinpath("src").rglob("*"), FRONTEND / "index.html",
-               FRONTEND / "package.json", FRONTEND / "vite.config.ts"]  # fmt: skip
-    if not index.exists() or _newest_mtime(sources) > index.stat().st_mtime:
-        if not (FRONTEND / "node_modules").is_dir():
-            subprocess.run(["npm", "ci", "--no-audit", "--no-fund"], cwd=FRONTEND, check=True)
-        subprocess.run(["npm", "run", "build"], cwd=FRONTEND, check=True)
-    return index.parent
-
-
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
-@dataclass
-class LiveServer:
-    base_url: str
-    database_url: str
-    port: int
-    env: dict[str, str]
-    log_path: Path
-    process: subprocess.Popen | None = None
-
-    @property
-    def robot_ws_url(self) -> str:
-        return f"ws://127.0.0.1:{self.port}/ws/robot"
-
-    def start(self) -> None:
-        log = self.log_path.open("ab")
-        self.process = subprocess.Popen(
-            [sys.executable, "-m", "uvicorn", "backend.main:create_app", "--factory",
-             "--host", "127.0.0.1", "--port", str(self.port), "--log-level", "warning"],
-            cwd=REPO_ROOT, env=self.env, stdout=log, stderr=subprocess.STDOUT,
-        )  # fmt: skip
-        deadline = time.monotonic() + 30
-        while time.monotonic() < deadline:
-            if self.process.poll() is not None:
-                raise RuntimeError(f"backend exited: {self.log_path.read_text()[-2000:]}")
-            try:
-                if httpx.get(f"{self.base_url}/api/health", timeout=1).status_code == 200:
-                    return
-            except httpx.HTTPError:
-                time.sleep(0.1)
-        raise RuntimeError("backend did not come up in 30 s")
-
-    def stop(self) -> None:
-        if self.process is not None and self.process.poll() is None:
-            self.process.terminate()
-            try:
-                self.process.wait(10)
-            except subprocess.TimeoutExpired:
-                self.process.kill()
-                self.process.wait()
-        self.process = None
+    return build_frontend()
 
 
 @pytest.fixture
 def live_server(tmp_path, frontend_dist) -> Iterator[LiveServer]:
-    database_url = f"sqlite:///{tmp_path / 'vigil.db'}"
-    upgrade(database_url)
-    engine = make_engine(database_url)
-    with transaction(make_session_factory(engine)) as session:
-        password_hash = hash_password(PASSWORD)
-        session.add(User(username="nina", password_hash=password_hash, role=Role.NURSE,
-                         ward="ward-a"))  # fmt: skip
-        session.add(User(username="anna", password_hash=password_hash, role=Role.ANNOTATOR))
-        session.add(Robot(id="robot-a", name="A", ward="ward-a",
-                          token_hash=hash_robot_token(ROBOT_TOKEN)))  # fmt: skip
-    engine.dispose()
-    port = _free_port()
-    env = {
-        **os.environ,
-        "VIGIL_DATABASE_URL": database_url,
-        "VIGIL_FRONTEND_DIR": str(frontend_dist),
-        "VIGIL_SECRET_KEY": "browser-test-secret",
-    }
-    env.pop("VIGIL_REDIS_URL", None)
-    server = LiveServer(f"http://127.0.0.1:{port}", database_url, port, env,
-                        tmp_path / "backend.log")  # fmt: skip
+    server = LiveServer.create(tmp_path, frontend_dist)
     server.start()
     yield server
     server.stop()
@@ -149,13 +49,5 @@ def page(chromium):
 @pytest.fixture
 def db(live_server):
     engine = make_engine(live_server.database_url)
-    factory = make_session_factory(engine)
-    yield factory
+    yield make_session_factory(engine)
     engine.dispose()
-
-
-def sign_in(page, base_url: str, username: str = "nina", password: str = PASSWORD) -> None:
-    page.goto(f"{base_url}/login")
-    page.get_by_label("User name").fill(username)
-    page.get_by_label("Password").fill(password)
-    page.get_by_role("button", name="Sign in").click()

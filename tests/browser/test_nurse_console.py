@@ -15,10 +15,12 @@ from backend.db import transaction
 from backend.models import Alarm, AlarmEvent, AlarmKind, AnnotationSegment, Frame, Robot, User
 from backend.models._types import utcnow
 
-from .conftest import ROBOT_TOKEN, SCREENSHOTS, sign_in
+from .live_server import REPO_ROOT, ROBOT_TOKEN, sign_in
 from .simulated_robot import SimulatedRobot, fall_frames
 
 pytestmark = pytest.mark.browser
+
+SCREENSHOTS = REPO_ROOT / "docs" / "screenshots"
 
 
 def _card(page, alarm_id: int | None = None):
@@ -79,6 +81,7 @@ def test_fall_alarm_sounds_is_acknowledged_resolved_and_becomes_a_label(live_ser
     assert shown_after < 1.0, f"alarm took {shown_after:.2f} s to show"
 
     expect(board).to_have_attribute("data-audio-state", "playing")
+    expect(page).to_have_title("(1) Alarms · Vigil")
     expect(card).to_have_class(re.compile(r"alarm-emergency"))
     for text in ("robot-a", "P-42", "ward A, corridor 3", "t-2", "ago"):
         expect(card).to_contain_text(text)
@@ -138,6 +141,7 @@ def test_fall_alarm_sounds_is_acknowledged_resolved_and_becomes_a_label(live_ser
     rows = page.get_by_role("table", name="Alarms").locator("tbody tr")
     expect(rows).to_have_count(1)
     expect(rows.first).to_contain_text("False alarm (sitting down)")
+    page.screenshot(path=str(SCREENSHOTS / "alarm_history.png"), full_page=True)
 
     page.goto(f"{live_server.base_url}/nurse/fatigue")
     by_model = page.get_by_role("img", name="Share false by model version")
@@ -164,6 +168,9 @@ def test_board_reconnects_and_shows_alarms_raised_while_disconnected(live_server
         assert created
         emergency, _ = service.raise_or_update(session, robot, None, AlarmKind.EMERGENCY, evidence)
         service.escalate(session, emergency, utcnow())
+        offline, _ = service.raise_or_update(
+            session, robot, None, AlarmKind.ROBOT_OFFLINE, evidence
+        )
     live_server.start()
 
     expect(board).to_have_attribute("data-link", "live", timeout=15_000)
@@ -179,3 +186,8 @@ def test_board_reconnects_and_shows_alarms_raised_while_disconnected(live_server
     expect(_card(page).first).to_have_attribute("data-alarm-id", str(emergency.id))
     expect(board).to_have_attribute("data-audio-state", "locked")
     expect(page.get_by_text("Sound is locked")).to_be_visible()
+    technical = _card(page, offline.id)
+    expect(technical).to_contain_text("Robot offline")
+    expect(technical).to_have_class(re.compile(r"alarm-technical"))
+    expect(_card(page).last).to_have_attribute("data-alarm-id", str(offline.id))
+    page.screenshot(path=str(SCREENSHOTS / "nurse_board_kinds.png"), full_page=True)

@@ -867,6 +867,11 @@ export interface components {
             before_s: number;
             /** After S */
             after_s: number;
+            /**
+             * Generated
+             * @description the frames are generated (simulation), not a real camera
+             */
+            generated: boolean;
             /** Frames */
             frames: components["schemas"]["ReplayFrameOut"][];
         };

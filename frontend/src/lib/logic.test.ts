@@ -2,7 +2,7 @@ import { describe, expect, it } from "vitest";
 import { reconnectDelayMs } from "./backoff";
 import { bars, niceMax } from "./charts";
 import { delayFilter, fitSkeletons, frameAt, type ReplayFrame } from "./replay";
-import { homeFor, mayOpen } from "./roles";
+import { homeFor, landingPage, mayOpen } from "./roles";
 import { elapsed } from "./time";
 
 const kp = (x: number, y: number) => Array.from({ length: 25 }, () => [x, y, 1]);
@@ -85,5 +85,9 @@ describe("small helpers", () => {
     expect(homeFor("annotator")).toBe("/annotate");
     expect(mayOpen("nurse", "engineer")).toBe(false);
     expect(mayOpen("admin", "nurse")).toBe(true);
+    expect(landingPage("nurse", "/nurse/alarms/7")).toBe("/nurse/alarms/7");
+    expect(landingPage("annotator", "/nurse/alarms/7")).toBe("/annotate");
+    expect(landingPage("nurse", "//evil.example/nurse")).toBe("/nurse");
+    expect(landingPage("engineer", null)).toBe("/engineer");
   });
 });

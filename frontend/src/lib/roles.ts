@@ -23,3 +23,11 @@ export const SECTION_ROLES: Record<"annotate" | "nurse" | "engineer", Role[]> = 
 export function mayOpen(role: Role, section: keyof typeof SECTION_ROLES): boolean {
   return SECTION_ROLES[section].includes(role);
 }
+
+/** Where to go after signing in: the page asked for (deep link) if the role may open it. */
+export function landingPage(role: Role, requested?: string | null): string {
+  const section = requested?.match(/^\/(annotate|nurse|engineer)(\/|$)/)?.[1] as
+    | keyof typeof SECTION_ROLES
+    | undefined;
+  return section && mayOpen(role, section) ? requested! : homeFor(role);
+}

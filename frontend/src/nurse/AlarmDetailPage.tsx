@@ -73,6 +73,7 @@ export function AlarmDetailPage() {
       <h1>
         {KIND_LABEL[alarm.kind]} alarm #{alarm.id}{" "}
         <span className={`pill state-${alarm.state}`}>{alarm.state}</span>
+        {replay.generated && <span className="pill generated">generated data (simulation)</span>}
       </h1>
       <dl className="facts">
         <dt>Robot</dt><dd>{alarm.robot_id}</dd>

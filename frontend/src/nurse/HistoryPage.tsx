@@ -1,5 +1,5 @@
 import { useEffect, useState, type FormEvent } from "react";
-import { Link } from "react-router-dom";
+import { Link, useNavigate } from "react-router-dom";
 import { api, errorMessage } from "../api/client";
 import type { Alarm, AlarmKind, Verdict } from "../api/types";
 import { KIND_LABEL } from "../lib/alarmBoard";
@@ -26,6 +26,7 @@ export function HistoryPage() {
   const [items, setItems] = useState<Alarm[]>([]);
   const [total, setTotal] = useState(0);
   const [error, setError] = useState<string | null>(null);
+  const navigate = useNavigate();
 
   useEffect(() => {
     let live = true;
@@ -89,11 +90,11 @@ export function HistoryPage() {
         <table className="table" aria-label="Alarms">
           <thead>
             <tr><th>#</th><th>Raised</th><th>Class</th><th>Ward</th><th>Robot</th><th>Patient</th>
-              <th>State</th><th>Verdict</th><th>Model</th><th>Ack after</th></tr>
+              <th>State</th><th>Verdict</th><th>Model</th><th title="time to acknowledge">Ack</th></tr>
           </thead>
           <tbody>
             {items.map((a) => (
-              <tr key={a.id}>
+              <tr key={a.id} className="clickable" onClick={() => navigate(`/nurse/alarms/${a.id}`)}>
                 <td><Link to={`/nurse/alarms/${a.id}`}>{a.id}</Link></td>
                 <td>{clockTime(a.raised_at)}</td>
                 <td><span className={`pill kind-${a.kind}`}>{KIND_LABEL[a.kind]}</span></td>

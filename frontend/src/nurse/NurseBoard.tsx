@@ -1,4 +1,4 @@
-import { useMemo, useState } from "react";
+import { useEffect, useMemo, useState } from "react";
 import { api, errorMessage } from "../api/client";
 import type { Alarm } from "../api/types";
 import { useAuth } from "../auth/AuthContext";
@@ -52,6 +52,10 @@ export function NurseBoard() {
   }
 
   const openCount = shown.filter(needsAttention).length;
+  useEffect(() => {
+    document.title = openCount ? `(${openCount}) Alarms · Vigil` : "Alarms · Vigil";
+    return () => { document.title = "Vigil"; };
+  }, [openCount]);
 
   return (
     <main className="board" data-audio-state={sound.state} data-link={status}>

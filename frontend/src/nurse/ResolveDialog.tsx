@@ -1,4 +1,4 @@
-import { useState, type FormEvent } from "react";
+import { useEffect, useState, type FormEvent } from "react";
 import type { Alarm, FalseAlarmReason, Verdict } from "../api/types";
 import { KIND_LABEL } from "../lib/alarmBoard";
 import { REASON_LABEL, VERDICT_LABEL } from "./labels";
@@ -21,6 +21,11 @@ export function ResolveDialog({ alarm, error, busy, onSubmit, onCancel }: Props)
   const [verdict, setVerdict] = useState<Verdict | null>(null);
   const [reason, setReason] = useState<FalseAlarmReason | null>(null);
   const [comment, setComment] = useState("");
+  useEffect(() => {
+    const onKey = (event: KeyboardEvent) => event.key === "Escape" && onCancel();
+    window.addEventListener("keydown", onKey);
+    return () => window.removeEventListener("keydown", onKey);
+  }, [onCancel]);
   const ready = verdict !== null && (verdict !== "false_alarm" || reason !== null);
 
   function submit(event: FormEvent) {

@@ -1,17 +1,18 @@
 import { useState, type FormEvent } from "react";
-import { Navigate, useNavigate } from "react-router-dom";
+import { Navigate, useLocation, useNavigate } from "react-router-dom";
 import { useAuth } from "../auth/AuthContext";
-import { homeFor } from "../lib/roles";
+import { landingPage } from "../lib/roles";
 
 export function LoginPage() {
   const { user, login } = useAuth();
   const navigate = useNavigate();
+  const requested = (useLocation().state as { from?: string } | null)?.from;
   const [username, setUsername] = useState("");
   const [password, setPassword] = useState("");
   const [error, setError] = useState<string | null>(null);
   const [busy, setBusy] = useState(false);
 
-  if (user) return <Navigate to={homeFor(user.role)} replace />;
+  if (user) return <Navigate to={landingPage(user.role, requested)} replace />;
 
   async function submit(event: FormEvent) {
     event.preventDefault();
@@ -19,7 +20,7 @@ export function LoginPage() {
     setError(null);
     try {
       const signedIn = await login(username, password);
-      navigate(homeFor(signedIn.role), { replace: true });
+      navigate(landingPage(signedIn.role, requested), { replace: true });
     } catch (e) {
       setError(e instanceof Error ? e.message : String(e));
     } finally {

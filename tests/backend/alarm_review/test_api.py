@@ -8,7 +8,8 @@ import time
 
 from sqlalchemy import select
 
-from backend.models import AnnotationSegment, Role
+from backend.db import transaction
+from backend.models import AnnotationSegment, Role, Video
 from tests.backend.conftest import ROBOT_TOKEN
 from tests.browser.simulated_robot import fall_frames
 from vigil.protocol import FrameBatch, Hello, TransportStart
@@ -44,6 +45,11 @@ def test_resolved_false_alarm_flows_into_replay_history_fatigue_and_review(
     assert seqs[0] <= alarm["first_seq"] - 25  # 3 s before at 10 fps, minus rounding
     assert len(replay["frames"][0]["keypoints"]) == 25
     assert set(replay["frames"][0]["scores"]) == {"normal", "emergency"}
+    assert replay["generated"] is False
+    with transaction(session_factory) as session:
+        session.get(Video, alarm["video_id"]).generated = True
+    replay_url = f"/api/alarms/{alarm['id']}/replay"
+    assert client.get(replay_url, headers=nurse.headers).json()["generated"] is True
 
     client.post(f"/api/alarms/{alarm['id']}/acknowledge", headers=nurse.headers)
     resolved = client.post(
