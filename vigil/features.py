@@ -269,3 +269,15 @@ class FeatureExtractor:
         held = (~usable).astype(np.float64)[:, None]
         features = np.concatenate([pose, held, temporal, self._peaks.reshape(1, -1)], axis=1)
         return features[0, self.columns_].astype(np.float32)
+
+
+def window_index(group: np.ndarray, window: int) -> np.ndarray:
+    """(n, window) row indices of each frame's last `window` frames within its own stream,
+    padded at a stream's start with its first frame (as vigil.runtime pads a new stream)."""
+    group = np.asarray(group)
+    n = len(group)
+    change = np.ones(n, bool)
+    change[1:] = group[1:] != group[:-1]
+    stream_start = np.maximum.accumulate(np.where(change, np.arange(n), 0)) if n else change
+    offsets = np.arange(-window + 1, 1)
+    return np.maximum(np.arange(n)[:, None] + offsets[None, :], stream_start[:, None])
