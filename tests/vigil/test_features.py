@@ -35,7 +35,9 @@ def test_streaming_equals_batch_with_irregular_timestamps_and_depth(sequences):
     t = np.cumsum(rng.uniform(0.01, 0.2, len(seq)))
     depth = rng.uniform(1, 4, (len(seq), N_KEYPOINTS)).astype(np.float32)
     depth[rng.random(depth.shape) < 0.3] = np.nan
-    frames = [SkeletonFrame(k, d, float(ts)) for k, d, ts in zip(seq.keypoints, depth, t, strict=True)]
+    frames = [
+        SkeletonFrame(k, d, float(ts)) for k, d, ts in zip(seq.keypoints, depth, t, strict=True)
+    ]
     extractor = FeatureExtractor()
     streamed = np.stack([extractor.push(f) for f in frames])
     assert np.array_equal(extract_sequence(frames), streamed)
@@ -44,7 +46,15 @@ def test_streaming_equals_batch_with_irregular_timestamps_and_depth(sequences):
 
 def test_missing_keypoints_are_not_zero_positions():
     kp = np.zeros((N_KEYPOINTS, 3), np.float32)
-    kp[[0, 1, 2, 5, 8, 9, 12], :] = [[50, 10, 1], [50, 30, 1], [40, 30, 1], [60, 30, 1], [50, 80, 1], [45, 80, 1], [55, 80, 1]]
+    kp[[0, 1, 2, 5, 8, 9, 12], :] = [
+        [50, 10, 1],
+        [50, 30, 1],
+        [40, 30, 1],
+        [60, 30, 1],
+        [50, 80, 1],
+        [45, 80, 1],
+        [55, 80, 1],
+    ]
     moved = kp.copy()
     moved[:, :2] += 1000  # translation of present keypoints only
     moved[kp[:, 2] == 0] = 0
@@ -61,7 +71,9 @@ def test_frames_without_pose_hold_the_last_pose(sequences):
     features = extract_sequence(seq.frames())
     held = features[:, FEATURE_NAMES.index("held")] == 1
     assert held.any()
-    first = np.flatnonzero(held & (np.arange(len(held)) > 0) & seq.detected[np.maximum(np.arange(len(held)) - 1, 0)])[0]
+    first = np.flatnonzero(
+        held & (np.arange(len(held)) > 0) & seq.detected[np.maximum(np.arange(len(held)) - 1, 0)]
+    )[0]
     pose = slice(0, FEATURE_NAMES.index("held"))
     assert np.array_equal(features[first, pose], features[first - 1, pose])
 

@@ -10,7 +10,13 @@ def test_openpose_json_people_become_frames():
     flat[INDEX["nose"]] = (100, 50, 0.9)
     flat[INDEX["l_ankle"]] = (120, 400, 0.7)
     flat[INDEX["r_ankle"]] = (5, 5, 0.0)  # missing: coordinates must not survive
-    doc = {"version": 1.3, "people": [{"pose_keypoints_2d": flat.ravel().tolist()}, {"pose_keypoints_2d": (flat * 2).ravel().tolist()}]}
+    doc = {
+        "version": 1.3,
+        "people": [
+            {"pose_keypoints_2d": flat.ravel().tolist()},
+            {"pose_keypoints_2d": (flat * 2).ravel().tolist()},
+        ],
+    }
     frames = from_openpose_json(doc, timestamp=1.5)
     assert len(frames) == 2
     assert frames[0].timestamp == 1.5

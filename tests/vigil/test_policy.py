@@ -26,9 +26,7 @@ def test_override_rule_emergency_wins_at_threshold_else_argmax():
 
 def test_override_threshold_maximises_emergency_f1_on_crafted_scores():
     # Emergencies have p_E around 0.35 but never the arg-max; normals with p_E 0.2 or 0.4.
-    scores = np.array(
-        [[0.6, 0.35, 0.05]] * 8 + [[0.5, 0.2, 0.3]] * 10 + [[0.55, 0.4, 0.05]] * 1
-    )
+    scores = np.array([[0.6, 0.35, 0.05]] * 8 + [[0.5, 0.2, 0.3]] * 10 + [[0.55, 0.4, 0.05]] * 1)
     positive = np.array([True] * 8 + [False] * 11)
     t = override_threshold(scores, positive, emergency_index=1)
     assert 0.2 < t <= 0.35

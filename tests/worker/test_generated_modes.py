@@ -13,7 +13,12 @@ from worker.training.trainers import SklearnTrainer
 TINY_MLP = ModelSpec(
     "mlp-tiny",
     "mlp",
-    {"hidden_layer_sizes": [(32,)], "alpha": [1e-3], "learning_rate_init": [3e-3], "activation": ["relu"]},
+    {
+        "hidden_layer_sizes": [(32,)],
+        "alpha": [1e-3],
+        "learning_rate_init": [3e-3],
+        "activation": ["relu"],
+    },
 )
 
 

@@ -13,7 +13,9 @@ from worker.training.publish import publish
 from worker.training.splits import grouped_folds
 from worker.training.trainers import SklearnTrainer
 
-NAMES = [f"fall-{i:02d}" for i in range(1, 9)] + [f"adl-{i:02d}" for i in (1, 5, 10, 11, 30, 31, 33, 34)]
+NAMES = [f"fall-{i:02d}" for i in range(1, 9)] + [
+    f"adl-{i:02d}" for i in (1, 5, 10, 11, 30, 31, 33, 34)
+]
 SMALL_RF = ModelSpec(
     "rf-small",
     "rf",

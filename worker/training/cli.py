@@ -97,7 +97,9 @@ def main(argv: list[str] | None = None) -> int:
     default.add_argument("--out", type=Path, required=True, help="model directory to write")
     full = sub.add_parser("train", help="evaluate, retrain and export all models with reports")
     full.add_argument("--out", type=Path, required=True, help="output directory")
-    full.add_argument("--models", default=ALL_MODELS, help=f"comma separated (default {ALL_MODELS})")
+    full.add_argument(
+        "--models", default=ALL_MODELS, help=f"comma separated (default {ALL_MODELS})"
+    )
     full.add_argument("--mode", default="walking", choices=["walking", "wheelchair", "combined"])
     full.add_argument("--folds", type=int, default=5)
     args = parser.parse_args(argv)

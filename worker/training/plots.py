@@ -17,7 +17,9 @@ def _curve(scores, positive):
     c = binary_counts(scores, positive, DEFAULT_GRID)
     tpr = c["tp"] / max(c["tp"][0] + c["fn"][0], 1)
     fpr = c["fp"] / max(c["fp"][0] + c["tn"][0], 1)
-    precision = np.divide(c["tp"], c["tp"] + c["fp"], out=np.ones(len(DEFAULT_GRID)), where=(c["tp"] + c["fp"]) > 0)
+    precision = np.divide(
+        c["tp"], c["tp"] + c["fp"], out=np.ones(len(DEFAULT_GRID)), where=(c["tp"] + c["fp"]) > 0
+    )
     return fpr, tpr, precision
 
 
@@ -50,7 +52,9 @@ def delay_metrics(sweep: dict, chosen_s: float, title: str, path: Path) -> None:
     counts.plot(delay, sweep["falls_detected"], label="falls detected")
     counts.plot(delay, sweep["false_alarm_sequences"], label="sequences with a false alarm")
     for ax in (f1, counts):
-        ax.axvline(chosen_s, color="black", linestyle="--", label=f"chosen {chosen_s * 1000:.0f} ms")
+        ax.axvline(
+            chosen_s, color="black", linestyle="--", label=f"chosen {chosen_s * 1000:.0f} ms"
+        )
         ax.set_xlabel("delay (s)")
         ax.grid(alpha=0.3)
         ax.legend()

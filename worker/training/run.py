@@ -52,7 +52,9 @@ def train_all(
     e = data.classes.index(Decision.EMERGENCY)
     rows, retrain_s, evaluation_s = [], 0.0, 0.0
     total = sum(len(t.configurations()) for t in trainers) * (n_folds + 1)
-    bar = tqdm(total=total, desc=f"{data.mode.value} grids", unit="config-fold", disable=not progress)
+    bar = tqdm(
+        total=total, desc=f"{data.mode.value} grids", unit="config-fold", disable=not progress
+    )
     for trainer in trainers:
         bar.set_postfix_str(trainer.name)
         cv = cross_validate(trainer, data, n_folds, n_inner, stride, progress=bar)
@@ -154,7 +156,11 @@ def markdown(report: dict) -> str:
     generated = report["generated"]
     lines = [
         f"# Detection report: {report['mode']} mode on "
-        + ("GENERATED data (not real; demo of the pipeline only)" if generated else "URFD (real falls)"),
+        + (
+            "GENERATED data (not real; demo of the pipeline only)"
+            if generated
+            else "URFD (real falls)"
+        ),
         "",
         f"{report['folds']}-fold cross-validation grouped by sequence; threshold and delay chosen on "
         "the training folds only. Recall and F1 are frame-level before the delay filter; the event "
@@ -168,7 +174,9 @@ def markdown(report: dict) -> str:
     lines += ["| " + " | ".join(table_row(r)) + " |" for r in report["models"]]
     lines += ["", "## Per-event results", ""]
     for row in report["models"]:
-        missed = [ev["sequence"] for ev in row["events"] if ev["kind"] == "fall" and not ev["detected"]]
+        missed = [
+            ev["sequence"] for ev in row["events"] if ev["kind"] == "fall" and not ev["detected"]
+        ]
         alarms = [ev["sequence"] for ev in row["events"] if ev["false_alarm"]]
         lines.append(
             f"- **{row['name']}**: missed falls: {', '.join(missed) or 'none'}; "

@@ -97,7 +97,9 @@ class TemporalTrainer:
         # 30 frames/s are redundant for a window model: every other frame is plenty.
         rows = training_rows(data, sequences, max(stride, 2))
         target = torch.from_numpy(data.target[rows].astype(np.int64))
-        model = TemporalCNN(features.shape[1], len(data.classes), params["channels"], params["dropout"])
+        model = TemporalCNN(
+            features.shape[1], len(data.classes), params["channels"], params["dropout"]
+        )
         train_frames = features[rows]
         model.mean.copy_(train_frames.mean(dim=0))
         model.std.copy_(train_frames.std(dim=0).clamp_min(1e-3))
@@ -107,7 +109,9 @@ class TemporalTrainer:
             model.parameters(), lr=self.learning_rate, weight_decay=self.weight_decay
         )
         steps = params["epochs"] * int(np.ceil(len(rows) / self.batch_size))
-        schedule = torch.optim.lr_scheduler.OneCycleLR(optimiser, self.learning_rate, total_steps=steps)
+        schedule = torch.optim.lr_scheduler.OneCycleLR(
+            optimiser, self.learning_rate, total_steps=steps
+        )
         generator = torch.Generator().manual_seed(self.seed)
         index_t = torch.from_numpy(index[rows])
         model.train()
