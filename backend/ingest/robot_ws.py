@@ -65,7 +65,7 @@ def parse(text: str | None, data: bytes | None) -> protocol.RobotMessage:
             ) from None
         if "union_tag_invalid" in kinds:
             raise CloseConnection(protocol.CLOSE_BAD_MESSAGE, "unknown message type") from None
-        if "union_tag_not_found" in kinds or "model_attributes_type" in kinds:
+        if "union_tag_not_found" in kinds or not error.errors()[0]["loc"]:
             raise CloseConnection(
                 protocol.CLOSE_BAD_MESSAGE, "message must be a JSON object with a 'type'"
             ) from None
