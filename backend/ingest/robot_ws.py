@@ -11,6 +11,7 @@ import time
 
 from fastapi import APIRouter, WebSocket, WebSocketDisconnect
 from pydantic import ValidationError
+from sqlalchemy.exc import DataError
 from starlette.concurrency import run_in_threadpool
 
 from backend.db import transaction
@@ -142,8 +143,10 @@ async def robot_socket(websocket: WebSocket) -> None:
 
         try:
             last_seq = await run_in_threadpool(_authenticate)
-        except service.RobotAuthError as error:
-            raise CloseConnection(protocol.CLOSE_UNAUTHORIZED, str(error)) from None
+        except (service.RobotAuthError, DataError):
+            raise CloseConnection(
+                protocol.CLOSE_UNAUTHORIZED, "unknown robot or wrong or revoked token"
+            ) from None
         connection = RobotConnection(websocket, hello.robot_id)
         previous = state.robots.connect(hello.robot_id, connection)
         if previous is not None:

@@ -16,6 +16,7 @@ from collections.abc import Awaitable, Callable
 from dataclasses import dataclass, field
 from typing import Protocol
 
+from sqlalchemy.exc import DataError
 from sqlalchemy.orm import Session, sessionmaker
 
 from backend.alarms.schemas import AlarmOut
@@ -187,6 +188,13 @@ class FrameWriter:
                     outcome.rejected[id(job)] = error
                 continue
             except Exception as error:
+                if _unstorable(error):  # e.g. a NUL byte in a text field on PostgreSQL
+                    reason = f"value cannot be stored: {str(error).splitlines()[0]}"
+                    for job in link_jobs:
+                        outcome.rejected[id(job)] = RejectedMessage(
+                            protocol.CLOSE_BAD_MESSAGE, reason
+                        )
+                    continue
                 log.exception("ingest of robot %s failed", link_jobs[0].link.robot_id)
                 failure = RejectedMessage(protocol.CLOSE_INTERNAL_ERROR, f"not stored: {error}")
                 for job in link_jobs:
@@ -260,3 +268,10 @@ class FrameWriter:
         if robot is None or robot.token_hash is None:
             raise RejectedMessage(protocol.CLOSE_UNAUTHORIZED, "robot token revoked")
         return robot
+
+
+def _unstorable(error: Exception) -> bool:
+    """A value the database refuses (SQLAlchemy's DataError, or the driver's own from COPY)."""
+    if isinstance(error, DataError):
+        return True
+    return any(cls.__name__ == "DataError" for cls in type(error).__mro__)

@@ -222,8 +222,10 @@ def test_garbage_on_the_real_robot_socket_gets_a_close_code_and_others_keep_stre
         session.add(Robot(id="robot-b", ward="ward-a", token_hash=hash_robot_token("tok-b")))
     garbage = [
         (os.urandom(2048), protocol.CLOSE_BAD_MESSAGE),
-        ('{"type": "frames", "frames": [{"seq": 1, "ts": 1.0, "keypoints": [[1.0',
-         protocol.CLOSE_BAD_MESSAGE),  # fmt: skip
+        (
+            '{"type": "frames", "frames": [{"seq": 1, "ts": 1.0, "keypoints": [[1.0',
+            protocol.CLOSE_BAD_MESSAGE,
+        ),  # fmt: skip
         ("x" * (protocol.MAX_MESSAGE_BYTES + 10), protocol.CLOSE_TOO_LARGE),
         ("x" * (5 * 1024 * 1024), 1009),  # beyond the server's websocket frame limit
     ]

@@ -257,3 +257,39 @@ def test_frames_are_stored_compactly_and_readable_by_range(
     assert np.allclose(frames[1]["keypoints"], sent.keypoints)
     assert frames[1]["depth"][:24] == [2.0] * 24 and frames[1]["depth"][24] is None
     assert frames[1]["scores"] == {"normal": 0.9}
+
+
+def test_unstorable_text_is_a_bad_message_not_a_server_error(client, robot, other_robot):
+    """A NUL byte is valid JSON but PostgreSQL cannot store it in text: 4400 with a reason.
+    SQLite stores it. Either way the server does not fail and the other robot is served."""
+    with (
+        client.websocket_connect("/ws/robot") as ws,
+        client.websocket_connect("/ws/robot") as good,
+    ):
+        hello(ws, robot, ROBOT_TOKEN)
+        hello(good, other_robot, OTHER_TOKEN)
+        ws.send_text(frames_message(model_version="m\u0000"))
+        if client.app.state.engine.dialect.name == "postgresql":
+            code, reason = closed_with(ws)
+            assert code == protocol.CLOSE_BAD_MESSAGE and "cannot be stored" in reason
+        else:
+            assert json.loads(ws.receive_text()) == {"type": "ack", "seq": 100}
+        assert send_frames(good, 0) == {"type": "ack", "seq": 0}
+
+
+def test_metrics_count_frames_ack_latency_open_alarms_and_robots(client, robot, make_account):
+    engineer = make_account(Role.ENGINEER, ward=None)
+    with client.websocket_connect("/ws/robot") as ws:
+        hello(ws, robot, ROBOT_TOKEN)
+        ws.send_text(FrameBatch(frames=[frame(0), frame(1, "emergency")]).model_dump_json())
+        assert json.loads(ws.receive_text()) == {"type": "ack", "seq": 1}
+        text = client.get("/metrics", headers=engineer.headers).text
+    metrics = {
+        line.split(" ")[0]: float(line.split(" ")[1])
+        for line in text.splitlines()
+        if line and not line.startswith("#")
+    }
+    assert metrics["vigil_frames_ingested_total"] == 2
+    assert metrics["vigil_ingest_commit_seconds_count"] == 1
+    assert metrics['vigil_open_alarms{kind="emergency"}'] == 1
+    assert metrics["vigil_connected_robots"] == 1
