@@ -172,6 +172,37 @@ async def nurse_client(url: str, token: str, alarms: dict[str, list[tuple[float,
                     )
 
 
+def _cpu_seconds(pid: int) -> float:
+    """User + system CPU time of a process (Linux /proc)."""
+    fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
+def _histogram(server: BackendProcess, name: str) -> tuple[float, float] | None:
+    """p50 and p99 of a Prometheus histogram of the backend, as bucket upper bounds in ms."""
+    import urllib.request
+
+    token = create_access_token(SECRET, 2, 60)
+    request = urllib.request.Request(
+        f"{server.http}/metrics", headers={"Authorization": f"Bearer {token}"}
+    )
+    with urllib.request.urlopen(request, timeout=10) as response:
+        text = response.read().decode()
+    buckets = []
+    for line in text.splitlines():
+        if line.startswith(f"{name}_bucket"):
+            bound = line.split('le="')[1].split('"')[0]
+            buckets.append((float(bound), float(line.rsplit(" ", 1)[1])))
+    if not buckets or buckets[-1][1] == 0:
+        return None
+    total = buckets[-1][1]
+
+    def quantile(q: float) -> float:
+        return next(b for b, count in buckets if count >= q * total) * 1000
+
+    return quantile(0.5), quantile(0.99)
+
+
 def _percentiles(values: list[float]) -> tuple[float | None, float | None]:
     if not values:
         return None, None
@@ -205,6 +236,9 @@ def _prepare_database(kind: str, workdir: Path, robots: int) -> tuple[str, calla
                               token_hash=hash_robot_token(f"token-{i}")))  # fmt: skip
         session.add(User(username="nurse", password_hash=hash_password("bench-password"),
                          role=Role.NURSE, ward=WARD))  # fmt: skip
+        session.flush()
+        session.add(User(username="engineer", password_hash=hash_password("bench-password"),
+                         role=Role.ENGINEER))  # fmt: skip
     engine.dispose()
     return url, drop
 
@@ -235,9 +269,12 @@ async def _drive(server: BackendProcess, config: RunConfig, nurse_token: str) ->
     ]
     warmup = 2.0
     await asyncio.sleep(warmup)
+    cpu0 = _cpu_seconds(server.process.pid)
     t0 = time.perf_counter()
     await asyncio.sleep(config.seconds)
     t1 = time.perf_counter()
+    cpu1 = _cpu_seconds(server.process.pid)
+    load = os.getloadavg()[0]
     stop.set()
     await asyncio.gather(*clients)
     await asyncio.sleep(0.5)
@@ -256,7 +293,13 @@ async def _drive(server: BackendProcess, config: RunConfig, nurse_token: str) ->
     sent = sum(len(s.sent_at) for s in stats)
     ack50, ack99 = _percentiles(ack)
     al50, al99 = _percentiles(alarm_latency)
+    flush = _histogram(server, "vigil_ingest_flush_seconds")
     return {
+        "server_cpu_percent": round(100 * (cpu1 - cpu0) / (t1 - t0), 1),
+        "server_cpu_us_per_frame": round(1e6 * (cpu1 - cpu0) / max(committed, 1), 1),
+        "flush_ms_p50_bucket": flush and flush[0],
+        "flush_ms_p99_bucket": flush and flush[1],
+        "load_average": round(load, 2),
         "sent": sent,
         "committed_in_window": committed,
         "frames_per_s": round(committed / (t1 - t0), 1),
@@ -304,6 +347,11 @@ def run(config: RunConfig, workdir: Path) -> dict:
         "frames_sent": measured["sent"],
         "emergencies_sent": measured["emergencies_sent"],
         "emergencies_pushed": measured["emergencies_pushed"],
+        "server_cpu_percent": measured["server_cpu_percent"],
+        "server_cpu_us_per_frame": measured["server_cpu_us_per_frame"],
+        "flush_ms_p50_bucket": measured["flush_ms_p50_bucket"],
+        "flush_ms_p99_bucket": measured["flush_ms_p99_bucket"],
+        "load_average_1min": measured["load_average"],
     }
     print(json.dumps(result), flush=True)
     return result

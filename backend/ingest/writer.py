@@ -145,7 +145,10 @@ class FrameWriter:
         self._pending_frames = 0
         self._oldest = None
         self._room.set()
+        started = time.perf_counter()
         outcome = await asyncio.to_thread(self._commit, jobs)
+        self._metrics.flush_seconds.observe(time.perf_counter() - started)
+        self._metrics.flush_frames.observe(outcome.stored)
         # Committed: now tell the nurses, then the robots.
         for alarm in outcome.alarms:
             await self._publish_alarm(alarm)
@@ -254,8 +257,10 @@ class FrameWriter:
                 robot.last_seen_at = service.utcnow()
                 if message.running_model is not None:
                     robot.running_model_version = message.running_model
+                    robot.running_model_changed = True
         store_run()
         outcome.stored = context.flush_rows(session)
+        context.write_back(session)
         session.flush()
         outcome.alarms = [
             AlarmOut.model_validate(a).model_dump(mode="json") for a in touched.values()
