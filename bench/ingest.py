@@ -41,6 +41,7 @@ PG_ADMIN_URL = os.environ.get(
     "VIGIL_TEST_PG_ADMIN_URL", "postgresql+psycopg://postgres@127.0.0.1:5432/postgres"
 )
 SECRET = "bench-secret"
+REDIS_URL = os.environ.get("VIGIL_BENCH_REDIS_URL", "redis://127.0.0.1:6379/0")
 WARD = "ward-bench"
 
 _KEYPOINTS = json.dumps([[320.0 + i, 240.0 + 2 * i, 0.87] for i in range(25)])
@@ -73,6 +74,7 @@ class RunConfig:
     seconds: float
     window: int  # most unacknowledged frames per robot
     emergency_every: int  # every n-th frame is an Emergency decision
+    workers: int = 1  # uvicorn worker processes (>1: alarms fan out through Redis)
 
 
 async def robot_client(
@@ -269,11 +271,14 @@ async def _drive(server: BackendProcess, config: RunConfig, nurse_token: str) ->
     ]
     warmup = 2.0
     await asyncio.sleep(warmup)
-    cpu0 = _cpu_seconds(server.process.pid)
+    pids = server.pids()
+    cpu0 = sum(_cpu_seconds(pid) for pid in pids)
+    client_cpu0 = time.process_time()
     t0 = time.perf_counter()
     await asyncio.sleep(config.seconds)
     t1 = time.perf_counter()
-    cpu1 = _cpu_seconds(server.process.pid)
+    cpu1 = sum(_cpu_seconds(pid) for pid in pids)
+    client_cpu1 = time.process_time()
     load = os.getloadavg()[0]
     stop.set()
     await asyncio.gather(*clients)
@@ -297,6 +302,7 @@ async def _drive(server: BackendProcess, config: RunConfig, nurse_token: str) ->
     return {
         "server_cpu_percent": round(100 * (cpu1 - cpu0) / (t1 - t0), 1),
         "server_cpu_us_per_frame": round(1e6 * (cpu1 - cpu0) / max(committed, 1), 1),
+        "client_cpu_percent": round(100 * (client_cpu1 - client_cpu0) / (t1 - t0), 1),
         "flush_ms_p50_bucket": flush and flush[0],
         "flush_ms_p99_bucket": flush and flush[1],
         "load_average": round(load, 2),
@@ -322,9 +328,12 @@ def run(config: RunConfig, workdir: Path) -> dict:
         "VIGIL_STREAM_STALL_SECONDS": "60",
         "VIGIL_ROBOT_OFFLINE_SECONDS": "60",
     }
+    if config.workers > 1:
+        env["VIGIL_REDIS_URL"] = REDIS_URL
+        env["VIGIL_REDIS_CHANNEL"] = f"vigil-bench-{os.getpid()}-{time.time_ns()}"
     log = workdir / f"backend-{config.database}-{config.robots}.log"
     try:
-        with BackendProcess(env, log_path=log) as server:
+        with BackendProcess(env, log_path=log, workers=config.workers) as server:
             nurse_token = create_access_token(SECRET, 1, 60)
             measured = asyncio.run(_drive(server, config, nurse_token))
         rows, distinct = _stored(url)
@@ -344,11 +353,13 @@ def run(config: RunConfig, workdir: Path) -> dict:
         "duplicates": rows - distinct,
         "kind": "saturation" if not config.hz else "fleet",
         "frames_per_message": config.batch,
+        "backend_workers": config.workers,
         "frames_sent": measured["sent"],
         "emergencies_sent": measured["emergencies_sent"],
         "emergencies_pushed": measured["emergencies_pushed"],
         "server_cpu_percent": measured["server_cpu_percent"],
         "server_cpu_us_per_frame": measured["server_cpu_us_per_frame"],
+        "bench_client_cpu_percent": measured["client_cpu_percent"],
         "flush_ms_p50_bucket": measured["flush_ms_p50_bucket"],
         "flush_ms_p99_bucket": measured["flush_ms_p99_bucket"],
         "load_average_1min": measured["load_average"],
@@ -363,17 +374,18 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--seconds", type=float, default=12)
     parser.add_argument("--saturation-robots", type=int, default=20)
     parser.add_argument("--only", choices=("saturation", "fleet"), default=None)
+    parser.add_argument("--workers", type=int, default=1, help="backend worker processes")
     parser.add_argument("--output", type=Path, default=RESULTS)
     args = parser.parse_args(argv)
     runs = []
     with tempfile.TemporaryDirectory(prefix="vigil-bench-") as tmp:
         for database in args.databases.split(","):
             if args.only in (None, "saturation"):
-                runs.append(run(RunConfig(database, args.saturation_robots, 0, 50,
-                                          args.seconds, 400, 997), Path(tmp)))  # fmt: skip
+                runs.append(run(RunConfig(database, args.saturation_robots, 0, 50, args.seconds,
+                                          400, 997, args.workers), Path(tmp)))  # fmt: skip
             if args.only in (None, "fleet"):
-                runs.append(run(RunConfig(database, 100, 10, 1, args.seconds, 50, 20),
-                                Path(tmp)))  # fmt: skip
+                runs.append(run(RunConfig(database, 100, 10, 1, args.seconds, 50, 20,
+                                          args.workers), Path(tmp)))  # fmt: skip
     args.output.parent.mkdir(parents=True, exist_ok=True)
     args.output.write_text(
         json.dumps(

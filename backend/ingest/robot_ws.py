@@ -17,7 +17,7 @@ from starlette.concurrency import run_in_threadpool
 from backend.db import transaction
 from backend.ingest import service
 from vigil import protocol
-from vigil.protocol import Ack, Hello, Welcome
+from vigil.protocol import Hello, Welcome
 
 log = logging.getLogger(__name__)
 router = APIRouter()
@@ -94,7 +94,7 @@ class RobotConnection:
         if self.closed:
             return
         try:
-            await self.websocket.send_text(Ack(seq=seq).model_dump_json())
+            await self.websocket.send_text(f'{{"type":"ack","seq":{seq}}}')  # = Ack(seq=seq)
         except Exception:  # the robot went away; it will resend what it did not see acked
             self.closed = True
 

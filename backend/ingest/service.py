@@ -120,8 +120,15 @@ class IngestContext:
     pending_seqs: dict[str, set[int]] = field(default_factory=dict)
     open_alarms: dict[tuple[str, str, AlarmKind], Alarm] = field(default_factory=dict)
 
-    def preload(self, session: Session, streams: set[tuple[str, str | None]]) -> IngestContext:
-        """Load, in a few queries, what the (robot id, transport id) streams of a flush touch."""
+    def preload(
+        self,
+        session: Session,
+        streams: set[tuple[str, str | None]],
+        alarming_robots: set[str] | None = None,
+    ) -> IngestContext:
+        """Load, in a few queries, what the (robot id, transport id) streams of a flush touch;
+        unresolved alarms only for `alarming_robots` (those with an Emergency or Pause frame
+        in the flush; default: every robot)."""
         robot_ids = {robot_id for robot_id, _ in streams}
         transport_ids = {tid for _, tid in streams if tid is not None}
         missing = robot_ids - self.robots.keys()
@@ -150,10 +157,11 @@ class IngestContext:
             ):
                 self.videos[row.name] = VideoState(row.id, row.name, row.frame_count,
                                                    row.frame_count)  # fmt: skip
-        if robot_ids:
+        alarming = robot_ids if alarming_robots is None else alarming_robots & robot_ids
+        if alarming:
             for alarm in session.scalars(
                 select(Alarm).where(
-                    Alarm.robot_id.in_(robot_ids),
+                    Alarm.robot_id.in_(alarming),
                     Alarm.state != AlarmState.RESOLVED,
                     Alarm.kind.in_(ALARM_KIND_OF_DECISION.values()),
                 )

@@ -55,7 +55,6 @@ class Job:
     link: RobotLink
     message: RobotWork
     received: float  # time.perf_counter() when the message arrived
-    done: asyncio.Future = field(default_factory=lambda: asyncio.get_running_loop().create_future())
 
     @property
     def frame_count(self) -> int:
@@ -158,11 +157,8 @@ class FrameWriter:
         for job in jobs:
             error = outcome.rejected.get(id(job))
             if error is not None:
-                job.done.set_exception(error)
-                job.done.exception()  # mark retrieved
                 await job.link.reject(error.code, error.reason)
                 continue
-            job.done.set_result(None)
             if id(job.link) in outcome.acks:
                 acked[id(job.link)] = job.link
                 self._metrics.ack_latency.observe(now - job.received)
@@ -211,12 +207,17 @@ class FrameWriter:
     def _apply(self, session: Session, jobs: list[Job]) -> Outcome:
         outcome = Outcome()
         streams: set[tuple[str, str | None]] = set()
+        alarming: set[str] = set()
         for job in jobs:
+            robot_id = job.link.robot_id
             if isinstance(job.message, FrameBatch):
-                streams.update((job.link.robot_id, f.transport_id) for f in job.message.frames)
+                for f in job.message.frames:
+                    streams.add((robot_id, f.transport_id))
+                    if f.decision in service.ALARM_KIND_OF_DECISION:
+                        alarming.add(robot_id)
             else:
-                streams.add((job.link.robot_id, None))
-        context = service.IngestContext().preload(session, streams)
+                streams.add((robot_id, None))
+        context = service.IngestContext().preload(session, streams, alarming)
         touched = {}
         # Consecutive frame batches of one connection become one store_frames call.
         run: list[protocol.FrameRecord] = []
