@@ -6,11 +6,12 @@ import logging
 from contextlib import asynccontextmanager
 from pathlib import Path
 
-from fastapi import FastAPI, HTTPException, Response, status
-from fastapi.responses import FileResponse
+from fastapi import FastAPI, HTTPException, Request, Response, status
+from fastapi.responses import FileResponse, JSONResponse
 from fastapi.staticfiles import StaticFiles
 from prometheus_client import CONTENT_TYPE_LATEST, generate_latest
 from sqlalchemy import func, select
+from sqlalchemy.exc import DataError
 
 from backend.alarms.monitor import AlarmMonitor
 from backend.api import alarm_review, alarms, audit, auth, misc, robots, videos
@@ -96,6 +97,12 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         for kind in ("emergency", "pause", "robot_offline", "stream_stalled"):
             metrics.open_alarms.labels(kind).set(counts.get(kind, 0))
         return Response(generate_latest(metrics.registry), media_type=CONTENT_TYPE_LATEST)
+
+    @app.exception_handler(DataError)
+    def unstorable_value(request: Request, error: DataError) -> JSONResponse:
+        # e.g. a NUL byte in a text field on PostgreSQL: the client's value, not our fault.
+        reason = str(error.orig).splitlines()[0] if error.orig else "invalid value"
+        return JSONResponse({"detail": f"value cannot be stored: {reason}"}, status_code=422)
 
     _mount_frontend(app, settings.frontend_dir)
     return app
