@@ -14,7 +14,7 @@ from sqlalchemy import func, select
 from sqlalchemy.exc import DataError
 
 from backend.alarms.monitor import AlarmMonitor
-from backend.api import alarm_review, alarms, audit, auth, misc, robots, videos
+from backend.api import alarm_review, alarms, audit, auth, labelling, misc, robots, videos
 from backend.db import make_engine, make_session_factory
 from backend.deps import CurrentUser
 from backend.ingest import robot_ws
@@ -81,6 +81,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.state.robots = RobotRegistry(on_change=metrics.connected_robots.set)
     for router in ROUTERS:
         app.include_router(router)
+    labelling.install(app, settings)
     app.include_router(robot_ws.router)
     app.include_router(browser_ws.router)
 
