@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import asyncio
 import logging
 from contextlib import asynccontextmanager
 from pathlib import Path
@@ -12,7 +13,7 @@ from fastapi.staticfiles import StaticFiles
 from prometheus_client import CONTENT_TYPE_LATEST, generate_latest
 from sqlalchemy import func, select
 
-from backend.api import alarms, auth, misc, robots, videos
+from backend.api import alarms, auth, jobs, misc, registry, robots, videos
 from backend.db import make_engine, make_session_factory
 from backend.deps import CurrentUser
 from backend.ingest import robot_ws
@@ -20,12 +21,21 @@ from backend.ingest.registry import RobotRegistry
 from backend.metrics import Metrics
 from backend.models.alarms import Alarm, AlarmState
 from backend.realtime import browser_ws
+from backend.registry import push as model_push
 from backend.realtime.hub import BrowserHub
 from backend.settings import Settings
 
 log = logging.getLogger("vigil.backend")
 
-ROUTERS = (auth.router, misc.router, robots.router, alarms.router, videos.router)
+ROUTERS = (
+    auth.router,
+    misc.router,
+    robots.router,
+    alarms.router,
+    videos.router,
+    registry.router,
+    jobs.router,
+)
 
 
 def create_app(settings: Settings | None = None) -> FastAPI:
@@ -37,7 +47,9 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         app.state.engine = engine
         app.state.session_factory = make_session_factory(engine)
         log.info("database %s", engine.url.render_as_string(hide_password=True))
+        reconcile = asyncio.create_task(model_push.reconcile_forever(app))
         yield
+        reconcile.cancel()
         engine.dispose()
 
     app = FastAPI(

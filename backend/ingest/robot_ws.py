@@ -16,6 +16,7 @@ from backend.alarms.schemas import AlarmOut
 from backend.db import transaction
 from backend.ingest import service
 from backend.models.robots import Robot
+from backend.registry import push as model_push
 from vigil import protocol
 from vigil.protocol import (
     Ack,
@@ -101,6 +102,7 @@ async def robot_socket(websocket: WebSocket) -> None:
         state.robots.connect(robot_id, websocket)
         await websocket.send_text(Welcome(robot_id=robot_id, last_seq=last_seq).model_dump_json())
         log.info("robot %s connected (agent %s)", robot_id, hello.agent_version)
+        await model_push.on_robot_connected(websocket, robot_id)
         while True:
             message = await _receive_message(websocket)
             await _handle(websocket, robot_id, message)
