@@ -13,14 +13,17 @@ from fastapi.staticfiles import StaticFiles
 from prometheus_client import CONTENT_TYPE_LATEST, generate_latest
 from sqlalchemy import func, select
 
-from backend.api import alarms, auth, jobs, misc, registry, robots, videos
+from backend.alarms.monitor import AlarmMonitor
+from backend.api import alarms, audit, auth, jobs, misc, registry, robots, videos
 from backend.db import make_engine, make_session_factory
 from backend.deps import CurrentUser
 from backend.ingest import robot_ws
 from backend.ingest.registry import RobotRegistry
+from backend.ingest.writer import FrameWriter
 from backend.metrics import Metrics
 from backend.models.alarms import Alarm, AlarmState
 from backend.realtime import browser_ws
+from backend.realtime.bus import AlarmBus
 from backend.registry import push as model_push
 from backend.realtime.hub import BrowserHub
 from backend.settings import Settings
@@ -32,6 +35,7 @@ ROUTERS = (
     misc.router,
     robots.router,
     alarms.router,
+    audit.router,
     videos.router,
     registry.router,
     jobs.router,
@@ -45,12 +49,29 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     async def lifespan(app: FastAPI):
         engine = make_engine(settings.database_url)
         app.state.engine = engine
-        app.state.session_factory = make_session_factory(engine)
+        app.state.session_factory = factory = make_session_factory(engine)
         log.info("database %s", engine.url.render_as_string(hide_password=True))
+        app.state.bus = bus = AlarmBus(app.state.hub, settings.redis_url, settings.redis_channel)
+        await bus.start()
+        app.state.writer = writer = FrameWriter(
+            factory,
+            metrics,
+            bus.publish,
+            flush_ms=settings.ingest_flush_ms,
+            flush_frames=settings.ingest_flush_frames,
+        )
+        writer.start()
+        app.state.monitor = monitor = AlarmMonitor(factory, settings, bus.publish)
+        monitor.start()
         reconcile = asyncio.create_task(model_push.reconcile_forever(app))
-        yield
-        reconcile.cancel()
-        engine.dispose()
+        try:
+            yield
+        finally:
+            reconcile.cancel()
+            await monitor.stop()
+            await writer.stop()
+            await bus.stop()
+            engine.dispose()
 
     app = FastAPI(
         title="Vigil",

@@ -30,18 +30,33 @@ class Settings(BaseSettings):
     redis_url: str | None = Field(
         default=None, description="redis://... enables alarm fan-out across backend replicas"
     )
-    ingest_flush_ms: int = Field(default=50, description="frame batch commit interval")
+    redis_channel: str = Field(default="vigil:alarms", description="Redis pub/sub channel")
+    ingest_flush_ms: float = Field(
+        default=20, description="longest a received frame waits before its batch is committed"
+    )
     ingest_flush_frames: int = Field(default=500, description="frames that force an early commit")
-    escalation_seconds: int = Field(
+    escalation_seconds: float = Field(
         default=60, description="an open Emergency not acknowledged in this time escalates"
     )
-    realarm_minutes: int = Field(
+    escalation_seconds_by_ward: dict[str, float] = Field(
+        default_factory=dict,
+        description='per-ward escalation time, JSON: {"ward-3a": 30}; others use the default',
+    )
+    escalation_max_level: int = Field(
+        default=3, description="escalation stops after this many levels"
+    )
+    realarm_minutes: float = Field(
         default=15, description="an acknowledged alarm not resolved in this time re-alarms"
     )
     stream_stall_seconds: float = Field(
         default=5.0,
         description="no frame for this long during a transport raises a technical alarm",
     )
+    robot_offline_seconds: float = Field(
+        default=10.0,
+        description="no message from a robot for this long during a transport: robot offline",
+    )
+    monitor_interval_s: float = Field(default=1.0, description="alarm monitor period")
     robot_hello_timeout_s: float = Field(default=5.0, description="time a robot has to say hello")
     gate_false_alarm_budget: float = Field(
         default=0.15,
@@ -57,6 +72,9 @@ class Settings(BaseSettings):
     assignment_resend_s: float = Field(
         default=30.0, description="resend a model assignment a robot has not switched to"
     )
+
+    def escalation_seconds_for(self, ward: str) -> float:
+        return self.escalation_seconds_by_ward.get(ward, self.escalation_seconds)
 
 
 def get_settings() -> Settings:

@@ -26,14 +26,15 @@ from vigil.skeleton import INDEX, N_KEYPOINTS, SkeletonFrame
 
 FEATURE_VERSION = 1
 MIN_KEYPOINTS = 4
-HORIZONS_S: tuple[float, ...] = (0.2, 0.4, 0.8, 1.6)
+HORIZONS_S: tuple[float, ...] = (0.2, 0.4, 0.8, 1.6, 3.2)
+DELTA_LIMIT = 5.0  # body sizes (or log units): beyond this a change is a tracking glitch
 PEAK_TAUS_S: tuple[float, ...] = (1.5, 4.0)
 _HIPS = [INDEX["mid_hip"], INDEX["r_hip"], INDEX["l_hip"]]
 _NECK, _MID_HIP = INDEX["neck"], INDEX["mid_hip"]
 _SHOULDERS, _HIP_PAIR = [INDEX["r_shoulder"], INDEX["l_shoulder"]], [INDEX["r_hip"], INDEX["l_hip"]]
 
 # Per-frame scalar quantities tracked over time (columns of the "state" array).
-_STATE = ("cx", "cy", "scale", "aspect", "upright", "top", "depth", "has_depth")
+_STATE = ("cx", "cy", "scale", "aspect", "upright", "top", "depth", "has_depth", "seen")
 _S = {name: i for i, name in enumerate(_STATE)}
 _DELTAS = ("d_down", "d_side", "d_logscale", "d_aspect", "d_upright", "d_top", "d_depth")
 # Downward speeds whose decaying peaks are kept: centre drop, head drop, loss of uprightness.
@@ -100,8 +101,9 @@ def _pose_and_state(keypoints: np.ndarray, depth: np.ndarray) -> tuple[np.ndarra
         [rel.reshape(n, -1), conf, np.stack([aspect, upright, top, depth_m, has_depth], axis=1)],
         axis=1,
     )
+    seen = usable.astype(np.float64)
     state = np.stack(
-        [centre[:, 0], centre[:, 1], scale, aspect, upright, top, depth_m, has_depth], axis=1
+        [centre[:, 0], centre[:, 1], scale, aspect, upright, top, depth_m, has_depth, seen], axis=1
     )
     return pose, state, usable
 
@@ -132,13 +134,16 @@ def _hold(pose: np.ndarray, state: np.ndarray, usable: np.ndarray, last: tuple |
 
 
 def _deltas(state_now: np.ndarray, state_then: np.ndarray) -> np.ndarray:
-    """(m, len(_STATE)) pairs -> (m, len(_DELTAS)), in units of the body size back then."""
-    ref = state_then[:, _S["scale"]]
-    return np.stack(
+    """(m, len(_STATE)) pairs -> (m, len(_DELTAS)) in body sizes (the larger of then and now, so
+    one frame with a few clustered keypoints cannot blow a change up); 0 if no pose was seen then.
+    """
+    ref = np.maximum(state_then[:, _S["scale"]], state_now[:, _S["scale"]])
+    both_seen = (state_then[:, _S["seen"]] * state_now[:, _S["seen"]])[:, None]
+    deltas = np.stack(
         [
             (state_now[:, _S["cy"]] - state_then[:, _S["cy"]]) / ref,
             np.abs(state_now[:, _S["cx"]] - state_then[:, _S["cx"]]) / ref,
-            np.log(state_now[:, _S["scale"]] / ref),
+            np.log(state_now[:, _S["scale"]] / state_then[:, _S["scale"]]),
             state_now[:, _S["aspect"]] - state_then[:, _S["aspect"]],
             state_then[:, _S["upright"]] - state_now[:, _S["upright"]],
             state_then[:, _S["top"]] - state_now[:, _S["top"]],
@@ -148,6 +153,7 @@ def _deltas(state_now: np.ndarray, state_then: np.ndarray) -> np.ndarray:
         ],
         axis=1,
     )
+    return np.clip(deltas, -DELTA_LIMIT, DELTA_LIMIT) * both_seen
 
 
 def _lag_index(timestamps: np.ndarray, now: np.ndarray, horizon: float) -> np.ndarray:

@@ -9,6 +9,7 @@ from sqlalchemy import select
 from sqlalchemy.orm import Session
 
 from backend.models.alarms import Alarm, AlarmEvent, AlarmKind, AlarmState
+from backend.models.robots import Robot, Transport
 from backend.models.users import Role, User
 
 
@@ -66,3 +67,71 @@ def events_of(session: Session, alarm_id: int) -> Sequence[AlarmEvent]:
     return session.scalars(
         select(AlarmEvent).where(AlarmEvent.alarm_id == alarm_id).order_by(AlarmEvent.id)
     ).all()
+
+
+def active_transports(session: Session) -> Sequence[tuple[Transport, Robot]]:
+    """Transports under way (not ended) with their robot."""
+    return session.execute(
+        select(Transport, Robot)
+        .join(Robot, Robot.id == Transport.robot_id)
+        .where(Transport.ended_at.is_(None))
+    ).all()
+
+
+def latest_of_kind(
+    session: Session, robot_id: str, transport_id: str, kind: AlarmKind
+) -> Alarm | None:
+    return session.scalars(
+        select(Alarm)
+        .where(Alarm.robot_id == robot_id, Alarm.transport_key == transport_id, Alarm.kind == kind)
+        .order_by(Alarm.raised_at.desc())
+        .limit(1)
+    ).first()
+
+
+def _claim(query):
+    # Replicas running the monitor at once: a row one of them holds is skipped by the others.
+    return query.with_for_update(skip_locked=True, of=Alarm)
+
+
+def open_emergencies(session: Session) -> Sequence[Alarm]:
+    return (
+        session.scalars(
+            _claim(
+                select(Alarm).where(
+                    Alarm.state == AlarmState.OPEN, Alarm.kind == AlarmKind.EMERGENCY
+                )
+            )
+        )
+        .unique()
+        .all()
+    )
+
+
+def acknowledged(session: Session) -> Sequence[Alarm]:
+    return (
+        session.scalars(_claim(select(Alarm).where(Alarm.state == AlarmState.ACKNOWLEDGED)))
+        .unique()
+        .all()
+    )
+
+
+def audit_events(
+    session: Session,
+    user: User,
+    alarm_id: int | None = None,
+    actor: str | None = None,
+    since: datetime | None = None,
+    until: datetime | None = None,
+    limit: int = 500,
+) -> Sequence[AlarmEvent]:
+    query = select(AlarmEvent).join(Alarm, Alarm.id == AlarmEvent.alarm_id).where(visible_to(user))
+    if alarm_id is not None:
+        query = query.where(AlarmEvent.alarm_id == alarm_id)
+    if actor is not None:
+        query = query.where(AlarmEvent.actor == actor)
+    if since is not None:
+        query = query.where(AlarmEvent.at >= since)
+    if until is not None:
+        query = query.where(AlarmEvent.at < until)
+    return session.scalars(query.order_by(AlarmEvent.id.desc()).limit(limit)).all()

@@ -22,6 +22,8 @@ from backend.models.alarms import (
 from backend.models.robots import Robot, Transport
 from backend.models.users import User
 
+TECHNICAL_KINDS = frozenset({AlarmKind.ROBOT_OFFLINE, AlarmKind.STREAM_STALLED})
+
 
 @dataclass(slots=True)
 class DecisionEvidence:
@@ -71,6 +73,17 @@ def find_unresolved(
     ).first()
 
 
+def fold_evidence(alarm: Alarm, evidence: DecisionEvidence, now: datetime) -> Alarm:
+    """A repeated decision updates the unresolved alarm instead of opening another."""
+    next_state(alarm.state, AlarmAction.UPDATE)
+    alarm.updated_at = now
+    alarm.decision_count += 1
+    if evidence.seq is not None:
+        alarm.last_seq = max(alarm.last_seq or evidence.seq, evidence.seq)
+        alarm.last_frame_ts = evidence.ts
+    return alarm
+
+
 def raise_or_update(
     session: Session,
     robot: Robot,
@@ -86,13 +99,7 @@ def raise_or_update(
     transport_id = transport.id if transport else None
     alarm = find_unresolved(session, robot.id, transport_id, kind)
     if alarm is not None:
-        next_state(alarm.state, AlarmAction.UPDATE)
-        alarm.updated_at = now
-        alarm.decision_count += 1
-        if evidence.seq is not None:
-            alarm.last_seq = max(alarm.last_seq or evidence.seq, evidence.seq)
-            alarm.last_frame_ts = evidence.ts
-        return alarm, False
+        return fold_evidence(alarm, evidence, now), False
     alarm = Alarm(
         kind=kind,
         priority=PRIORITY_OF_KIND[kind],
@@ -117,7 +124,8 @@ def raise_or_update(
     )
     session.add(alarm)
     session.flush()
-    _record(session, alarm, AlarmAction.RAISE, None, f"robot:{robot.id}")
+    actor = "system" if kind in TECHNICAL_KINDS else f"robot:{robot.id}"
+    _record(session, alarm, AlarmAction.RAISE, None, actor)
     return alarm, True
 
 

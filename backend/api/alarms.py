@@ -50,7 +50,7 @@ def _commit_and_publish(
     """The change is committed before any browser hears of it."""
     out = AlarmOut.model_validate(alarm)
     session.commit()
-    tasks.add_task(request.app.state.hub.publish_alarm, out.model_dump(mode="json"))
+    tasks.add_task(request.app.state.bus.publish, out.model_dump(mode="json"))
     return out
 
 

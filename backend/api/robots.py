@@ -1,6 +1,6 @@
 from datetime import datetime
 
-from fastapi import APIRouter, HTTPException, Request, status
+from fastapi import APIRouter, HTTPException, Query, Request, status
 from pydantic import BaseModel, ConfigDict, Field
 from sqlalchemy import select
 
@@ -9,6 +9,7 @@ from backend.models._types import utcnow
 from backend.models.robots import Robot, Transport
 from backend.security import hash_robot_token, new_robot_token
 from vigil.classes import TransportMode
+from vigil.protocol import CLOSE_UNAUTHORIZED
 
 router = APIRouter(prefix="/api", tags=["robots"])
 
@@ -50,6 +51,7 @@ class TransportOut(BaseModel):
     location: str | None
     started_at: datetime
     ended_at: datetime | None
+    last_frame_at: datetime | None
 
 
 def _robot_out(request: Request, robot: Robot) -> RobotOut:
@@ -88,6 +90,11 @@ def _robot(session: SessionDep, robot_id: str) -> Robot:
     return robot
 
 
+@router.get("/robots/{robot_id}")
+def get_robot(robot_id: str, session: SessionDep, user: CurrentUser, request: Request) -> RobotOut:
+    return _robot_out(request, _robot(session, robot_id))
+
+
 @router.post("/robots/{robot_id}/token")
 def rotate_token(robot_id: str, session: SessionDep, user: CurrentUser) -> RobotTokenOut:
     robot = _robot(session, robot_id)
@@ -98,15 +105,38 @@ def rotate_token(robot_id: str, session: SessionDep, user: CurrentUser) -> Robot
 
 
 @router.delete("/robots/{robot_id}/token", status_code=status.HTTP_204_NO_CONTENT)
-def revoke_token(robot_id: str, session: SessionDep, user: CurrentUser) -> None:
+async def revoke_token(
+    robot_id: str, session: SessionDep, user: CurrentUser, request: Request
+) -> None:
+    """Revoke the robot's token and close its live connection to this replica."""
     _robot(session, robot_id).token_hash = None
+    session.commit()
+    connection = request.app.state.robots.socket(robot_id)
+    if connection is not None:
+        await connection.close(CLOSE_UNAUTHORIZED, "robot token revoked")
 
 
 @router.get("/transports")
 def list_transports(
-    session: SessionDep, user: CurrentUser, robot_id: str | None = None, limit: int = 100
+    session: SessionDep,
+    user: CurrentUser,
+    robot_id: str | None = None,
+    active: bool | None = Query(default=None, description="only transports under way (true)"),
+    limit: int = Query(default=100, ge=1, le=1000),
 ) -> list[TransportOut]:
-    query = select(Transport).order_by(Transport.started_at.desc()).limit(min(limit, 1000))
+    query = select(Transport).order_by(Transport.started_at.desc()).limit(limit)
     if robot_id:
         query = query.where(Transport.robot_id == robot_id)
+    if active is not None:
+        query = query.where(
+            Transport.ended_at.is_(None) if active else Transport.ended_at.is_not(None)
+        )
     return [TransportOut.model_validate(t) for t in session.scalars(query)]
+
+
+@router.get("/transports/{transport_id}")
+def get_transport(transport_id: str, session: SessionDep, user: CurrentUser) -> TransportOut:
+    transport = session.get(Transport, transport_id)
+    if transport is None:
+        raise HTTPException(status.HTTP_404_NOT_FOUND, f"transport {transport_id} not found")
+    return TransportOut.model_validate(transport)

@@ -1,94 +1,141 @@
 """Robot websocket (/ws/robot): hello, then transports and frame batches, acknowledged only
-after the database commit. Bad input closes this connection with a code and a reason; frames
-already committed stay, and other robots are unaffected."""
+after the database commit (by the per-process FrameWriter). Bad input closes this connection
+with a code and a reason; frames already committed stay, and other robots are unaffected."""
 
 from __future__ import annotations
 
 import asyncio
-import json
+import contextlib
 import logging
+import time
 
 from fastapi import APIRouter, WebSocket, WebSocketDisconnect
 from pydantic import ValidationError
 from starlette.concurrency import run_in_threadpool
 
-from backend.alarms.schemas import AlarmOut
 from backend.db import transaction
 from backend.ingest import service
-from backend.models.robots import Robot
 from backend.registry import push as model_push
 from vigil import protocol
-from vigil.protocol import (
-    Ack,
-    FrameBatch,
-    Heartbeat,
-    Hello,
-    TransportEnd,
-    TransportStart,
-    Welcome,
-)
+from vigil.protocol import Ack, Hello, Welcome
 
 log = logging.getLogger(__name__)
 router = APIRouter()
+
+# Close reasons are limited to 123 bytes by the websocket protocol.
+MAX_REASON_BYTES = 123
 
 
 class CloseConnection(Exception):
     def __init__(self, code: int, reason: str) -> None:
         super().__init__(reason)
         self.code = code
-        # A close frame's reason is limited to 123 bytes.
-        self.reason = reason.encode()[:123].decode(errors="ignore")
+        self.reason = reason.encode()[:MAX_REASON_BYTES].decode(errors="ignore")
 
 
-def _describe(error: ValidationError) -> str:
+def describe(error: ValidationError) -> str:
+    """The first problem of a message, naming the field: 'invalid frames.0.ts: ...'."""
     first = error.errors()[0]
-    where = ".".join(str(part) for part in first["loc"]) or "message"
+    loc = list(first["loc"])
+    if len(loc) > 1 and isinstance(loc[0], str) and loc[0] in protocol.MESSAGE_TYPES:
+        loc = loc[1:]  # the discriminator tag pydantic puts first
+    where = ".".join(str(part) for part in loc) or "message"
     return f"invalid {where}: {first['msg']}"
 
 
-async def _receive_message(websocket: WebSocket) -> protocol.RobotMessage:
-    event = await websocket.receive()
-    if event["type"] == "websocket.disconnect":
-        raise WebSocketDisconnect(event.get("code", 1000))
-    text = event.get("text")
+def parse(text: str | None, data: bytes | None) -> protocol.RobotMessage:
+    """Validate one raw websocket message or raise CloseConnection with a precise reason."""
     if text is None:
-        raise CloseConnection(protocol.CLOSE_BAD_MESSAGE, "binary messages are not accepted")
+        size = len(data or b"")
+        raise CloseConnection(
+            protocol.CLOSE_BAD_MESSAGE,
+            f"binary message ({size} bytes) not accepted: send JSON text",
+        )
     if len(text) > protocol.MAX_MESSAGE_BYTES:
         raise CloseConnection(
-            protocol.CLOSE_TOO_LARGE, f"message exceeds {protocol.MAX_MESSAGE_BYTES} bytes"
+            protocol.CLOSE_TOO_LARGE,
+            f"message of {len(text)} bytes exceeds {protocol.MAX_MESSAGE_BYTES}",
         )
     try:
         return protocol.parse_robot_message(text)
     except ValidationError as error:
-        if any(e["type"] == "json_invalid" for e in error.errors()):
-            raise CloseConnection(protocol.CLOSE_BAD_MESSAGE, "message is not valid JSON") from None
-        if any(e["type"] == "union_tag_invalid" for e in error.errors()):
+        kinds = {e["type"] for e in error.errors()}
+        if "json_invalid" in kinds:
+            raise CloseConnection(
+                protocol.CLOSE_BAD_MESSAGE, f"message is not valid JSON: {error.errors()[0]['msg']}"
+            ) from None
+        if "union_tag_invalid" in kinds:
             raise CloseConnection(protocol.CLOSE_BAD_MESSAGE, "unknown message type") from None
-        raise CloseConnection(protocol.CLOSE_BAD_MESSAGE, _describe(error)) from None
-    except (ValueError, json.JSONDecodeError) as error:
+        if "union_tag_not_found" in kinds or "model_attributes_type" in kinds:
+            raise CloseConnection(
+                protocol.CLOSE_BAD_MESSAGE, "message must be a JSON object with a 'type'"
+            ) from None
+        raise CloseConnection(protocol.CLOSE_BAD_MESSAGE, describe(error)) from None
+    except ValueError as error:
         raise CloseConnection(protocol.CLOSE_BAD_MESSAGE, str(error)) from None
+
+
+async def receive_message(websocket: WebSocket) -> protocol.RobotMessage:
+    event = await websocket.receive()
+    if event["type"] == "websocket.disconnect":
+        raise WebSocketDisconnect(event.get("code", 1000))
+    return parse(event.get("text"), event.get("bytes"))
+
+
+class RobotConnection:
+    """One robot's websocket as the FrameWriter sees it."""
+
+    def __init__(self, websocket: WebSocket, robot_id: str) -> None:
+        self.websocket = websocket
+        self.robot_id = robot_id
+        self.closed = False
+
+    async def send_ack(self, seq: int) -> None:
+        if self.closed:
+            return
+        try:
+            await self.websocket.send_text(Ack(seq=seq).model_dump_json())
+        except Exception:  # the robot went away; it will resend what it did not see acked
+            self.closed = True
+
+    async def reject(self, code: int, reason: str) -> None:
+        await self.close(code, reason)
+
+    async def close(self, code: int, reason: str) -> None:
+        if self.closed:
+            return
+        self.closed = True
+        with contextlib.suppress(Exception):
+            await self.websocket.close(
+                code, reason.encode()[:MAX_REASON_BYTES].decode("ascii", "ignore")
+            )
+
+
+async def _hello(websocket: WebSocket) -> Hello:
+    state = websocket.app.state
+    try:
+        hello = await asyncio.wait_for(
+            receive_message(websocket), state.settings.robot_hello_timeout_s
+        )
+    except TimeoutError:
+        raise CloseConnection(protocol.CLOSE_HELLO_TIMEOUT, "no hello received in time") from None
+    if not isinstance(hello, Hello):
+        raise CloseConnection(protocol.CLOSE_BAD_MESSAGE, "first message must be hello")
+    if hello.protocol != protocol.PROTOCOL_VERSION:
+        raise CloseConnection(
+            protocol.CLOSE_PROTOCOL_VERSION,
+            f"protocol {hello.protocol} not supported (server speaks {protocol.PROTOCOL_VERSION})",
+        )
+    return hello
 
 
 @router.websocket("/ws/robot")
 async def robot_socket(websocket: WebSocket) -> None:
     state = websocket.app.state
     await websocket.accept()
-    robot_id: str | None = None
+    connection: RobotConnection | None = None
     try:
-        try:
-            hello = await asyncio.wait_for(
-                _receive_message(websocket), state.settings.robot_hello_timeout_s
-            )
-        except TimeoutError:
-            raise CloseConnection(protocol.CLOSE_HELLO_TIMEOUT, "no hello received") from None
-        if not isinstance(hello, Hello):
-            raise CloseConnection(protocol.CLOSE_BAD_MESSAGE, "first message must be hello")
-        if hello.protocol != protocol.PROTOCOL_VERSION:
-            raise CloseConnection(
-                protocol.CLOSE_PROTOCOL_VERSION,
-                f"protocol {hello.protocol} not supported (server speaks "
-                f"{protocol.PROTOCOL_VERSION})",
-            )
+        hello = await _hello(websocket)
 
         def _authenticate() -> int | None:
             with transaction(state.session_factory) as session:
@@ -98,60 +145,33 @@ async def robot_socket(websocket: WebSocket) -> None:
             last_seq = await run_in_threadpool(_authenticate)
         except service.RobotAuthError as error:
             raise CloseConnection(protocol.CLOSE_UNAUTHORIZED, str(error)) from None
-        robot_id = hello.robot_id
-        state.robots.connect(robot_id, websocket)
-        await websocket.send_text(Welcome(robot_id=robot_id, last_seq=last_seq).model_dump_json())
-        log.info("robot %s connected (agent %s)", robot_id, hello.agent_version)
-        await model_push.on_robot_connected(websocket, robot_id)
+        connection = RobotConnection(websocket, hello.robot_id)
+        previous = state.robots.connect(hello.robot_id, connection)
+        if previous is not None:
+            log.info("robot %s reconnected: closing its older connection", hello.robot_id)
+            await previous.close(protocol.CLOSE_REPLACED, "replaced by a newer connection")
+        await websocket.send_text(
+            Welcome(robot_id=hello.robot_id, last_seq=last_seq).model_dump_json()
+        )
+        log.info("robot %s connected (agent %s)", hello.robot_id, hello.agent_version)
+        await model_push.on_robot_connected(websocket, hello.robot_id)
+        writer = state.writer
         while True:
-            message = await _receive_message(websocket)
-            await _handle(websocket, robot_id, message)
+            message = await receive_message(websocket)
+            received = time.perf_counter()
+            if isinstance(message, Hello):
+                raise CloseConnection(protocol.CLOSE_BAD_MESSAGE, "hello sent twice")
+            await writer.submit(connection, message, received)
     except CloseConnection as close:
-        log.warning("closing robot %s: %s", robot_id or "?", close.reason)
-        await websocket.close(close.code, close.reason)
-    except WebSocketDisconnect:
-        pass
+        log.warning("closing robot connection: %s (%s)", close.reason, close.code)
+        if connection is not None:
+            await connection.close(close.code, close.reason)
+        else:
+            with contextlib.suppress(Exception):
+                await websocket.close(close.code, close.reason)
+    except (WebSocketDisconnect, RuntimeError):
+        pass  # RuntimeError: the socket was closed under us (replaced or rejected)
     finally:
-        if robot_id is not None:
-            state.robots.disconnect(robot_id, websocket)
-
-
-async def _handle(websocket: WebSocket, robot_id: str, message: protocol.RobotMessage) -> None:
-    state = websocket.app.state
-    if isinstance(message, Hello):
-        raise CloseConnection(protocol.CLOSE_BAD_MESSAGE, "hello sent twice")
-
-    def _apply():
-        with transaction(state.session_factory) as session:
-            robot = session.get(Robot, robot_id)
-            if robot is None or robot.token_hash is None:
-                raise CloseConnection(protocol.CLOSE_UNAUTHORIZED, "robot token revoked")
-            if isinstance(message, TransportStart):
-                try:
-                    service.start_transport(session, robot, message)
-                except ValueError as error:
-                    raise CloseConnection(protocol.CLOSE_BAD_MESSAGE, str(error)) from None
-                return None
-            if isinstance(message, TransportEnd):
-                service.end_transport(session, robot, message)
-                return None
-            if isinstance(message, Heartbeat):
-                robot.last_seen_at = service.utcnow()
-                if message.running_model is not None:
-                    robot.running_model_version = message.running_model
-                return None
-            assert isinstance(message, FrameBatch)
-            result = service.store_frames(session, robot, message.frames)
-            session.flush()
-            alarms = [AlarmOut.model_validate(a).model_dump(mode="json") for a in result.alarms]
-            return result, alarms
-
-    outcome = await run_in_threadpool(_apply)  # committed when this returns
-    if outcome is None:
-        return
-    result, alarms = outcome
-    state.metrics.frames_ingested.inc(result.stored)
-    if result.highest_seq is not None:
-        await websocket.send_text(Ack(seq=result.highest_seq).model_dump_json())
-    for alarm in alarms:
-        await state.hub.publish_alarm(alarm)
+        if connection is not None:
+            connection.closed = True
+            state.robots.disconnect(connection.robot_id, connection)

@@ -3,23 +3,26 @@ that robot decisions raise. The caller commits; acknowledgements go out only aft
 
 from __future__ import annotations
 
+import json
+import struct
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
+from itertools import chain
 
-import numpy as np
-from sqlalchemy import insert, select
+from sqlalchemy import select
 from sqlalchemy.orm import Session
 
-from backend.alarms.service import DecisionEvidence, raise_or_update
+from backend.alarms.service import DecisionEvidence, fold_evidence, raise_or_update
+from backend.ingest.bulk import insert_frame_rows
 from backend.models._types import utcnow
-from backend.models.alarms import Alarm, AlarmKind
+from backend.models.alarms import Alarm, AlarmKind, AlarmState
 from backend.models.robots import Robot, Transport
 from backend.models.videos import Frame, Video
 from backend.security import robot_token_matches
 from vigil.classes import Decision, TransportMode
 from vigil.protocol import FrameRecord, Hello, TransportEnd, TransportStart
-from vigil.skeleton import encode_depth, encode_keypoints
+from vigil.skeleton import N_KEYPOINTS
 
 ALARM_KIND_OF_DECISION = {Decision.EMERGENCY: AlarmKind.EMERGENCY, Decision.PAUSE: AlarmKind.PAUSE}
 
@@ -45,6 +48,11 @@ def _video_name(robot_id: str, transport_id: str | None) -> str:
 def start_transport(session: Session, robot: Robot, message: TransportStart) -> Transport:
     transport = session.get(Transport, message.transport_id)
     if transport is None:
+        # A robot carries one patient at a time: starting a transport ends any it left open.
+        for stale in session.scalars(
+            select(Transport).where(Transport.robot_id == robot.id, Transport.ended_at.is_(None))
+        ):
+            stale.ended_at = datetime.fromtimestamp(message.ts, UTC)
         transport = Transport(
             id=message.transport_id,
             robot_id=robot.id,
@@ -65,9 +73,72 @@ def end_transport(session: Session, robot: Robot, message: TransportEnd) -> None
         transport.ended_at = datetime.fromtimestamp(message.ts, UTC)
 
 
-def _video_for(session: Session, robot: Robot, transport: Transport | None) -> Video:
+@dataclass
+class IngestContext:
+    """Rows and lookups shared by every robot's work in one writer transaction.
+
+    Frame rows are gathered here and inserted with one multi-row statement by `flush_rows`;
+    robots, transports and videos are loaded once per transaction instead of once per batch.
+    """
+
+    robots: dict[str, Robot | None] = field(default_factory=dict)
+    transports: dict[str, Transport | None] = field(default_factory=dict)
+    videos: dict[str, Video] = field(default_factory=dict)
+    rows: list[tuple] = field(default_factory=list)  # laid out as bulk.FRAME_COLUMNS
+    pending_seqs: dict[str, set[int]] = field(default_factory=dict)
+    open_alarms: dict[tuple[str, str, AlarmKind], Alarm] = field(default_factory=dict)
+
+    def preload(self, session: Session, streams: set[tuple[str, str | None]]) -> IngestContext:
+        """Load, in a few queries, what the (robot id, transport id) streams of a flush touch."""
+        robot_ids = {robot_id for robot_id, _ in streams}
+        transport_ids = {tid for _, tid in streams if tid is not None}
+        missing = robot_ids - self.robots.keys()
+        if missing:
+            found = {r.id: r for r in session.scalars(select(Robot).where(Robot.id.in_(missing)))}
+            self.robots.update({robot_id: found.get(robot_id) for robot_id in missing})
+        missing = transport_ids - self.transports.keys()
+        if missing:
+            found = {
+                t.id: t for t in session.scalars(select(Transport).where(Transport.id.in_(missing)))
+            }
+            self.transports.update({tid: found.get(tid) for tid in missing})
+        names = {_video_name(robot_id, tid) for robot_id, tid in streams} - self.videos.keys()
+        if names:
+            for video in session.scalars(select(Video).where(Video.name.in_(names))):
+                self.videos[video.name] = video
+        if robot_ids:
+            for alarm in session.scalars(
+                select(Alarm).where(
+                    Alarm.robot_id.in_(robot_ids),
+                    Alarm.state != AlarmState.RESOLVED,
+                    Alarm.kind.in_(ALARM_KIND_OF_DECISION.values()),
+                )
+            ).unique():
+                self.open_alarms[(alarm.robot_id, alarm.transport_key, alarm.kind)] = alarm
+        return self
+
+    def transport(self, session: Session, transport_id: str | None) -> Transport | None:
+        if transport_id is None:
+            return None
+        if transport_id not in self.transports:
+            self.transports[transport_id] = session.get(Transport, transport_id)
+        return self.transports[transport_id]
+
+    def flush_rows(self, session: Session) -> int:
+        stored = len(self.rows)
+        insert_frame_rows(session, self.rows)
+        self.rows = []
+        self.pending_seqs = {}
+        return stored
+
+
+def _video_for(
+    session: Session, robot: Robot, transport: Transport | None, context: IngestContext
+) -> Video:
     name = _video_name(robot.id, transport.id if transport else None)
-    video = session.scalars(select(Video).where(Video.name == name)).first()
+    video = context.videos.get(name)
+    if video is None:
+        video = session.scalars(select(Video).where(Video.name == name)).first()
     if video is None:
         video = Video(
             name=name,
@@ -82,6 +153,7 @@ def _video_for(session: Session, robot: Robot, transport: Transport | None) -> V
         )
         session.add(video)
         session.flush()
+    context.videos[name] = video
     return video
 
 
@@ -94,57 +166,101 @@ class IngestResult:
     new_alarm_ids: set[int] = field(default_factory=set)
 
 
-def _depth_blob(depth: list[float | None] | None) -> bytes | None:
+_KEYPOINTS = struct.Struct(f"<{N_KEYPOINTS * 3}f")
+_DEPTH = struct.Struct(f"<{N_KEYPOINTS}f")
+_NAN = float("nan")
+
+
+def pack_keypoints(keypoints: list[list[float]]) -> bytes:
+    """Same bytes as vigil.skeleton.encode_keypoints (25 x 3 little-endian float32), without
+    building a numpy array per frame."""
+    return _KEYPOINTS.pack(*chain.from_iterable(keypoints))
+
+
+def pack_depth(depth: list[float | None] | None) -> bytes | None:
+    """Same bytes as vigil.skeleton.encode_depth; null (unknown) becomes NaN."""
     if depth is None:
         return None
-    return encode_depth(np.array([np.nan if v is None else v for v in depth], np.float32))
+    return _DEPTH.pack(*(_NAN if v is None else v for v in depth))
 
 
-def store_frames(session: Session, robot: Robot, frames: Sequence[FrameRecord]) -> IngestResult:
-    seqs = [f.seq for f in frames]
-    existing = set(
-        session.scalars(
+def _scores_json(scores: dict) -> str | None:
+    if not scores:
+        return None
+    return json.dumps({str(k): v for k, v in scores.items()})
+
+
+def _existing_seqs(
+    session: Session, robot: Robot, seqs: list[int], context: IngestContext
+) -> set[int]:
+    pending = context.pending_seqs.setdefault(robot.id, set())
+    # robot.last_seq is the highest stored sequence number (kept in the same transaction as
+    # the rows), so a batch entirely above it cannot hold a stored frame: skip the query.
+    if robot.last_seq is not None and min(seqs) <= robot.last_seq:
+        stored = session.scalars(
             select(Frame.seq).where(Frame.robot_id == robot.id, Frame.seq.in_(seqs))
         ).all()
-    )
+        return pending | set(stored)
+    return pending
+
+
+def store_frames(
+    session: Session,
+    robot: Robot,
+    frames: Sequence[FrameRecord],
+    context: IngestContext | None = None,
+) -> IngestResult:
+    """Store the frames not stored yet and raise or update the alarms their decisions call for.
+
+    With a shared `context` the rows are only gathered (the caller runs `context.flush_rows`);
+    without one they are inserted before returning.
+    """
+    own_context = context is None
+    context = context or IngestContext()
+    seqs = [f.seq for f in frames]
+    existing = _existing_seqs(session, robot, seqs, context)
     fresh: dict[int, FrameRecord] = {}
     for frame in frames:
         if frame.seq not in existing:
             fresh.setdefault(frame.seq, frame)
     duplicates = len(frames) - len(fresh)
 
-    transports: dict[str | None, Transport | None] = {}
+    now = utcnow()
     videos: dict[str | None, Video] = {}
-    rows = []
-    alarms: dict[int, Alarm] = {}
+    alarms: dict[tuple[str | None, AlarmKind], Alarm] = {}
     new_alarm_ids: set[int] = set()
+    rows = context.rows
+    pending = context.pending_seqs[robot.id]
     for frame in sorted(fresh.values(), key=lambda f: f.seq):
         key = frame.transport_id
-        if key not in transports:
-            transports[key] = session.get(Transport, key) if key else None
-            videos[key] = _video_for(session, robot, transports[key])
-        video = videos[key]
+        transport = context.transport(session, key)
+        video = videos.get(key)
+        if video is None:
+            video = videos[key] = _video_for(session, robot, transport, context)
+            if transport is not None:
+                transport.last_frame_at = now
+        shadow = frame.shadow
+        decision = frame.decision
         rows.append(
-            {
-                "video_id": video.id,
-                "index": video.frame_count,
-                "ts": frame.ts,
-                "robot_id": robot.id,
-                "seq": frame.seq,
-                "keypoints": encode_keypoints(np.asarray(frame.keypoints, np.float32)),
-                "depth": _depth_blob(frame.depth),
-                "decision": frame.decision,
-                "scores": {k.value: v for k, v in frame.scores.items()} or None,
-                "model_version": frame.model_version,
-                "threshold": frame.threshold,
-                "delay_ms": frame.delay_ms,
-                "shadow_decision": frame.shadow.decision if frame.shadow else None,
-                "shadow_scores": (
-                    {k.value: v for k, v in frame.shadow.scores.items()} if frame.shadow else None
-                ),
-                "shadow_model_version": frame.shadow.model_version if frame.shadow else None,
-            }
+            (
+                video.id,
+                video.frame_count,
+                frame.ts,
+                robot.id,
+                frame.seq,
+                pack_keypoints(frame.keypoints),
+                pack_depth(frame.depth),
+                decision.value if decision else None,
+                _scores_json(frame.scores),
+                frame.model_version,
+                frame.threshold,
+                frame.delay_ms,
+                shadow.decision.value if shadow else None,
+                _scores_json(shadow.scores) if shadow else None,
+                shadow.model_version if shadow else None,
+            )
         )
+        pending.add(frame.seq)
         video.frame_count += 1
         kind = ALARM_KIND_OF_DECISION.get(frame.decision)
         if kind is not None:
@@ -156,14 +272,23 @@ def store_frames(session: Session, robot: Robot, frames: Sequence[FrameRecord]) 
                 delay_ms=frame.delay_ms,
                 video_id=video.id,
             )
-            alarm, is_new = raise_or_update(session, robot, transports[key], kind, evidence)
-            alarms[alarm.id] = alarm
-            if is_new:
-                new_alarm_ids.add(alarm.id)
-    if rows:
-        session.execute(insert(Frame), rows)
+            alarm = alarms.get((key, kind)) or context.open_alarms.get((robot.id, key or "", kind))
+            if alarm is not None and alarm.state != AlarmState.RESOLVED:
+                fold_evidence(alarm, evidence, now)
+            else:
+                # Pending row updates cannot change which alarm is unresolved: no autoflush.
+                with session.no_autoflush:
+                    alarm, is_new = raise_or_update(session, robot, transport, kind, evidence)
+                context.open_alarms[(robot.id, key or "", kind)] = alarm
+                if is_new:
+                    new_alarm_ids.add(alarm.id)
+            alarms[(key, kind)] = alarm
+    stored = len(fresh)
+    if own_context:
+        context.flush_rows(session)
     highest = max(seqs) if seqs else None
     if highest is not None and (robot.last_seq is None or highest > robot.last_seq):
         robot.last_seq = highest
-    robot.last_seen_at = utcnow()
-    return IngestResult(highest, len(rows), duplicates, list(alarms.values()), new_alarm_ids)
+    robot.last_seen_at = now
+    unique_alarms = list({a.id: a for a in alarms.values()}.values())
+    return IngestResult(highest, stored, duplicates, unique_alarms, new_alarm_ids)

@@ -118,6 +118,7 @@ class AlarmEvent(Base):
     """Audit trail: every transition of an alarm with who, when, from, to and comment."""
 
     __tablename__ = "alarm_events"
+    __table_args__ = (Index("ix_alarm_events_at", "at"),)
 
     id: Mapped[int] = mapped_column(primary_key=True)
     alarm_id: Mapped[int] = mapped_column(ForeignKey("alarms.id", ondelete="CASCADE"), index=True)

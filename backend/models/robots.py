@@ -1,6 +1,6 @@
 from datetime import datetime
 
-from sqlalchemy import ForeignKey, String
+from sqlalchemy import ForeignKey, Index, String
 from sqlalchemy.orm import Mapped, mapped_column
 
 from backend.db import Base
@@ -27,6 +27,7 @@ class Robot(Base):
 
 class Transport(Base):
     __tablename__ = "transports"
+    __table_args__ = (Index("ix_transports_active", "ended_at"),)
 
     id: Mapped[str] = mapped_column(String(64), primary_key=True)
     robot_id: Mapped[str] = mapped_column(ForeignKey("robots.id"), index=True)
@@ -35,3 +36,5 @@ class Transport(Base):
     location: Mapped[str | None] = mapped_column(String(128))
     started_at: Mapped[datetime] = mapped_column(UTCDateTime, default=utcnow)
     ended_at: Mapped[datetime | None] = mapped_column(UTCDateTime)
+    # When a frame of this transport was last committed (stream-stalled detection).
+    last_frame_at: Mapped[datetime | None] = mapped_column(UTCDateTime)

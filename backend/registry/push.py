@@ -60,9 +60,16 @@ def _sent(app: FastAPI) -> dict:
     return app.state.assignments_sent
 
 
+def _socket(app: FastAPI, robot_id: str) -> WebSocket | None:
+    connection = app.state.robots.socket(robot_id)  # a RobotConnection (or a bare socket)
+    if connection is None or getattr(connection, "closed", False):
+        return None
+    return getattr(connection, "websocket", connection)
+
+
 async def push_to_robot(app: FastAPI, robot_id: str, force: bool = True) -> bool:
     """Send the robot its assignment(s) if it is connected here; True if anything was sent."""
-    websocket = app.state.robots.socket(robot_id)
+    websocket = _socket(app, robot_id)
     if websocket is None:
         return False
     assigned, shadow, running = await run_in_threadpool(_wanted, app, robot_id)
@@ -114,7 +121,7 @@ async def reconcile(app: FastAPI) -> list[str]:
 
     pushed = []
     for robot_id, version in await run_in_threadpool(_lagging):
-        if app.state.robots.socket(robot_id) is None:
+        if _socket(app, robot_id) is None:
             continue
         last = sent.get(robot_id)
         if last and last[0] == version and time.monotonic() - last[1] < resend_after:
