@@ -14,7 +14,7 @@ from prometheus_client import CONTENT_TYPE_LATEST, generate_latest
 from sqlalchemy import func, select
 
 from backend.alarms.monitor import AlarmMonitor
-from backend.api import alarms, audit, auth, jobs, misc, registry, robots, videos
+from backend.api import alarm_review, alarms, audit, auth, jobs, misc, registry, robots, videos
 from backend.db import make_engine, make_session_factory
 from backend.deps import CurrentUser
 from backend.ingest import robot_ws
@@ -35,6 +35,7 @@ ROUTERS = (
     misc.router,
     robots.router,
     alarms.router,
+    alarm_review.router,
     audit.router,
     videos.router,
     registry.router,
