@@ -7,7 +7,12 @@ import { FatiguePage } from "./nurse/FatiguePage";
 import { HistoryPage } from "./nurse/HistoryPage";
 import { NurseBoard } from "./nurse/NurseBoard";
 import { AnnotatePage } from "./pages/AnnotatePage";
-import { EngineerPage } from "./pages/EngineerPage";
+import { ComparePage } from "./pages/engineer/ComparePage";
+import { EngineerLayout } from "./pages/engineer/EngineerLayout";
+import { FleetPage } from "./pages/engineer/FleetPage";
+import { JobsPage } from "./pages/engineer/JobsPage";
+import { ModelPage } from "./pages/engineer/ModelPage";
+import { RegistryPage } from "./pages/engineer/RegistryPage";
 import { Layout } from "./pages/Layout";
 import { LoginPage } from "./pages/LoginPage";
 
@@ -22,7 +27,13 @@ export function App() {
         <Route path="/nurse/history" element={<RequireRole section="nurse"><HistoryPage /></RequireRole>} />
         <Route path="/nurse/fatigue" element={<RequireRole section="nurse"><FatiguePage /></RequireRole>} />
         <Route path="/nurse/alarms/:alarmId" element={<RequireRole section="nurse"><AlarmDetailPage /></RequireRole>} />
-        <Route path="/engineer" element={<RequireRole section="engineer"><EngineerPage /></RequireRole>} />
+        <Route path="/engineer" element={<RequireRole section="engineer"><EngineerLayout /></RequireRole>}>
+          <Route index element={<RegistryPage />} />
+          <Route path="models/:modelId" element={<ModelPage />} />
+          <Route path="compare" element={<ComparePage />} />
+          <Route path="fleet" element={<FleetPage />} />
+          <Route path="jobs" element={<JobsPage />} />
+        </Route>
       </Route>
       <Route path="*" element={<Navigate to={user ? homeFor(user.role) : "/login"} replace />} />
     </Routes>
