@@ -24,8 +24,8 @@ from backend.metrics import Metrics
 from backend.models.alarms import Alarm, AlarmState
 from backend.realtime import browser_ws
 from backend.realtime.bus import AlarmBus
-from backend.registry import push as model_push
 from backend.realtime.hub import BrowserHub
+from backend.registry import push as model_push
 from backend.settings import Settings
 
 log = logging.getLogger("vigil.backend")

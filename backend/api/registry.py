@@ -209,15 +209,19 @@ def fleet(session: SessionDep, user: CurrentUser, request: Request) -> list[Flee
 def _robot_model(session, robot_id: str, authorization: str, version: str) -> ModelVersion:
     scheme, _, token = authorization.partition(" ")
     robot = session.get(Robot, robot_id)
-    if scheme.lower() != "bearer" or robot is None or not robot_token_matches(
-        robot.token_hash, token
+    if (
+        scheme.lower() != "bearer"
+        or robot is None
+        or not robot_token_matches(robot.token_hash, token)
     ):
         raise HTTPException(status.HTTP_401_UNAUTHORIZED, "unknown robot or wrong robot token")
     model = queries.model_by_version(session, version)
     if model is None:
         raise HTTPException(status.HTTP_404_NOT_FOUND, f"model {version} not found")
     if model.id not in (robot.assigned_model_id, robot.shadow_model_id):
-        raise HTTPException(status.HTTP_403_FORBIDDEN, f"model {version} is not assigned to {robot_id}")
+        raise HTTPException(
+            status.HTTP_403_FORBIDDEN, f"model {version} is not assigned to {robot_id}"
+        )
     return model
 
 
@@ -248,4 +252,3 @@ def download_manifest(
     if not manifest_path.is_file():
         return model.manifest
     return json.loads(manifest_path.read_text())
-

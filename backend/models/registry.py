@@ -69,4 +69,6 @@ class Deployment(Base):
     rollout: Mapped[dict | None] = mapped_column(JSON)
     rolled_back_at: Mapped[datetime | None] = mapped_column(UTCDateTime)
     rollback_reason: Mapped[str | None] = mapped_column(Text)
-    updated_at: Mapped[datetime | None] = mapped_column(UTCDateTime, default=utcnow, onupdate=utcnow)
+    updated_at: Mapped[datetime | None] = mapped_column(
+        UTCDateTime, default=utcnow, onupdate=utcnow
+    )

@@ -74,8 +74,8 @@ def _assign(session: Session, deployment: Deployment, robot_ids: list[str]) -> l
         else:
             previous.setdefault(robot.id, robot.assigned_model_id)
             robot.assigned_model_id = deployment.model_version_id
-    deployment.rollout = {**deployment.rollout, "previous": previous,
-                          "assigned": sorted(set(deployment.rollout["assigned"]) | set(robot_ids))}  # fmt: skip
+    assigned = sorted(set(deployment.rollout["assigned"]) | set(robot_ids))
+    deployment.rollout = {**deployment.rollout, "previous": previous, "assigned": assigned}
     return robot_ids
 
 

@@ -95,8 +95,8 @@ def test_rethreshold_evaluate_and_what_if(factory, worker_settings, urfd_db, tra
 
     # What-if with a 10 s delay: no Emergency run of these short recordings lasts that long,
     # so no alarm and no fall detected.
-    whatif = _run(factory, worker_settings, JobKind.WHATIF,
-                  {"model_version_id": parent_id, "threshold": 0.9, "delay_ms": 10_000})  # fmt: skip
+    params = {"model_version_id": parent_id, "threshold": 0.9, "delay_ms": 10_000}
+    whatif = _run(factory, worker_settings, JobKind.WHATIF, params)
     assert whatif.status == JobStatus.SUCCEEDED, whatif.log
     result = whatif.result
     assert result["candidate"]["alarms"] == 0 and result["candidate"]["falls_detected"] == 0

@@ -7,14 +7,11 @@ from backend.models.jobs import JobKind, JobStatus
 from backend.models.robots import Robot
 from backend.security import hash_robot_token
 from tests.backend.conftest import ROBOT_TOKEN
-from tests.registry_fixtures import (  # noqa: F401
-    factory,
-    trained_model_dir,
-    urfd_db,
-    worker_settings,
-)
+from tests.registry_fixtures import factory, trained_model_dir, urfd_db, worker_settings
 from worker import queue
 from worker.runner import Worker
+
+__all__ = ["factory", "trained_model_dir", "urfd_db", "worker_settings"]
 
 
 @pytest.fixture
@@ -24,7 +21,7 @@ def settings(settings):
 
 
 @pytest.fixture
-def register(factory, worker_settings):
+def register(factory, worker_settings):  # noqa: F811
     """Register a model directory through the worker's register job; returns the model id."""
 
     def run(model_dir) -> int:

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import argparse
 import asyncio
+import contextlib
 import hashlib
 import json
 import sys
@@ -26,8 +27,8 @@ from vigil.protocol import Heartbeat, Hello, ModelAssignment, server_message_ada
 async def run(args) -> None:
     running: str | None = None
     async with websockets.connect(args.url) as socket:
-        await socket.send(Hello(robot_id=args.robot_id, token=args.token,
-                                agent_version="test-robot", running_model=None).model_dump_json())  # fmt: skip
+        hello = Hello(robot_id=args.robot_id, token=args.token, agent_version="test-robot")
+        await socket.send(hello.model_dump_json())
         while True:
             message = server_message_adapter.validate_json(await socket.recv())
             if not isinstance(message, ModelAssignment) or message.shadow:
@@ -53,10 +54,8 @@ def main() -> int:
     parser = argparse.ArgumentParser()
     for name in ("--url", "--robot-id", "--token", "--dir"):
         parser.add_argument(name, required=True)
-    try:
+    with contextlib.suppress(KeyboardInterrupt):
         asyncio.run(run(parser.parse_args()))
-    except KeyboardInterrupt:
-        pass
     return 0
 
 

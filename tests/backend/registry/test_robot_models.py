@@ -16,7 +16,6 @@ import pytest
 import uvicorn
 from sqlalchemy import func, select
 
-from backend.db import transaction
 from backend.main import create_app
 from backend.models import (
     Alarm,
@@ -114,7 +113,9 @@ def test_shadow_decisions_never_alarm_and_disagreements_go_to_review(
     with client.websocket_connect("/ws/robot") as ws:
         ws.send_text(Hello(robot_id=robot, token=ROBOT_TOKEN).model_dump_json())
         assert json.loads(ws.receive_text())["type"] == "welcome"
-        ws.send_text(TransportStart(transport_id="t-1", mode="walking", ts=1000.0).model_dump_json())
+        ws.send_text(
+            TransportStart(transport_id="t-1", mode="walking", ts=1000.0).model_dump_json()
+        )
         frames = [_frame(i, "normal", "emergency" if 3 <= i <= 8 else "normal") for i in range(12)]
         ws.send_text(FrameBatch(frames=frames).model_dump_json())
         assert json.loads(ws.receive_text()) == {"type": "ack", "seq": 11}

@@ -43,7 +43,7 @@ export function ModelPage() {
       {error && <p role="alert" className="error">{error}</p>}
       <section className="card">
         <h2>Lineage</h2>
-        <dl className="facts">
+        <dl className="facts lineage">
           <dt>Mode</dt><dd>{model.mode}</dd>
           <dt>Family</dt><dd>{model.kind}</dd>
           <dt>Threshold / delay</dt><dd>{fmt(model.threshold)} / {model.delay_ms} ms</dd>
@@ -56,10 +56,12 @@ export function ModelPage() {
         {gold ? (
           <>
             <p className="muted">Real URFD / labelled recordings with split “test”: {fmt((gold.sequences as string[])?.length)} recordings, {fmt(gold.frames)} frames{gold.generated_data ? " (includes GENERATED data)" : ""}.</p>
-            <table className="table" aria-label="Table 3">
-              <thead><tr>{TABLE3.map((k) => <th key={k}>{k}</th>)}</tr></thead>
-              <tbody><tr>{TABLE3.map((k) => <td key={k}>{fmt(gold[k])}</td>)}</tr></tbody>
-            </table>
+            <div className="table-wrap">
+              <table className="table" aria-label="Table 3">
+                <thead><tr>{TABLE3.map((k) => <th key={k}>{k}</th>)}</tr></thead>
+                <tbody><tr>{TABLE3.map((k) => <td key={k}>{fmt(gold[k])}</td>)}</tr></tbody>
+              </table>
+            </div>
             {latency && <p>Per-frame latency: p50 {fmt(latency.p50_ms, 2)} ms, p95 {fmt(latency.p95_ms, 2)} ms.</p>}
             <h3>Per recording</h3>
             <table className="table" aria-label="Events">
@@ -106,7 +108,7 @@ function WhatIf({ modelId, threshold, delayMs }: { modelId: number; threshold: n
     <section className="card">
       <h2>What-if replay</h2>
       <form className="filters" onSubmit={run} aria-label="What-if">
-        <label>Threshold <input name="threshold" type="number" step="0.01" min="0" max="1" value={t} onChange={(e) => setT(e.target.value)} /></label>
+        <label>Threshold <input name="threshold" type="number" step="any" min="0" max="1" value={t} onChange={(e) => setT(e.target.value)} /></label>
         <label>Delay (ms) <input name="delay_ms" type="number" step="10" min="0" max="10000" value={d} onChange={(e) => setD(e.target.value)} /></label>
         <button type="submit">Replay labelled recordings</button>
       </form>
