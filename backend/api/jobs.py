@@ -7,7 +7,7 @@ from backend.deps import CurrentUser, SessionDep
 from backend.models.jobs import Job, JobStatus
 from backend.registry import queries
 from backend.registry.schemas import JobDetail, JobIn, JobOut
-from worker import queue
+from worker import job_params, queue
 
 router = APIRouter(prefix="/api", tags=["jobs"])
 
@@ -28,9 +28,12 @@ def list_jobs(
 
 @router.post("/jobs", status_code=status.HTTP_201_CREATED)
 def create_job(body: JobIn, session: SessionDep, user: CurrentUser) -> JobOut:
-    """Queue a job; its parameters are checked by the worker and a bad one fails the job with
-    a message naming the field."""
-    job = queue.enqueue(session, body.kind, body.params, user.id)
+    """Queue a job; parameters are checked here (422 naming the field) and again by the worker."""
+    try:
+        params = job_params.validate(body.kind, body.params)
+    except ValueError as error:
+        raise HTTPException(status.HTTP_422_UNPROCESSABLE_CONTENT, str(error)) from None
+    job = queue.enqueue(session, body.kind, params, user.id)
     session.flush()
     session.refresh(job)
     return JobOut.model_validate(job)

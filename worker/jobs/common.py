@@ -5,7 +5,6 @@ from __future__ import annotations
 import shutil
 from pathlib import Path
 
-from pydantic import BaseModel, ConfigDict, ValidationError
 from sqlalchemy.orm import Session
 
 from backend.models.registry import ModelVersion
@@ -16,19 +15,6 @@ from vigil.model_file import Classifier, load_classifier
 from worker import evaluation
 from worker.db_data import frame_data, labelled_videos
 from worker.runner import JobContext
-
-
-class JobParams(BaseModel):
-    model_config = ConfigDict(extra="forbid")
-
-
-def parse(model: type[JobParams], params: dict) -> JobParams:
-    try:
-        return model.model_validate(params)
-    except ValidationError as error:
-        first = error.errors()[0]
-        where = ".".join(str(p) for p in first["loc"]) or "params"
-        raise ValueError(f"invalid job parameter {where}: {first['msg']}") from None
 
 
 def started_by(session: Session, context: JobContext) -> dict:

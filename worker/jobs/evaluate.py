@@ -4,12 +4,9 @@ per-event results, per-frame latency and plots, stored with the model."""
 from __future__ import annotations
 
 from backend.db import transaction
-from worker.jobs.common import JobParams, gold_evaluation, model_dir, model_or_error, parse, reload
+from worker.job_params import EvaluateParams, parse
+from worker.jobs.common import gold_evaluation, model_dir, model_or_error, reload
 from worker.runner import JobContext
-
-
-class EvaluateParams(JobParams):
-    model_version_id: int
 
 
 def run(context: JobContext) -> dict:

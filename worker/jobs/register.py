@@ -7,13 +7,10 @@ from pathlib import Path
 
 from backend.db import transaction
 from vigil.model_file import read_manifest
-from worker.jobs.common import JobParams, gold_evaluation, parse, reload, started_by
+from worker.job_params import RegisterParams, parse
+from worker.jobs.common import gold_evaluation, reload, started_by
 from worker.registration import register, store_path
 from worker.runner import JobContext
-
-
-class RegisterParams(JobParams):
-    path: str
 
 
 def run(context: JobContext) -> dict:

@@ -6,30 +6,21 @@ from __future__ import annotations
 import shutil
 from datetime import UTC, datetime
 
-from pydantic import Field
-
 from backend.db import transaction
 from backend.models.videos import Split
 from vigil.model_file import read_manifest, write_model
 from worker.db_data import frame_data, labelled_videos
 from worker.evaluation import choose_operating_point
+from worker.job_params import RethresholdParams, parse
 from worker.jobs.common import (
-    JobParams,
     gold_evaluation,
     model_dir,
     model_or_error,
-    parse,
     reload,
     started_by,
 )
 from worker.registration import register, store_path
 from worker.runner import JobContext
-
-
-class RethresholdParams(JobParams):
-    model_version_id: int
-    video_ids: list[int] | None = Field(default=None, description="default: split 'train'")
-    version: str | None = Field(default=None, max_length=64, pattern=r"^[A-Za-z0-9_.-]+$")
 
 
 def run(context: JobContext) -> dict:

@@ -8,14 +8,13 @@ import shutil
 from datetime import UTC, datetime
 
 import numpy as np
-from pydantic import Field
 
 from backend.db import transaction
 from backend.models.videos import Split
-from vigil.classes import TransportMode
 from worker.db_data import frame_data, labelled_videos
 from worker.grid import GridBackend, grid_select
-from worker.jobs.common import JobParams, gold_evaluation, parse, reload, started_by
+from worker.job_params import RetrainParams, parse
+from worker.jobs.common import gold_evaluation, reload, started_by
 from worker.registration import register, store_path
 from worker.runner import JobContext
 from worker.training.cli import DEFAULT_SPEC
@@ -23,16 +22,6 @@ from worker.training.estimators import SPECS, ModelSpec
 from worker.training.publish import publish
 from worker.training.selection import evaluate
 from worker.training.trainers import SklearnTrainer
-
-
-class RetrainParams(JobParams):
-    mode: TransportMode = TransportMode.WALKING
-    spec: str = Field(default=DEFAULT_SPEC.name, description="model family and grid by name")
-    grid: dict[str, list] | None = Field(default=None, description="override the spec's grid")
-    video_ids: list[int] | None = Field(default=None, description="default: split 'train'")
-    n_inner: int = Field(default=4, ge=2, le=10)
-    stride: int = Field(default=2, ge=1, le=30)
-    version: str | None = Field(default=None, max_length=64, pattern=r"^[A-Za-z0-9_.-]+$")
 
 
 def spec_for(params: RetrainParams) -> ModelSpec:

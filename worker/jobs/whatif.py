@@ -3,25 +3,15 @@ how alarms, recall and time to alarm would change, before anything is promoted."
 
 from __future__ import annotations
 
-from pydantic import Field
-
 from backend.db import transaction
-from backend.models.videos import Split
 from worker.db_data import frame_data, labelled_videos
 from worker.evaluation import evaluate_model
-from worker.jobs.common import JobParams, model_dir, model_or_error, parse, reload
+from worker.job_params import WhatIfParams, parse
+from worker.jobs.common import model_dir, model_or_error, reload
 from worker.runner import JobContext
 
 KEYS = ("falls_detected", "falls_total", "adl_false_alarms", "adl_total", "frame_recall",
         "frame_precision", "frame_f1", "median_time_to_alarm_s", "max_time_to_alarm_s")  # fmt: skip
-
-
-class WhatIfParams(JobParams):
-    model_version_id: int
-    threshold: float = Field(ge=0.0, le=1.0)
-    delay_ms: int = Field(ge=0, le=10_000)
-    split: Split = Split.TEST
-    video_ids: list[int] | None = None
 
 
 def _summary(result: dict) -> dict:

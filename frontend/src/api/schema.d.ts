@@ -693,8 +693,7 @@ export interface paths {
         put?: never;
         /**
          * Create Job
-         * @description Queue a job; its parameters are checked by the worker and a bad one fails the job with
-         *     a message naming the field.
+         * @description Queue a job; parameters are checked here (422 naming the field) and again by the worker.
          */
         post: operations["create_job_api_jobs_post"];
         delete?: never;

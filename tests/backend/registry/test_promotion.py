@@ -188,3 +188,27 @@ def test_model_download_needs_the_robot_token_and_an_assignment(
     assert response.headers["x-model-sha256"] == model["sha256"]
     manifest = client.get("/api/robot/models/rf-test-1/manifest", headers=robot).json()
     assert manifest["sha256"] == model["sha256"] and manifest["version"] == "rf-test-1"
+
+
+def test_jobs_api_checks_parameters_and_roles_and_cancels(client, make_account):
+    engineer = make_account(Role.ENGINEER)
+    annotator = make_account(Role.ANNOTATOR)
+    body = {"kind": "whatif", "params": {"model_version_id": 1, "threshold": 2, "delay_ms": 0}}
+    bad = client.post("/api/jobs", headers=engineer.headers, json=body)
+    assert bad.status_code == 422 and "invalid job parameter threshold" in bad.json()["detail"]
+    unknown = client.post("/api/jobs", headers=engineer.headers,
+                          json={"kind": "retrain", "params": {"epochs": 3}})  # fmt: skip
+    assert unknown.status_code == 422 and "epochs" in unknown.json()["detail"]
+    assert client.post("/api/jobs", headers=annotator.headers,
+                       json={"kind": "retrain", "params": {}}).status_code == 403  # fmt: skip
+    job = client.post("/api/jobs", headers=engineer.headers,
+                      json={"kind": "retrain", "params": {"spec": "rf"}}).json()  # fmt: skip
+    assert job["status"] == "queued" and job["created_by_id"] is not None
+    listed = client.get("/api/jobs", headers=engineer.headers).json()
+    assert [j["id"] for j in listed] == [job["id"]]
+    cancelled = client.post(f"/api/jobs/{job['id']}/cancel", headers=engineer.headers).json()
+    assert cancelled["status"] == "cancelled"
+    again = client.post(f"/api/jobs/{job['id']}/cancel", headers=engineer.headers)
+    assert again.status_code == 409
+    detail = client.get(f"/api/jobs/{job['id']}", headers=engineer.headers).json()
+    assert "cancelled before it started" in detail["log"]
