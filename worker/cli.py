@@ -12,6 +12,7 @@ import json
 import logging
 import signal
 import sys
+from pathlib import Path
 
 from backend.db import make_engine, make_session_factory, transaction
 from backend.models.jobs import JobKind
@@ -31,6 +32,8 @@ def main(argv: list[str] | None = None) -> int:
     imp = commands.add_parser("import-urfd", help="store URFD sequences as labelled recordings")
     imp.add_argument("--split", choices=[s.value for s in Split], required=True)
     imp.add_argument("--names", type=_names, required=True, help="e.g. fall-01,adl-01")
+    boot = commands.add_parser("bootstrap", help="first run: URFD split, default model, retrain")
+    boot.add_argument("--default-model", type=Path, default=None, help="model directory")
     enq = commands.add_parser("enqueue", help="queue a job")
     enq.add_argument("kind", choices=[k.value for k in JobKind])
     enq.add_argument("params", nargs="?", default="{}", help="JSON object")
@@ -55,7 +58,12 @@ def main(argv: list[str] | None = None) -> int:
     engine = make_engine(settings.database_url)
     try:
         with transaction(make_session_factory(engine)) as session:
-            if args.command == "import-urfd":
+            if args.command == "bootstrap":
+                from worker.bootstrap import bootstrap
+
+                for line in bootstrap(session, args.default_model):
+                    print(line)
+            elif args.command == "import-urfd":
                 from worker.db_data import import_urfd
 
                 try:
@@ -74,6 +82,13 @@ def main(argv: list[str] | None = None) -> int:
                     return 2
                 if not isinstance(params, dict):
                     print("vigil-worker: params must be a JSON object", file=sys.stderr)
+                    return 2
+                from worker.job_params import validate
+
+                try:
+                    validate(JobKind(args.kind), params)
+                except ValueError as error:
+                    print(f"vigil-worker: {error}", file=sys.stderr)
                     return 2
                 job = queue.enqueue(session, JobKind(args.kind), params)
                 session.flush()

@@ -49,6 +49,7 @@ def gate_report(model: ModelVersion, false_alarm_budget: float, latency_ms: floa
         "model_version": model.version,
         "passed": all(c["passed"] for c in checks),
         "checks": checks,
+        "warnings": _warnings(model, gold),
         "gold": {
             k: gold.get(k)
             for k in (
@@ -69,3 +70,20 @@ def gate_report(model: ModelVersion, false_alarm_budget: float, latency_ms: floa
         "latency": latency,
         "evaluated_at": utcnow().isoformat(),
     }
+
+
+def _warnings(model: ModelVersion, gold: dict | None) -> list[str]:
+    """What makes the figures less trustworthy (shown with the decision, not blocking it)."""
+    warnings = []
+    if not gold:
+        return warnings
+    trained_on = set((model.lineage or {}).get("training_videos") or [])
+    overlap = sorted(trained_on & set(gold.get("sequences") or []))
+    if overlap:
+        warnings.append(f"gold recordings were also training data: {', '.join(overlap)}")
+    elif not trained_on:
+        warnings.append("training recordings unknown (model registered from a directory): the "
+                        "gold set may overlap its training data")  # fmt: skip
+    if gold.get("generated_data"):
+        warnings.append("the gold set includes GENERATED recordings")
+    return warnings

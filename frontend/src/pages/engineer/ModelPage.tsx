@@ -154,6 +154,7 @@ function Promote({ modelId, gate, onDone }: { modelId: number; gate: GateReport 
           <ul>{gate.checks.map((c) => (
             <li key={c.name} className={c.passed ? "ok" : "fail"}>{c.passed ? "✓" : "✗"} {c.name}: {c.detail}</li>
           ))}</ul>
+          {(gate.warnings ?? []).map((w) => <p key={w} className="warning">⚠ {w}</p>)}
         </div>
       )}
       <form className="filters" onSubmit={(e) => { e.preventDefault(); void send(false); }} aria-label="Promote">

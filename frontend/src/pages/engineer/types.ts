@@ -23,6 +23,7 @@ export interface GateReport {
   model_version: string;
   passed: boolean;
   checks: GateCheck[];
+  warnings?: string[];
 }
 
 export interface GoldEvent {
