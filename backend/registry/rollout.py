@@ -126,8 +126,6 @@ def promote(
     if not shadow and not gate.get("passed"):
         failed = [c["name"] for c in gate.get("checks", []) if not c["passed"]]
         raise RolloutError(f"gate failed: {'; '.join(failed)}")
-    if model.status == ModelStatus.RETIRED:
-        raise RolloutError(f"model {model.version} is retired")
     robots = [r.id for r in robots_in_scope(session, scope, target)]
     if canary_robot_id is not None and canary_robot_id not in robots:
         raise ValueError(f"canary_robot_id: robot {canary_robot_id} is not in the scope")
@@ -203,6 +201,9 @@ def rollback(session: Session, deployment: Deployment, reason: str) -> list[str]
         elif not deployment.shadow and robot.assigned_model_id == deployment.model_version_id:
             robot.assigned_model_id = previous[robot.id]
             changed.append(robot.id)
+            restored = session.get(ModelVersion, previous[robot.id]) if previous[robot.id] else None
+            if restored is not None:
+                restored.status = ModelStatus.PRODUCTION
     model = session.get(ModelVersion, deployment.model_version_id)
     still_used = session.scalars(
         select(Robot.id).where(Robot.assigned_model_id == model.id).limit(1)
