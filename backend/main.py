@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import asyncio
 import logging
 from contextlib import asynccontextmanager
 from pathlib import Path
@@ -14,7 +15,18 @@ from sqlalchemy import func, select
 from sqlalchemy.exc import DataError
 
 from backend.alarms.monitor import AlarmMonitor
-from backend.api import alarm_review, alarms, audit, auth, labelling, misc, robots, videos
+from backend.api import (
+    alarm_review,
+    alarms,
+    audit,
+    auth,
+    jobs,
+    labelling,
+    misc,
+    registry,
+    robots,
+    videos,
+)
 from backend.db import make_engine, make_session_factory
 from backend.deps import CurrentUser
 from backend.ingest import robot_ws
@@ -25,6 +37,7 @@ from backend.models.alarms import Alarm, AlarmState
 from backend.realtime import browser_ws
 from backend.realtime.bus import AlarmBus
 from backend.realtime.hub import BrowserHub
+from backend.registry import push as model_push
 from backend.settings import Settings
 
 log = logging.getLogger("vigil.backend")
@@ -37,6 +50,8 @@ ROUTERS = (
     alarm_review.router,
     audit.router,
     videos.router,
+    registry.router,
+    jobs.router,
 )
 
 
@@ -61,9 +76,11 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         writer.start()
         app.state.monitor = monitor = AlarmMonitor(factory, settings, bus.publish)
         monitor.start()
+        reconcile = asyncio.create_task(model_push.reconcile_forever(app))
         try:
             yield
         finally:
+            reconcile.cancel()
             await monitor.stop()
             await writer.stop()
             await bus.stop()
