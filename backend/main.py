@@ -2,18 +2,31 @@
 
 from __future__ import annotations
 
+import asyncio
 import logging
 from contextlib import asynccontextmanager
 from pathlib import Path
 
-from fastapi import FastAPI, HTTPException, Response, status
-from fastapi.responses import FileResponse
+from fastapi import FastAPI, HTTPException, Request, Response, status
+from fastapi.responses import FileResponse, JSONResponse
 from fastapi.staticfiles import StaticFiles
 from prometheus_client import CONTENT_TYPE_LATEST, generate_latest
 from sqlalchemy import func, select
+from sqlalchemy.exc import DataError
 
 from backend.alarms.monitor import AlarmMonitor
-from backend.api import alarm_review, alarms, audit, auth, labelling, misc, robots, videos
+from backend.api import (
+    alarm_review,
+    alarms,
+    audit,
+    auth,
+    jobs,
+    labelling,
+    misc,
+    registry,
+    robots,
+    videos,
+)
 from backend.db import make_engine, make_session_factory
 from backend.deps import CurrentUser
 from backend.ingest import robot_ws
@@ -24,6 +37,7 @@ from backend.models.alarms import Alarm, AlarmState
 from backend.realtime import browser_ws
 from backend.realtime.bus import AlarmBus
 from backend.realtime.hub import BrowserHub
+from backend.registry import push as model_push
 from backend.settings import Settings
 
 log = logging.getLogger("vigil.backend")
@@ -36,6 +50,8 @@ ROUTERS = (
     alarm_review.router,
     audit.router,
     videos.router,
+    registry.router,
+    jobs.router,
 )
 
 
@@ -60,9 +76,11 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         writer.start()
         app.state.monitor = monitor = AlarmMonitor(factory, settings, bus.publish)
         monitor.start()
+        reconcile = asyncio.create_task(model_push.reconcile_forever(app))
         try:
             yield
         finally:
+            reconcile.cancel()
             await monitor.stop()
             await writer.stop()
             await bus.stop()
@@ -97,6 +115,12 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         for kind in ("emergency", "pause", "robot_offline", "stream_stalled"):
             metrics.open_alarms.labels(kind).set(counts.get(kind, 0))
         return Response(generate_latest(metrics.registry), media_type=CONTENT_TYPE_LATEST)
+
+    @app.exception_handler(DataError)
+    def unstorable_value(request: Request, error: DataError) -> JSONResponse:
+        # e.g. a NUL byte in a text field on PostgreSQL: the client's value, not our fault.
+        reason = str(error.orig).splitlines()[0] if error.orig else "invalid value"
+        return JSONResponse({"detail": f"value cannot be stored: {reason}"}, status_code=422)
 
     _mount_frontend(app, settings.frontend_dir)
     return app

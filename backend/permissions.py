@@ -10,6 +10,7 @@ ANNOTATOR, NURSE, ENGINEER, ADMIN = Role.ANNOTATOR, Role.NURSE, Role.ENGINEER, R
 EVERYONE = frozenset(Role)
 PUBLIC: frozenset[Role] = frozenset()  # no login needed
 LABELLERS = frozenset({ANNOTATOR, ENGINEER, ADMIN})
+ROBOT_TOKEN: frozenset[Role] = frozenset()  # no user login; the route checks the robot's token
 
 #: (method, path template) -> roles allowed. PUBLIC routes need no credentials at all.
 PERMISSIONS: dict[tuple[str, str], frozenset[Role]] = {
@@ -66,6 +67,27 @@ PERMISSIONS: dict[tuple[str, str], frozenset[Role]] = {
     ("GET", "/api/labelling/videos/{video_id}/probability"): LABELLERS,
     ("POST", "/api/labelling/videos/{video_id}/view3d"): LABELLERS,
     ("GET", "/metrics"): frozenset({ENGINEER, ADMIN}),
+    # Model registry, promotion, fleet and jobs (issue 8).
+    ("GET", "/api/models"): frozenset({ENGINEER, ADMIN}),
+    ("GET", "/api/models/compare"): frozenset({ENGINEER, ADMIN}),
+    ("GET", "/api/models/{model_id}"): frozenset({ENGINEER, ADMIN}),
+    ("GET", "/api/models/{model_id}/plots/{name}"): frozenset({ENGINEER, ADMIN}),
+    ("GET", "/api/models/{model_id}/gate"): frozenset({ENGINEER, ADMIN}),
+    ("POST", "/api/models/{model_id}/promote"): frozenset({ENGINEER}),
+    ("POST", "/api/models/{model_id}/shadow"): frozenset({ENGINEER}),
+    ("GET", "/api/deployments"): frozenset({ENGINEER, ADMIN}),
+    ("POST", "/api/deployments/{deployment_id}/approve"): frozenset({ENGINEER}),
+    ("POST", "/api/deployments/{deployment_id}/advance"): frozenset({ENGINEER}),
+    ("POST", "/api/deployments/{deployment_id}/rollback"): frozenset({ENGINEER, ADMIN}),
+    ("GET", "/api/fleet"): frozenset({ENGINEER, ADMIN}),
+    ("GET", "/api/jobs"): frozenset({ENGINEER, ADMIN}),
+    ("POST", "/api/jobs"): frozenset({ENGINEER}),
+    ("GET", "/api/jobs/{job_id}"): frozenset({ENGINEER, ADMIN}),
+    ("POST", "/api/jobs/{job_id}/cancel"): frozenset({ENGINEER, ADMIN}),
+    # Robots authenticate with their own token (X-Robot-Id + Bearer), checked in the route;
+    # no user login applies, hence no user role.
+    ("GET", "/api/robot/models/{version}/file"): ROBOT_TOKEN,
+    ("GET", "/api/robot/models/{version}/manifest"): ROBOT_TOKEN,
 }
 
 

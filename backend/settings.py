@@ -70,6 +70,20 @@ class Settings(BaseSettings):
     viser_host: str = Field(default="127.0.0.1", description="3D view (viser) listens here")
     viser_port: int = Field(default=8090, description="3D view (viser) port, started on first use")
     robot_hello_timeout_s: float = Field(default=5.0, description="time a robot has to say hello")
+    gate_false_alarm_budget: float = Field(
+        default=0.15,
+        description="promotion gate: largest share of gold-set daily-activity recordings with a "
+        "false alarm",
+    )
+    gate_latency_ms: float = Field(
+        default=33.0, description="promotion gate: per-frame p95 latency bound (30 frames/s)"
+    )
+    require_second_approver: bool = Field(
+        default=False, description="a promotion waits for a second engineer's approval"
+    )
+    assignment_resend_s: float = Field(
+        default=30.0, description="resend a model assignment a robot has not switched to"
+    )
 
     def escalation_seconds_for(self, ward: str) -> float:
         return self.escalation_seconds_by_ward.get(ward, self.escalation_seconds)

@@ -10,7 +10,12 @@ import { AgreementPage } from "./pages/annotator/AgreementPage";
 import { LabelPage } from "./pages/annotator/LabelPage";
 import { ReviewPage } from "./pages/annotator/ReviewPage";
 import { VideosPage } from "./pages/annotator/VideosPage";
-import { EngineerPage } from "./pages/EngineerPage";
+import { ComparePage } from "./pages/engineer/ComparePage";
+import { EngineerLayout } from "./pages/engineer/EngineerLayout";
+import { FleetPage } from "./pages/engineer/FleetPage";
+import { JobsPage } from "./pages/engineer/JobsPage";
+import { ModelPage } from "./pages/engineer/ModelPage";
+import { RegistryPage } from "./pages/engineer/RegistryPage";
 import { Layout } from "./pages/Layout";
 import { LoginPage } from "./pages/LoginPage";
 
@@ -28,7 +33,13 @@ export function App() {
         <Route path="/nurse/history" element={<RequireRole section="nurse"><HistoryPage /></RequireRole>} />
         <Route path="/nurse/fatigue" element={<RequireRole section="nurse"><FatiguePage /></RequireRole>} />
         <Route path="/nurse/alarms/:alarmId" element={<RequireRole section="nurse"><AlarmDetailPage /></RequireRole>} />
-        <Route path="/engineer" element={<RequireRole section="engineer"><EngineerPage /></RequireRole>} />
+        <Route path="/engineer" element={<RequireRole section="engineer"><EngineerLayout /></RequireRole>}>
+          <Route index element={<RegistryPage />} />
+          <Route path="models/:modelId" element={<ModelPage />} />
+          <Route path="compare" element={<ComparePage />} />
+          <Route path="fleet" element={<FleetPage />} />
+          <Route path="jobs" element={<JobsPage />} />
+        </Route>
       </Route>
       <Route path="*" element={<Navigate to={user ? homeFor(user.role) : "/login"} replace />} />
     </Routes>
