@@ -25,7 +25,7 @@ from backend.labelling.queries import (
     video_segments,
 )
 from backend.labelling.review import review_queue
-from backend.labelling.rgb import FrameCache, blur_head, crop, encode_jpeg
+from backend.labelling.rgb import FrameCache, JpegCache, blur_head, crop, encode_jpeg
 from backend.labelling.schemas import (
     AgreementOut,
     AnnotatorsOut,
@@ -65,6 +65,7 @@ ExportFormat = Literal["csv", "json", "coco"]
 def install(app: FastAPI, settings: Settings) -> None:
     """Start-up wiring: frame cache, model lane, and 4xx for labelling errors."""
     app.state.rgb_frames = FrameCache(settings.rgb_cache_frames)
+    app.state.rgb_jpegs = JpegCache()
     app.state.model_lane = LaneComputer(settings.labelling_model_dir)
     app.state.viewer3d = viewer = Viewer3D(settings.viser_host, settings.viser_port)
     startup_shutdown = app.router.lifespan_context
@@ -74,6 +75,7 @@ def install(app: FastAPI, settings: Settings) -> None:
         async with startup_shutdown(app_) as state:
             yield state
         viewer.stop()
+        app_.state.rgb_frames.close()
 
     app.router.lifespan_context = lifespan
 
@@ -439,6 +441,10 @@ def rgb_frame(
         raise LabellingError(f"frame: {frame} is outside 0..{video.frame_count - 1}")
     if not blur and user.role != Role.ANNOTATOR:
         raise Forbidden("blur: only annotators may see unblurred faces")
+    headers = {"Cache-Control": "private, max-age=3600"}
+    cached = request.app.state.rgb_jpegs.get((video.id, frame, blur))
+    if cached is not None:
+        return Response(cached, media_type="image/jpeg", headers=headers)
     number = max(frame + video.rgb_frame_offset, 0)
     picture = crop(request.app.state.rgb_frames.get(video.rgb_path, number), video.rgb_crop)
     if blur:
@@ -452,11 +458,9 @@ def rgb_frame(
             height / video.image_height if video.image_height else float(height),
         )
         picture = blur_head(picture, keypoints, scale)
-    return Response(
-        encode_jpeg(picture),
-        media_type="image/jpeg",
-        headers={"Cache-Control": "private, max-age=3600"},
-    )
+    data = encode_jpeg(picture)
+    request.app.state.rgb_jpegs.put((video.id, frame, blur), data)
+    return Response(data, media_type="image/jpeg", headers=headers)
 
 
 @router.get("/videos/{video_id}/probability")
