@@ -7,9 +7,9 @@ Each pass runs ``robot_agent.sources.mediapipe_video.MediaPipeVideoSource`` over
 detection/tracking confidence 0.3, crop to the RGB half). fps = frames / seconds spent decoding,
 cropping, converting and estimating (the source's ``measured_fps``); start-up (model load) is
 excluded. The figure is the median over passes; ``fps_at_median_frame_time`` (1000 / median
-per-frame milliseconds) is less sensitive to other jobs' bursts. The 1-minute load average before and after is
-recorded because other jobs on the machine slow it down. ``measure()`` is what bench/robot.py
-calls for its ``mediapipe_fps``.
+per-frame milliseconds) is less sensitive to other jobs' bursts. The 1-minute load average
+before and after is recorded because other jobs on the machine slow it down. ``measure()`` is
+what bench/robot.py calls for its ``mediapipe_fps``.
 """
 
 from __future__ import annotations
