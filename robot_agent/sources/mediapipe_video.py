@@ -58,6 +58,8 @@ class MediaPipeVideoSource:
     runs at its own pace. max_frames stops early (None: the whole video / forever).
     """
 
+    generated = False
+
     def __init__(
         self,
         video: str | Path | int,

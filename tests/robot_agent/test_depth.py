@@ -6,7 +6,8 @@ import cv2
 import numpy as np
 import pytest
 
-from robot_agent.depth import sample_depth, with_depth
+from robot_agent.depth import people_with_depth, sample_depth, with_depth
+from robot_agent.sources.base import Observation
 from robot_agent.sources.replay import UrfdReplaySource
 from vigil.datasets import urfd
 from vigil.skeleton import SkeletonFrame
@@ -105,3 +106,20 @@ def test_scaled_keypoints_bad_input_and_batch():
 
 def test_depth_dir_exists():
     assert Path(DEPTH_DIR).is_dir(), f"URFD depth frames missing at {DEPTH_DIR}"
+
+
+def test_people_with_depth_samples_everyone_or_keeps_known_depth(urfd_frames):
+    obs = urfd_frames[-1]
+    person = obs.people[0]
+    shifted = SkeletonFrame(person.keypoints.copy(), timestamp=person.timestamp)
+    shifted.keypoints[person.present, 0] -= 150  # a second "person" further left
+    obs = Observation(obs.timestamp, [person, shifted], depth_image=obs.depth_image,
+                      depth_scale_mm=obs.depth_scale_mm)  # fmt: skip
+    people = people_with_depth(obs)
+    assert len(people) == 2
+    for got, source in zip(people, obs.people, strict=True):
+        expected = sample_depth(obs.depth_image, source.keypoints, obs.depth_scale_mm)
+        np.testing.assert_array_equal(got.depth, expected)
+        assert got.timestamp == source.timestamp
+    known = SkeletonFrame(person.keypoints, np.full(25, 3.0, np.float32))
+    assert people_with_depth(Observation(0.0, [known]))[0].depth[0] == 3.0

@@ -18,6 +18,7 @@ from vigil.synthetic import generate_transport
 def assert_keypoint_source(source):
     """The KeypointSource protocol (not runtime-checkable): a name, an fps, iterable."""
     assert isinstance(source.name, str) and source.name
+    assert isinstance(source.generated, bool)
     assert source.fps > 0
     assert callable(iter(source).__next__)
 
@@ -201,5 +202,6 @@ def test_simulator_source_several_people_truth_and_back_to_back_transports():
             assert obs.people[obs.patient_hint].timestamp == obs.timestamp
     hinted = [o for o in observations if o.patient_hint is not None]
     assert len(hinted) > 0.9 * len(observations)
+    assert source.generated and "generated" in source.name
     with pytest.raises(ValueError, match="n_people"):
         SimulatorSource(n_people=9)
