@@ -219,8 +219,8 @@ class PatientTracker:
     any DICT_4X4_50 marker). require_marker: with RGB, wait for a marker instead of falling back
     to the central, closest person. image_width: used when the observation carries no image.
     sample_depth: when the observation has a depth image, sample everyone's depth first (one
-    vectorised call, about 0.2 ms for five people) so distance separates people who overlap in the image; the reported
-    patient then carries that depth.
+    vectorised call, about 0.2 ms for five people) so distance separates people who overlap in
+    the image; the reported patient then carries that depth.
     """
 
     def __init__(
