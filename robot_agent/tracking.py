@@ -1,0 +1,375 @@
+"""Which of the people in view is the patient, frame after frame.
+
+At the start of a transport the tracker is SEARCHING: it picks the patient once, as
+
+1. the person wearing an ArUco marker (``cv2.aruco`` DICT_4X4_50; the marker's centre must lie
+   inside the person's torso box) when the observation has an RGB image, else
+2. the most central, closest person: the lowest sum of the horizontal offset from the image
+   centre (0 centre, 1 edge) and the relative distance (median keypoint depth when every
+   candidate has depth, else inverse skeleton height; 0 for the closest, 1 for twice as far).
+
+Then it is TRACKING. Everyone in view is followed internally (so a bystander walking in front
+of the patient keeps their own identity): detections are matched to the followed people
+greedily, lowest cost first, where the cost is the mean pixel distance over the joints both
+skeletons have divided by the skeleton height, within a gate. Only the patient is reported;
+everyone else is discarded. People seen in the same frame as the patient are marked bystanders.
+
+A frame without the patient makes it LOST. It becomes TRACKING again when the patient's track
+is matched (the gate widens a little per missed frame), or when a person who appeared since the
+patient was lost, and is no known bystander, shows up near the patient's last position (the
+patient changed pose while hidden). After ``max_missed`` frames it is SEARCHING and selects
+anew, never choosing a known bystander (the marker, if seen, still decides).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+from enum import StrEnum
+
+import cv2
+import numpy as np
+
+from robot_agent.depth import people_with_depth
+from robot_agent.sources.base import Observation
+from vigil.skeleton import INDEX, SkeletonFrame
+
+TORSO = np.array([INDEX[k] for k in ("neck", "r_shoulder", "l_shoulder", "mid_hip", "r_hip",
+                                     "l_hip")])  # fmt: skip
+MIN_SHARED_JOINTS = 3
+MIN_PERSON_KEYPOINTS = 4
+
+
+class TrackState(StrEnum):
+    SEARCHING = "searching"  # no patient chosen (start of a transport, or lost for too long)
+    TRACKING = "tracking"  # the patient was matched in this frame
+    LOST = "lost"  # the patient was not matched; still remembered for max_missed frames
+
+
+#: Every allowed state change, written once; anything else is a bug.
+TRANSITIONS: dict[TrackState, frozenset[TrackState]] = {
+    TrackState.SEARCHING: frozenset({TrackState.SEARCHING, TrackState.TRACKING}),
+    TrackState.TRACKING: frozenset({TrackState.TRACKING, TrackState.LOST}),
+    TrackState.LOST: frozenset({TrackState.LOST, TrackState.TRACKING, TrackState.SEARCHING}),
+}
+
+
+class SelectedBy(StrEnum):
+    MARKER = "aruco_marker"
+    CENTRAL_CLOSEST = "central_closest"
+
+
+@dataclass(frozen=True, slots=True)
+class TrackResult:
+    """The tracker's verdict for one observation.
+
+    patient: the patient's skeleton in this frame (None unless state is TRACKING; with depth
+    sampled when the observation had a depth image and the tracker samples depth);
+    index: its position in ``observation.people``; selected_by: set on the frame the patient
+    was chosen; missed: consecutive frames without a match.
+    """
+
+    state: TrackState
+    patient: SkeletonFrame | None
+    index: int | None
+    selected_by: SelectedBy | None = None
+    missed: int = 0
+
+
+def _box(keypoints: np.ndarray, joints: np.ndarray | None = None) -> np.ndarray | None:
+    pts = keypoints if joints is None else keypoints[joints]
+    pts = pts[pts[:, 2] > 0, :2]
+    if len(pts) < 2:
+        return None
+    return np.concatenate([pts.min(0), pts.max(0)])
+
+
+def skeleton_height(keypoints: np.ndarray) -> float:
+    box = _box(keypoints)
+    if box is None:
+        return 0.0
+    return float(max(box[3] - box[1], box[2] - box[0], 1.0))
+
+
+def detect_markers(
+    rgb: np.ndarray, dictionary: int = cv2.aruco.DICT_4X4_50
+) -> dict[int, np.ndarray]:
+    """ArUco marker id -> centre (x, y) in pixels of the image."""
+    grey = cv2.cvtColor(rgb, cv2.COLOR_BGR2GRAY) if rgb.ndim == 3 else rgb
+    detector = cv2.aruco.ArucoDetector(cv2.aruco.getPredefinedDictionary(dictionary))
+    corners, ids, _ = detector.detectMarkers(grey)
+    if ids is None:
+        return {}
+    return {int(i): c.reshape(4, 2).mean(0) for i, c in zip(ids.ravel(), corners, strict=True)}
+
+
+def marker_wearer(
+    people: list[SkeletonFrame], markers: dict[int, np.ndarray], marker_id: int | None = None,
+    margin: float = 0.15,
+) -> int | None:  # fmt: skip
+    """Index of the person whose torso box (widened by ``margin`` of its size) holds the marker
+    (``marker_id``, or any marker when None); the smallest such box wins."""
+    centres = [c for i, c in markers.items() if marker_id is None or i == marker_id]
+    best, best_area = None, np.inf
+    for index, person in enumerate(people):
+        box = _box(person.keypoints, TORSO)
+        if box is None:
+            continue
+        pad = margin * np.maximum(box[2:] - box[:2], 10.0)
+        lo, hi = box[:2] - pad, box[2:] + pad
+        area = float(np.prod(hi - lo))
+        if any(np.all((c >= lo) & (c <= hi)) for c in centres) and area < best_area:
+            best, best_area = index, area
+    return best
+
+
+def central_closest(people: list[SkeletonFrame], image_width: float) -> int | None:
+    """Index of the most central, closest person (see the module docstring), None if nobody
+    has enough keypoints."""
+    candidates = [i for i, p in enumerate(people) if p.present.sum() >= MIN_PERSON_KEYPOINTS]
+    if not candidates:
+        return None
+    offsets, distances = [], []
+    depths = [np.nanmedian(p.depth) if np.isfinite(p.depth).any() else np.nan for p in people]
+    use_depth = all(np.isfinite(depths[i]) for i in candidates)
+    for i in candidates:
+        kp = people[i].keypoints
+        centre_x = float(np.mean(kp[kp[:, 2] > 0, 0]))
+        offsets.append(abs(centre_x - image_width / 2) / (image_width / 2))
+        distances.append(depths[i] if use_depth else 1.0 / skeleton_height(kp))
+    distances_arr = np.asarray(distances)
+    score = np.asarray(offsets) + distances_arr / distances_arr.min() - 1.0
+    return candidates[int(np.argmin(score))]
+
+
+def person_depth(person: SkeletonFrame) -> float:
+    """Median keypoint depth in metres, NaN when unknown."""
+    known = person.depth[np.isfinite(person.depth)]
+    return float(np.median(known)) if known.size else float("nan")
+
+
+def match_cost(predicted: np.ndarray, candidate: np.ndarray, scale: float) -> float:
+    """Mean distance over the joints both skeletons have, in units of ``scale`` pixels
+    (inf with fewer than MIN_SHARED_JOINTS shared joints)."""
+    shared = (predicted[:, 2] > 0) & (candidate[:, 2] > 0)
+    if shared.sum() < MIN_SHARED_JOINTS:
+        return float("inf")
+    gaps = np.linalg.norm(predicted[shared, :2] - candidate[shared, :2], axis=1)
+    return float(gaps.mean() / scale)
+
+
+class _Track:
+    """One person followed from frame to frame (the patient or someone to tell apart)."""
+
+    __slots__ = ("keypoints", "depth", "velocity", "scale", "missed", "born", "bystander")
+
+    def __init__(self, person: SkeletonFrame, born: int) -> None:
+        self.keypoints = person.keypoints.copy()
+        self.depth = person_depth(person)
+        self.velocity = np.zeros(2, np.float32)  # px per frame of the skeleton's centre
+        self.scale = max(skeleton_height(self.keypoints), 20.0)
+        self.missed = 0
+        self.born = born  # frame count when first seen
+        self.bystander = False  # seen in the same frame as the patient: not the patient
+
+    def predicted(self) -> np.ndarray:
+        out = self.keypoints.copy()
+        out[:, :2] += self.velocity * (self.missed + 1)
+        return out
+
+    def centre(self) -> np.ndarray:
+        present = self.keypoints[:, 2] > 0
+        if not present.any():
+            return np.full(2, np.inf, np.float32)
+        return self.keypoints[present, :2].mean(0)
+
+    def depth_differs(self, person: SkeletonFrame, limit: float) -> bool:
+        """Both distances known and further apart than ``limit`` metres."""
+        return bool(abs(person_depth(person) - self.depth) > limit)  # NaN compares False
+
+    def accept(self, person: SkeletonFrame) -> None:
+        keypoints = person.keypoints
+        depth = person_depth(person)
+        if np.isfinite(depth):
+            self.depth = depth
+        frames = self.missed + 1
+        present = keypoints[:, 2] > 0
+        shared = present & (self.keypoints[:, 2] > 0)
+        if shared.any():
+            step = (keypoints[shared, :2] - self.keypoints[shared, :2]).mean(0) / frames
+            self.velocity = (0.5 * self.velocity + 0.5 * step).astype(np.float32)
+        merged = keypoints.copy()  # joints that went missing are kept, so matching has more
+        merged[~present] = self.keypoints[~present]
+        merged[~present, :2] += self.velocity * frames
+        self.keypoints = merged
+        self.scale = max(skeleton_height(keypoints), 20.0)
+        self.missed = 0
+
+
+class PatientTracker:
+    """Selects the patient at the start of a transport and follows them (see module docstring).
+
+    max_missed: frames the patient may go unmatched before the tracker searches anew (30: one
+    second at 30 frames/s). gate: largest accepted match cost (mean joint distance / skeleton
+    height) on the frame after a match; gate_growth is added per missed frame. reacquire_radius:
+    how near (in skeleton heights) to the patient's last position a newly appeared person must
+    be to be taken for the patient while LOST. depth_gate_m: when both a followed person and a
+    detection have a known distance (median keypoint depth), they never match if it differs by
+    more than this (scaled up per missed frame like the gate); sample depth for everyone before
+    tracking to use it. marker_id: the ArUco id the patient wears (None:
+    any DICT_4X4_50 marker). require_marker: with RGB, wait for a marker instead of falling back
+    to the central, closest person. image_width: used when the observation carries no image.
+    sample_depth: when the observation has a depth image, sample everyone's depth first (one
+    vectorised call, about 0.2 ms for five people) so distance separates people who overlap in
+    the image; the reported patient then carries that depth.
+    """
+
+    def __init__(
+        self,
+        max_missed: int = 30,
+        gate: float = 0.25,
+        gate_growth: float = 0.02,
+        reacquire_radius: float = 0.75,
+        depth_gate_m: float = 0.6,
+        marker_id: int | None = None,
+        require_marker: bool = False,
+        image_width: float = 640.0,
+        sample_depth: bool = True,
+    ) -> None:
+        if max_missed < 0:
+            raise ValueError(f"max_missed must be >= 0, got {max_missed}")
+        if gate <= 0:
+            raise ValueError(f"gate must be positive, got {gate}")
+        self.max_missed = max_missed
+        self.gate = gate
+        self.gate_growth = gate_growth
+        self.reacquire_radius = reacquire_radius
+        self.depth_gate_m = depth_gate_m
+        self.marker_id = marker_id
+        self.require_marker = require_marker
+        self.image_width = image_width
+        self.sample_depth = sample_depth
+        self.reset()
+
+    def reset(self) -> None:
+        """Start over (a new transport): the next observation selects the patient anew."""
+        self.state_ = TrackState.SEARCHING
+        self.tracks_: list[_Track] = []
+        self.patient_: _Track | None = None
+        self.frame_ = 0
+
+    @property
+    def missed_(self) -> int:
+        return self.patient_.missed if self.patient_ is not None else 0
+
+    def _move(self, new: TrackState) -> None:
+        if new not in TRANSITIONS[self.state_]:
+            raise RuntimeError(f"tracker: illegal transition {self.state_} -> {new}")
+        self.state_ = new
+
+    def update(self, observation: Observation) -> TrackResult:
+        self.frame_ += 1
+        if self.sample_depth and observation.depth_image is not None and observation.people:
+            observation = replace(observation, people=people_with_depth(observation))
+        people = observation.people
+        assigned = self._associate(people)  # detection index -> track, for everyone
+        if self.state_ is TrackState.SEARCHING:
+            return self._select(observation, assigned)
+        index = next((i for i, t in assigned.items() if t is self.patient_), None)
+        if index is None and self.state_ is TrackState.LOST:
+            index = self._reacquire(assigned)
+        if index is not None:
+            self._mark_bystanders(assigned)
+            self._move(TrackState.TRACKING)
+            return TrackResult(self.state_, people[index], index)
+        self._move(TrackState.LOST)
+        if self.missed_ <= self.max_missed:
+            return TrackResult(self.state_, None, None, missed=self.missed_)
+        self._move(TrackState.SEARCHING)
+        self.patient_ = None
+        return self._select(observation, assigned)
+
+    def _select(self, observation: Observation, assigned: dict[int, _Track]) -> TrackResult:
+        people = observation.people
+        index, how = None, None
+        if observation.rgb is not None:
+            index = marker_wearer(people, detect_markers(observation.rgb), self.marker_id)
+            how = SelectedBy.MARKER
+        if index is None and not (self.require_marker and observation.rgb is not None):
+            candidates = [i for i in range(len(people)) if not assigned[i].bystander]
+            choice = central_closest([people[i] for i in candidates], self._width(observation))
+            index = None if choice is None else candidates[choice]
+            how = SelectedBy.CENTRAL_CLOSEST
+        if index is None:
+            self._move(TrackState.SEARCHING)
+            return TrackResult(self.state_, None, None)
+        self.patient_ = assigned[index]
+        self.patient_.bystander = False
+        self._mark_bystanders(assigned)
+        self._move(TrackState.TRACKING)
+        return TrackResult(self.state_, people[index], index, selected_by=how)
+
+    def _reacquire(self, assigned: dict[int, _Track]) -> int | None:
+        """A person who appeared since the patient was lost, near the patient's last position."""
+        patient = self.patient_
+        lost_at = self.frame_ - patient.missed
+        last = patient.centre()
+        best, best_distance = None, self.reacquire_radius
+        for index, track in assigned.items():
+            if track.bystander or track.born < lost_at or track.missed:
+                continue
+            if np.isfinite(track.depth) and abs(track.depth - patient.depth) > self.depth_gate_m:
+                continue
+            distance = float(np.linalg.norm(track.centre() - last)) / patient.scale
+            if distance <= best_distance:
+                best, best_distance = index, distance
+        if best is not None:
+            self.tracks_.remove(patient)
+            self.patient_ = assigned[best]
+        return best
+
+    def _mark_bystanders(self, assigned: dict[int, _Track]) -> None:
+        for track in assigned.values():
+            if track is not self.patient_:
+                track.bystander = True
+
+    def _width(self, observation: Observation) -> float:
+        for image in (observation.rgb, observation.depth_image):
+            if image is not None:
+                return float(image.shape[1])
+        return self.image_width
+
+    def _associate(self, people: list[SkeletonFrame]) -> dict[int, _Track]:
+        """Match detections to followed people (greedy, lowest cost first, within the gate);
+        unmatched detections start new tracks, tracks unmatched too long are dropped."""
+        pairs = []
+        for t, track in enumerate(self.tracks_):
+            predicted = track.predicted()
+            limit = self.gate + self.gate_growth * track.missed
+            depth_limit = self.depth_gate_m * (1 + 0.05 * track.missed)
+            for d, person in enumerate(people):
+                if track.depth_differs(person, depth_limit):
+                    continue
+                cost = match_cost(predicted, person.keypoints, track.scale)
+                if cost <= limit:
+                    pairs.append((cost, t, d))
+        pairs.sort()
+        assigned: dict[int, _Track] = {}
+        used: set[int] = set()
+        for _, t, d in pairs:
+            if t in used or d in assigned:
+                continue
+            used.add(t)
+            assigned[d] = self.tracks_[t]
+            self.tracks_[t].accept(people[d])
+        for t, track in enumerate(self.tracks_):
+            if t not in used:
+                track.missed += 1
+        self.tracks_ = [
+            t for t in self.tracks_ if t.missed <= self.max_missed or t is self.patient_
+        ]
+        for d, person in enumerate(people):
+            if d not in assigned:
+                track = _Track(person, born=self.frame_)
+                self.tracks_.append(track)
+                assigned[d] = track
+        return assigned
