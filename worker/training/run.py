@@ -164,7 +164,8 @@ def markdown(report: dict) -> str:
         "",
         f"{report['folds']}-fold cross-validation grouped by sequence; threshold and delay chosen "
         "on the training folds only. Recall and F1 are frame-level before the delay filter; the "
-        "event columns use the delay-filtered alarms. Threshold and delay shown are those of the model "
+        "event columns use the delay-filtered alarms. Threshold and delay shown are those of the "
+        "model "
         f"retrained on all data. Best: **{report['best']}**. Retrain of all models: "
         f"{report['retrain_s']:.0f} s; cross-validation: {report['evaluation_s']:.0f} s.",
         "",
