@@ -9,6 +9,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+from threadpoolctl import threadpool_limits
 from tqdm import tqdm
 
 from vigil.classes import Decision
@@ -38,7 +39,14 @@ def rank_key(row: dict) -> tuple:
     return (row["falls_detected"] - row["adl_false_alarms"], row["frame_f1"])
 
 
-def train_all(
+def train_all(*args, blas_threads: int = 1, **kwargs) -> dict:
+    """See _train_all. BLAS runs single-threaded: on a shared 2-core machine, threaded matrix
+    products in many small fits oversubscribe the cores and run many times slower."""
+    with threadpool_limits(limits=blas_threads):
+        return _train_all(*args, **kwargs)
+
+
+def _train_all(
     data: FrameData,
     trainers: list[Trainer],
     out_dir: Path,
