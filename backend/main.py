@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import asyncio
 import logging
 import sys
 from contextlib import asynccontextmanager
@@ -15,7 +16,18 @@ from sqlalchemy import func, select
 from sqlalchemy.exc import DataError
 
 from backend.alarms.monitor import AlarmMonitor
-from backend.api import alarms, audit, auth, misc, robots, videos
+from backend.api import (
+    alarm_review,
+    alarms,
+    audit,
+    auth,
+    jobs,
+    labelling,
+    misc,
+    registry,
+    robots,
+    videos,
+)
 from backend.db import make_engine, make_session_factory
 from backend.deps import CurrentUser
 from backend.ingest import robot_ws
@@ -26,11 +38,22 @@ from backend.models.alarms import Alarm, AlarmState
 from backend.realtime import browser_ws
 from backend.realtime.bus import AlarmBus
 from backend.realtime.hub import BrowserHub
+from backend.registry import push as model_push
 from backend.settings import Settings
 
 log = logging.getLogger("vigil.backend")
 
-ROUTERS = (auth.router, misc.router, robots.router, alarms.router, audit.router, videos.router)
+ROUTERS = (
+    auth.router,
+    misc.router,
+    robots.router,
+    alarms.router,
+    alarm_review.router,
+    audit.router,
+    videos.router,
+    registry.router,
+    jobs.router,
+)
 
 
 def create_app(settings: Settings | None = None) -> FastAPI:
@@ -58,9 +81,11 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         writer.start()
         app.state.monitor = monitor = AlarmMonitor(factory, settings, bus.publish)
         monitor.start()
+        reconcile = asyncio.create_task(model_push.reconcile_forever(app))
         try:
             yield
         finally:
+            reconcile.cancel()
             await monitor.stop()
             await writer.stop()
             await bus.stop()
@@ -78,6 +103,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.state.robots = RobotRegistry(on_change=metrics.connected_robots.set)
     for router in ROUTERS:
         app.include_router(router)
+    labelling.install(app, settings)
     app.include_router(robot_ws.router)
     app.include_router(browser_ws.router)
 

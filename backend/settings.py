@@ -60,7 +60,33 @@ class Settings(BaseSettings):
         default=0.0005, description="sys.setswitchinterval of the backend process (ingest latency)"
     )
     monitor_interval_s: float = Field(default=1.0, description="alarm monitor period")
+    urfd_dir: Path | None = Field(
+        default=None,
+        description="URFD dataset directory; None = ../shared/datasets/urfd next to the repo",
+    )
+    labelling_model_dir: Path | None = Field(
+        default=REPO_ROOT / "var" / "models" / "default-walking",
+        description="model that fills the labelling timeline's probability lane when a video "
+        "has no stored scores; None disables it",
+    )
+    rgb_cache_frames: int = Field(default=600, description="decoded RGB frames kept in memory")
+    viser_host: str = Field(default="127.0.0.1", description="3D view (viser) listens here")
+    viser_port: int = Field(default=8090, description="3D view (viser) port, started on first use")
     robot_hello_timeout_s: float = Field(default=5.0, description="time a robot has to say hello")
+    gate_false_alarm_budget: float = Field(
+        default=0.15,
+        description="promotion gate: largest share of gold-set daily-activity recordings with a "
+        "false alarm",
+    )
+    gate_latency_ms: float = Field(
+        default=33.0, description="promotion gate: per-frame p95 latency bound (30 frames/s)"
+    )
+    require_second_approver: bool = Field(
+        default=False, description="a promotion waits for a second engineer's approval"
+    )
+    assignment_resend_s: float = Field(
+        default=30.0, description="resend a model assignment a robot has not switched to"
+    )
 
     def escalation_seconds_for(self, ward: str) -> float:
         return self.escalation_seconds_by_ward.get(ward, self.escalation_seconds)

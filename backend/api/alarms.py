@@ -2,6 +2,7 @@ from datetime import datetime
 
 from fastapi import APIRouter, BackgroundTasks, HTTPException, Request, status
 
+from backend.alarm_review import feedback
 from backend.alarms import queries, service
 from backend.alarms.schemas import AcknowledgeIn, AlarmEventOut, AlarmOut, ResolveIn
 from backend.alarms.state import IllegalTransition
@@ -85,4 +86,5 @@ def resolve(
         service.resolve(session, alarm, user, body.verdict, body.reason, body.comment)
     except IllegalTransition as error:
         raise HTTPException(status.HTTP_409_CONFLICT, str(error)) from None
+    feedback.propose_label_from_verdict(session, alarm, user.id)
     return _commit_and_publish(session, request, tasks, alarm)

@@ -16,6 +16,7 @@ from starlette.concurrency import run_in_threadpool
 
 from backend.db import transaction
 from backend.ingest import service
+from backend.registry import push as model_push
 from vigil import protocol
 from vigil.protocol import Hello, Welcome
 
@@ -156,6 +157,7 @@ async def robot_socket(websocket: WebSocket) -> None:
             Welcome(robot_id=hello.robot_id, last_seq=last_seq).model_dump_json()
         )
         log.info("robot %s connected (agent %s)", hello.robot_id, hello.agent_version)
+        await model_push.on_robot_connected(websocket, hello.robot_id)
         writer = state.writer
         while True:
             message = await receive_message(websocket)

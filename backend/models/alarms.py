@@ -94,7 +94,7 @@ class Alarm(Base):
     first_frame_ts: Mapped[float | None] = mapped_column()
     last_frame_ts: Mapped[float | None] = mapped_column()
     decision_count: Mapped[int] = mapped_column(default=0)
-    model_version: Mapped[str | None] = mapped_column(String(64))
+    model_version: Mapped[str | None] = mapped_column(String(64), index=True)
     threshold: Mapped[float | None] = mapped_column()
     delay_ms: Mapped[int | None] = mapped_column()
 

@@ -13,6 +13,7 @@ class JobKind(StrEnum):
     RETHRESHOLD = "rethreshold"
     EVALUATE = "evaluate"
     REGISTER = "register"
+    WHATIF = "whatif"  # replay labelled recordings with another threshold and delay
 
 
 class JobStatus(StrEnum):

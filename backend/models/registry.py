@@ -42,6 +42,7 @@ class DeploymentScope(StrEnum):
 
 
 class DeploymentStatus(StrEnum):
+    PENDING_APPROVAL = "pending_approval"  # signed off by one engineer, waiting for a second
     CANARY = "canary"
     ACTIVE = "active"
     ROLLED_BACK = "rolled_back"
@@ -64,3 +65,10 @@ class Deployment(Base):
     comment: Mapped[str | None] = mapped_column(Text)
     created_by_id: Mapped[int | None] = mapped_column(ForeignKey("users.id"))
     created_at: Mapped[datetime] = mapped_column(UTCDateTime, default=utcnow)
+    # {"robots": [...], "canary": id|None, "previous": {robot_id: model_version_id|None}}
+    rollout: Mapped[dict | None] = mapped_column(JSON)
+    rolled_back_at: Mapped[datetime | None] = mapped_column(UTCDateTime)
+    rollback_reason: Mapped[str | None] = mapped_column(Text)
+    updated_at: Mapped[datetime | None] = mapped_column(
+        UTCDateTime, default=utcnow, onupdate=utcnow
+    )
