@@ -35,10 +35,14 @@ SHARED_FLAGS = {
     "--outbox-budget-bytes": "outbox_budget_bytes",
     "--heartbeat-s": "heartbeat_s",
     "--batch-frames": "batch_frames",
+    "--backoff-initial-s": "backoff_initial_s",
+    "--backoff-max-s": "backoff_max_s",
     "--alarm-after-s": "alarm_after_s",
     "--alarm-hook": "alarm_hook",
     "--speed": "speed",
     "--seed": "seed",
+    "--duration-s": "duration_s",
+    "--people": "people",
     "--log-level": "log_level",
 }
 RUN_FLAGS = {

@@ -57,6 +57,10 @@ class AgentSettings(BaseSettings):
     loop: bool = Field(default=False, description="start the source again when it ends")
     scenario: str | None = Field(default=None, description="generated source: one scenario")
     seed: int = Field(default=0, description="generated source: random seed")
+    duration_s: float = Field(
+        default=30.0, gt=0, description="generated source: length of a transport in seconds"
+    )
+    people: int = Field(default=3, ge=1, le=5, description="generated source: people in view")
     patient: str | None = Field(default=None, max_length=64, description="patient pseudonym")
     location: str | None = Field(default=None, max_length=128)
     model_dir: Path | None = Field(

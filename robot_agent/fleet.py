@@ -73,6 +73,8 @@ def build_fleet(
             seed=settings.seed + 1000 * number,
             locomotion=_locomotion(settings.mode, number),
             count=transports,
+            n_people=settings.people,
+            duration_s=settings.duration_s,
             patient_prefix=f"GEN-{number + 1}",
         )
         agents.append(
