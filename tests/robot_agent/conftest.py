@@ -56,16 +56,36 @@ class AgentProcess:
         hook = workdir / "hook.py"
         hook.write_text(HOOK)
         command = [
-            sys.executable, "-m", "robot_agent.cli", "run", "--backend", server.robot_ws_url,
-            "--robot-id", ROBOT_ID, "--token", ROBOT_TOKEN, "--outbox", str(self.outbox),
-            "--models-dir", str(workdir / "robot-models"), "--heartbeat-s", "1",
-            "--backoff-initial-s", "0.2", "--backoff-max-s", "1",
-            "--alarm-hook", f"{sys.executable} {hook} {self.hook_log}", *args,
-        ]  # fmt: skip
+            sys.executable,
+            "-m",
+            "robot_agent.cli",
+            "run",
+            "--backend",
+            server.robot_ws_url,
+            "--robot-id",
+            ROBOT_ID,
+            "--token",
+            ROBOT_TOKEN,
+            "--outbox",
+            str(self.outbox),
+            "--models-dir",
+            str(workdir / "robot-models"),
+            "--heartbeat-s",
+            "1",
+            "--backoff-initial-s",
+            "0.2",
+            "--backoff-max-s",
+            "1",
+            "--alarm-hook",
+            f"{sys.executable} {hook} {self.hook_log}",
+            *args,
+        ]
         self.process = subprocess.Popen(
-            command, cwd=REPO_ROOT, stdout=subprocess.DEVNULL,
+            command,
+            cwd=REPO_ROOT,
+            stdout=subprocess.DEVNULL,
             stderr=self.log_path.open("w"),
-        )  # fmt: skip
+        )
 
     def log(self) -> str:
         return self.log_path.read_text()

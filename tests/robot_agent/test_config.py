@@ -80,8 +80,11 @@ def test_cli_exits_2_with_a_message_naming_the_field(capsys, tmp_path):
 def test_console_script_reports_bad_environment_value():
     result = subprocess.run(
         [sys.executable, "-m", "robot_agent.cli", "run", "--robot-id", "r", "--token", "t"],
-        cwd=REPO, env={"PATH": "/usr/bin:/bin", "VIGIL_ROBOT_HEARTBEAT_S": "often"},
-        capture_output=True, text=True, timeout=60,
-    )  # fmt: skip
+        cwd=REPO,
+        env={"PATH": "/usr/bin:/bin", "VIGIL_ROBOT_HEARTBEAT_S": "often"},
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
     assert result.returncode == 2
     assert "bad configuration: heartbeat_s" in result.stderr

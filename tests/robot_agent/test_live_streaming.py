@@ -11,27 +11,53 @@ from tests.support.live_backend import ROBOT_ID
 from .conftest import NurseSocket, query, wait_for
 from .tiny_model import write_upright_model
 
-GENERATED_FALL = ["--source", "generated", "--scenario", "fall", "--seed", "3", "--people", "1",
-                  "--duration-s", "12", "--speed", "2"]  # fmt: skip
+GENERATED_FALL = [
+    "--source",
+    "generated",
+    "--scenario",
+    "fall",
+    "--seed",
+    "3",
+    "--people",
+    "1",
+    "--duration-s",
+    "12",
+    "--speed",
+    "2",
+]
 
 
 def frames_by_seq(backend) -> tuple[int, int, int | None, int | None]:
-    (row,) = query(backend, "SELECT COUNT(*), COUNT(DISTINCT seq), MIN(seq), MAX(seq) FROM frames "
-                            "WHERE robot_id = ?", ROBOT_ID)  # fmt: skip
+    (row,) = query(
+        backend,
+        "SELECT COUNT(*), COUNT(DISTINCT seq), MIN(seq), MAX(seq) FROM frames WHERE robot_id = ?",
+        ROBOT_ID,
+    )
     return row
 
 
 def emergency_alarms(backend) -> list[tuple]:
-    return query(backend, "SELECT id, first_seq FROM alarms WHERE robot_id = ? AND kind = ?",
-                 ROBOT_ID, "emergency")  # fmt: skip
+    return query(
+        backend,
+        "SELECT id, first_seq FROM alarms WHERE robot_id = ? AND kind = ?",
+        ROBOT_ID,
+        "emergency",
+    )
 
 
 def test_backend_killed_during_a_fall_loses_no_frame_and_the_alarm_arrives_after_restart(
     backend, agents, tmp_path
 ):
     model = write_upright_model(tmp_path / "model", "upright-1", threshold=0.5, delay_ms=200)
-    agent = agents(backend, *GENERATED_FALL, "--model-dir", str(model), "--alarm-after-s", "1",
-                   "--exit-when-done")  # fmt: skip
+    agent = agents(
+        backend,
+        *GENERATED_FALL,
+        "--model-dir",
+        str(model),
+        "--alarm-after-s",
+        "1",
+        "--exit-when-done",
+    )
     wait_for(lambda: frames_by_seq(backend)[0] >= 30, 30, "the first frames to be stored")
     assert emergency_alarms(backend) == []  # the patient is still walking
     backend.kill()
@@ -54,8 +80,13 @@ def test_backend_killed_during_a_fall_loses_no_frame_and_the_alarm_arrives_after
     assert sent >= 12 * 30 * 0.9  # the whole generated transport
     assert agent.hook_events() == ["raised robot-a", "cleared robot-a"]
     (first_emergency,) = [seq for _, seq in emergency_alarms(backend)]
-    decisions = query(backend, "SELECT decision, model_version, threshold, delay_ms FROM frames "
-                               "WHERE robot_id = ? AND seq = ?", ROBOT_ID, first_emergency)  # fmt: skip
+    decisions = query(
+        backend,
+        "SELECT decision, model_version, threshold, delay_ms FROM frames "
+        "WHERE robot_id = ? AND seq = ?",
+        ROBOT_ID,
+        first_emergency,
+    )
     assert decisions == [("emergency", "upright-1", 0.5, 200)]
 
 
@@ -64,8 +95,16 @@ def test_agent_with_a_fresh_outbox_continues_after_the_backends_numbers(backend,
     duplicates of the old ones."""
     query(backend, "UPDATE robots SET last_seq = 500 WHERE id = ?", ROBOT_ID)
     model = write_upright_model(tmp_path / "model", "upright-1")
-    agent = agents(backend, *GENERATED_FALL[:-1], "8", "--duration-s", "4", "--model-dir",
-                   str(model), "--exit-when-done")  # fmt: skip
+    agent = agents(
+        backend,
+        *GENERATED_FALL[:-1],
+        "8",
+        "--duration-s",
+        "4",
+        "--model-dir",
+        str(model),
+        "--exit-when-done",
+    )
     assert agent.process.wait(60) == 0, agent.log()[-3000:]
     count, distinct, first, last = frames_by_seq(backend)
     assert first == 501 and count == distinct == last - 500 == agent.next_seq() - 501
@@ -79,10 +118,28 @@ def test_a_refused_token_stops_the_agent_with_a_clear_message(backend, tmp_path,
     from tests.support.live_backend import REPO_ROOT
 
     result = subprocess.run(
-        [sys.executable, "-m", "robot_agent.cli", "run", "--backend", backend.robot_ws_url,
-         "--robot-id", ROBOT_ID, "--token", token, "--outbox", str(tmp_path / "o.sqlite"),
-         "--duration-s", "2", "--people", "1"],
-        cwd=REPO_ROOT, capture_output=True, text=True, timeout=60,
-    )  # fmt: skip
+        [
+            sys.executable,
+            "-m",
+            "robot_agent.cli",
+            "run",
+            "--backend",
+            backend.robot_ws_url,
+            "--robot-id",
+            ROBOT_ID,
+            "--token",
+            token,
+            "--outbox",
+            str(tmp_path / "o.sqlite"),
+            "--duration-s",
+            "2",
+            "--people",
+            "1",
+        ],
+        cwd=REPO_ROOT,
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
     assert result.returncode == 1
     assert "refused this robot's id or token" in result.stderr

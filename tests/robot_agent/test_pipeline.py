@@ -26,8 +26,9 @@ class FallSource:
     name, fps = "fall", 30.0
 
     def __iter__(self) -> Iterator[Observation]:
-        source = SimulatorSource("walking", seed=3, duration_s=12, n_people=1, events=["fall"],
-                                 speed=0)  # fmt: skip
+        source = SimulatorSource(
+            "walking", seed=3, duration_s=12, n_people=1, events=["fall"], speed=0
+        )
         return iter(source)
 
 
@@ -57,7 +58,10 @@ def test_every_frame_carries_the_models_decision_version_threshold_and_delay(tmp
     for frame in frames:
         FrameRecord.model_validate(frame)  # what the backend will accept
         assert (frame["model_version"], frame["threshold"], frame["delay_ms"]) == (
-            "upright-1", 0.5, 200)  # fmt: skip
+            "upright-1",
+            0.5,
+            200,
+        )
         assert frame["transport_id"] == "t-1"
     decisions = [f["decision"] for f in frames]
     truths = [o.truth for o in observations]
