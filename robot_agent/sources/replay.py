@@ -1,0 +1,242 @@
+"""Replay recorded keypoints: a URFD sequence, or a Vigil JSON label export.
+
+Both pace themselves with ``speed`` (1 real time, 2 twice as fast, 0 as fast as possible).
+
+URFD (real data, ``vigil.datasets.urfd``): one person per frame where MoveNet found somebody,
+nobody where it did not. ``truth`` is a fine label standing in for the official per-frame label,
+chosen so its class is the dataset's: fall-* label 0 -> falling, 1 -> lying_on_floor,
+-1 -> standing; adl-* 1 -> lying_down_deliberately, 0 -> sitting_down, -1 -> standing;
+unlabelled frames -> None. With ``depth_dir`` (URFD depth PNGs ``<sequence>-cam0-d-NNN.png``)
+the frame whose official index matches carries its depth image.
+
+Vigil export (``backend/labelling/export.py``, format ``vigil-labels`` version 1): a JSON object
+with ``video`` (``fps``, ``image_width``, ``image_height``, ``generated``, ...), ``frames``
+(``index``, ``ts`` seconds, ``keypoints`` 25 x [x, y, confidence] in pixels, ``depth`` 25 metres
+or null) and ``segments`` (``first_frame``, ``last_frame``, ``label_key``); a frame's truth is
+the label of the last segment listed that covers it.
+"""
+
+from __future__ import annotations
+
+import csv
+import gzip
+import json
+import math
+import re
+from collections.abc import Iterator
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from robot_agent.sources.base import Observation
+from robot_agent.sources.pacing import Pacer
+from vigil.datasets import urfd
+from vigil.skeleton import N_KEYPOINTS, SkeletonFrame
+
+URFD_DEPTH_SCALE_MM = 6000 / 65535  # fall sequences (ADL: 7000 / 65535)
+URFD_ADL_DEPTH_SCALE_MM = 7000 / 65535
+_URFD_TRUTH = {
+    ("fall", 0.0): "falling",
+    ("fall", 1.0): "lying_on_floor",
+    ("fall", -1.0): "standing",
+    ("adl", 1.0): "lying_down_deliberately",
+    ("adl", 0.0): "sitting_down",
+    ("adl", -1.0): "standing",
+}
+EXPORT_FORMAT = "vigil-labels"
+EXPORT_VERSIONS = (1,)
+
+
+class SourceError(ValueError):
+    """A recording that cannot be replayed; the message names the file and the field."""
+
+
+def urfd_image_frames(sequence: str, directory: Path | str | None = None) -> np.ndarray:
+    """Official frame index (``image_frame`` column) of every keypoint row of ``sequence``,
+    in the row order of ``vigil.datasets.urfd.load`` (by ``npy_index``)."""
+    path = Path(directory or urfd.default_dir()) / urfd.KEYPOINTS_FILE
+    with gzip.open(path, "rt", newline="") as handle:
+        reader = csv.reader(handle)
+        header = next(reader)
+        col = {name: i for i, name in enumerate(header)}
+        rows = [
+            (int(r[col["npy_index"]]), int(r[col["image_frame"]]))
+            for r in reader
+            if r[col["sequence"]] == sequence
+        ]
+    return np.array([frame for _, frame in sorted(rows)], np.int64)
+
+
+def frame_number(path: Path) -> int | None:
+    """The last run of digits in a file's name (``fall-01-cam0-d-002.png`` -> 2)."""
+    runs = re.findall(r"\d+", path.stem)
+    return int(runs[-1]) if runs else None
+
+
+def depth_files(directory: Path | str) -> dict[int, Path]:
+    """16-bit depth PNGs of a directory by frame number."""
+    directory = Path(directory)
+    if not directory.is_dir():
+        raise SourceError(f"depth directory {directory} does not exist")
+    found: dict[int, Path] = {}
+    for path in sorted(directory.glob("*.png")):
+        number = frame_number(path)
+        if number is not None:
+            found[number] = path
+    return found
+
+
+def read_depth_png(path: Path) -> np.ndarray:
+    image = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
+    if image is None:
+        raise SourceError(f"{path}: not a readable image")
+    if image.dtype != np.uint16 or image.ndim != 2:
+        raise SourceError(f"{path}: depth must be a 16-bit single-channel PNG, got {image.dtype}")
+    return image
+
+
+class UrfdReplaySource:
+    """A URFD sequence (REAL data) from the shared keypoint file."""
+
+    fps = urfd.FPS
+
+    def __init__(
+        self,
+        sequence: str = "fall-01",
+        directory: Path | str | None = None,
+        speed: float = 1.0,
+        depth_dir: Path | str | None = None,
+    ) -> None:
+        self.directory = Path(directory or urfd.default_dir())
+        try:
+            (self.sequence,) = urfd.load(self.directory, [sequence])
+        except KeyError as error:
+            raise SourceError(f"urfd: no sequence {sequence!r} in {self.directory}") from error
+        except FileNotFoundError as error:
+            raise SourceError(str(error)) from error
+        self.name = f"urfd:{sequence}"
+        self.speed = speed
+        self.depth = depth_files(depth_dir) if depth_dir is not None else {}
+        # row -> depth PNG; where two rows share an official frame (the first two), the later
+        self.depth_rows: dict[int, Path] = {}
+        if self.depth:
+            frames = urfd_image_frames(sequence, self.directory)
+            by_frame = {int(frame): row for row, frame in enumerate(frames)}
+            self.depth_rows = {
+                row: self.depth[frame] for frame, row in by_frame.items() if frame in self.depth
+            }
+        kind = sequence.split("-")[0]
+        self.depth_scale_mm = URFD_DEPTH_SCALE_MM if kind == "fall" else URFD_ADL_DEPTH_SCALE_MM
+        self.truth = [
+            None if math.isnan(label) else _URFD_TRUTH[(kind, float(label))]
+            for label in self.sequence.urfd_label
+        ]
+
+    def __len__(self) -> int:
+        return len(self.sequence)
+
+    def __iter__(self) -> Iterator[Observation]:
+        pacer = Pacer(self.speed)
+        seq = self.sequence
+        for i, (keypoints, ts) in enumerate(zip(seq.keypoints, seq.timestamps, strict=True)):
+            ts = float(ts)
+            pacer.wait(ts)
+            depth_path = self.depth_rows.get(i)
+            depth_image = read_depth_png(depth_path) if depth_path is not None else None
+            people = [SkeletonFrame(keypoints, timestamp=ts)] if seq.detected[i] else []
+            yield Observation(
+                timestamp=ts,
+                people=people,
+                index=i,
+                depth_image=depth_image,
+                depth_scale_mm=self.depth_scale_mm,
+                truth=self.truth[i],
+                patient_hint=0 if people else None,
+            )
+
+
+def _field(document: dict, key: str, where: str, kind: type | tuple[type, ...]):
+    if key not in document:
+        raise SourceError(f"{where}: missing field {key!r}")
+    value = document[key]
+    if not isinstance(value, kind) or isinstance(value, bool) and bool not in np.atleast_1d(kind):
+        raise SourceError(f"{where}.{key}: wrong type {type(value).__name__}")
+    return value
+
+
+class VigilExportSource:
+    """A Vigil JSON label export (``vigil-labels`` v1) replayed frame by frame."""
+
+    def __init__(self, path: Path | str, speed: float = 1.0) -> None:
+        self.path = Path(path)
+        try:
+            document = json.loads(self.path.read_text())
+        except (OSError, json.JSONDecodeError) as error:
+            raise SourceError(f"{self.path}: cannot read JSON ({error})") from error
+        where = str(self.path)
+        if not isinstance(document, dict) or document.get("format") != EXPORT_FORMAT:
+            raise SourceError(f"{where}: format must be {EXPORT_FORMAT!r}")
+        if document.get("version") not in EXPORT_VERSIONS:
+            raise SourceError(f"{where}.version: unsupported {document.get('version')!r}")
+        video = _field(document, "video", where, dict)
+        fps = video.get("fps") or 30.0
+        if not isinstance(fps, int | float) or fps <= 0:
+            raise SourceError(f"{where}.video.fps: must be a positive number")
+        self.fps = float(fps)
+        self.generated = bool(video.get("generated", False))
+        self.name = f"export:{video.get('name', self.path.stem)}"
+        frames = _field(document, "frames", where, list)
+        self.frames = [self._frame(f, f"{where}.frames[{i}]") for i, f in enumerate(frames)]
+        labels: dict[int, str] = {}
+        for i, seg in enumerate(_field(document, "segments", where, list)):
+            at = f"{where}.segments[{i}]"
+            first = _field(seg, "first_frame", at, int)
+            last = _field(seg, "last_frame", at, int)
+            key = _field(seg, "label_key", at, str)
+            if last < first:
+                raise SourceError(f"{at}.last_frame: before first_frame")
+            for index in range(first, last + 1):
+                labels[index] = key
+        self.labels = labels
+        self.speed = speed
+
+    def _frame(self, frame: dict, where: str) -> tuple[int, float, np.ndarray, np.ndarray]:
+        if not isinstance(frame, dict):
+            raise SourceError(f"{where}: must be an object")
+        index = _field(frame, "index", where, int)
+        ts = frame.get("ts")
+        ts = index / self.fps if ts is None else ts
+        if not isinstance(ts, int | float):
+            raise SourceError(f"{where}.ts: must be a number")
+        try:
+            keypoints = np.asarray(_field(frame, "keypoints", where, list), np.float32)
+        except (TypeError, ValueError) as error:
+            raise SourceError(f"{where}.keypoints: not numbers") from error
+        if keypoints.shape != (N_KEYPOINTS, 3) or not np.isfinite(keypoints).all():
+            raise SourceError(f"{where}.keypoints: must be 25 finite [x, y, confidence]")
+        depth = frame.get("depth")
+        if depth is None:
+            depth_arr = np.full(N_KEYPOINTS, np.nan, np.float32)
+        else:
+            depth_arr = np.array([np.nan if v is None else v for v in depth], np.float32)
+            if depth_arr.shape != (N_KEYPOINTS,):
+                raise SourceError(f"{where}.depth: must hold 25 numbers or nulls")
+        return index, float(ts), keypoints, depth_arr
+
+    def __len__(self) -> int:
+        return len(self.frames)
+
+    def __iter__(self) -> Iterator[Observation]:
+        pacer = Pacer(self.speed)
+        for index, ts, keypoints, depth in self.frames:
+            pacer.wait(ts)
+            seen = bool((keypoints[:, 2] > 0).any())
+            people = [SkeletonFrame(keypoints, depth, ts)] if seen else []
+            yield Observation(
+                timestamp=ts,
+                people=people,
+                index=index,
+                truth=self.labels.get(index),
+                patient_hint=0 if people else None,
+            )
