@@ -131,7 +131,10 @@ class RobotAgent:
 
     # --- frames ------------------------------------------------------------------------------
     async def produce(self) -> None:
-        for number, plan in enumerate(self.transports, start=1):
+        number = 0
+        # The next plan is made in a thread: preparing a generated transport takes a while.
+        while (plan := await asyncio.to_thread(next, self.transports, None)) is not None:
+            number += 1
             transport_id = f"{self.robot_id}-{int(time.time())}-{number}"[-64:]
             self.pipeline.start_transport(transport_id, time.time(), plan.patient, plan.location)
             log.info(
@@ -153,27 +156,19 @@ class RobotAgent:
         self.source_done.set()
 
     async def _stream(self, plan: TransportPlan) -> None:
-        if plan.materialise:
-            observations: Iterator[Observation] = iter(
-                await asyncio.to_thread(list, plan.observations)
-            )
-            next_observation = observations.__next__
-        else:
+        if plan.materialise:  # generated data: make the whole transport in a thread at once
+            ready = iter(await asyncio.to_thread(list, plan.observations))
+        else:  # a recording or camera: read frame by frame in a thread
             iterator = iter(plan.observations)
-
-            def next_observation() -> Observation:
-                return next(iterator)
-
         speed = self.options.speed
         started: float | None = None
         first_ts = 0.0
         while True:
-            try:
-                if plan.materialise:
-                    observation = next_observation()
-                else:
-                    observation = await asyncio.to_thread(next_observation)
-            except StopIteration:
+            if plan.materialise:
+                observation = next(ready, None)
+            else:
+                observation = await asyncio.to_thread(next, iterator, None)
+            if observation is None:
                 return
             if speed > 0:
                 if started is None:

@@ -52,6 +52,8 @@ RUN_FLAGS = {
     "--source": "source",
     "--source-path": "source_path",
     "--depth-dir": "depth_dir",
+    "--depth-scale-mm": "depth_scale_mm",
+    "--crop": "crop",
     "--scenario": "scenario",
     "--patient": "patient",
     "--location": "location",

@@ -50,10 +50,22 @@ class AgentSettings(BaseSettings):
     mode: TransportMode = Field(default=TransportMode.WALKING, description="transport mode")
     source: SourceKind = Field(default=SourceKind.GENERATED, description="keypoint source")
     source_path: str | None = Field(
-        default=None, description="file, directory, video or camera index of the source"
+        default=None,
+        description="replay: URFD sequence (fall-01) or export .json; openpose: directory; "
+        "mediapipe: video file or camera index",
     )
-    depth_dir: Path | None = Field(default=None, description="16-bit depth PNGs (openpose)")
-    speed: float = Field(default=1.0, gt=0, description="replay speed (1 = real time)")
+    depth_dir: Path | None = Field(
+        default=None, description="16-bit depth PNGs (openpose, URFD replay)"
+    )
+    depth_scale_mm: float = Field(
+        default=1.0, gt=0, description="raw depth value -> millimetres (openpose depth PNGs)"
+    )
+    crop: str | None = Field(
+        default=None, description="mediapipe: x,y,width,height of the frame to use"
+    )
+    speed: float = Field(
+        default=1.0, ge=0, description="replay speed (1 = real time, 0 = as fast as possible)"
+    )
     loop: bool = Field(default=False, description="start the source again when it ends")
     scenario: str | None = Field(default=None, description="generated source: one scenario")
     seed: int = Field(default=0, description="generated source: random seed")

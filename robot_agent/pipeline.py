@@ -89,6 +89,8 @@ class Pipeline:
         self.transport_id: str | None = None
         self._transport_started = 0.0
         self._clock_offset: float | None = None  # wall time minus source time
+        self._last_ts: float | None = None
+        self._last_wall_ts = 0.0
         self._history: deque[SkeletonFrame] = deque(maxlen=WARMUP_FRAMES)
         self.last_decision: Decision | None = None
 
@@ -107,6 +109,7 @@ class Pipeline:
         self.transport_id = transport_id
         self._transport_started = ts
         self._clock_offset = None
+        self._last_ts = None
         self.tracker.reset()
         if self.classifier is not None:
             self.classifier.reset()
@@ -140,8 +143,24 @@ class Pipeline:
             len(self._history),
         )
 
+    def _restart_stream(self, timestamp: float) -> None:
+        """The source's clock went back (a recording started again): the features and the
+        delay filter start a new stream; frame times keep running forward."""
+        log.warning(
+            "transport %s: source time went back from %.3f s to %.3f s; classifying a new stream",
+            self.transport_id, self._last_ts, timestamp,
+        )  # fmt: skip
+        self.tracker.reset()
+        if self.classifier is not None:
+            self.classifier.reset()
+        self._history.clear()
+        self._clock_offset = self._last_wall_ts + 0.001 - timestamp
+
     # --- frames ----------------------------------------------------------------------------
     def process(self, observation: Observation) -> FrameResult:
+        if self._last_ts is not None and observation.timestamp < self._last_ts:
+            self._restart_stream(observation.timestamp)
+        self._last_ts = observation.timestamp
         patient = self.tracker.update(observation).patient
         if patient is None:
             frame = SkeletonFrame(empty_keypoints(), timestamp=observation.timestamp)
@@ -164,6 +183,7 @@ class Pipeline:
         if self._clock_offset is None:
             self._clock_offset = self._transport_started - observation.timestamp
         wall_ts = observation.timestamp + self._clock_offset
+        self._last_wall_ts = wall_ts
         body = self._frame_body(frame, wall_ts, decision, classification)
         seq = self.outbox.add_frame(body, _priority(classification, decision))
         changed = decision is not None and decision != self.last_decision

@@ -62,8 +62,9 @@ def build_robot(settings: AgentSettings) -> RobotAgent:
         classifier,
         ground_truth_fallback=settings.source == SourceKind.GENERATED,
     )
-    # A camera paces itself; recorded and generated frames are paced by the agent.
-    speed = 0.0 if settings.source == SourceKind.MEDIAPIPE else settings.speed
+    # A camera paces itself; recorded, generated and video frames are paced by the agent.
+    camera = settings.source == SourceKind.MEDIAPIPE and (settings.source_path or "").isdigit()
+    speed = 0.0 if camera else settings.speed
     return RobotAgent(
         settings.robot_id,
         token,

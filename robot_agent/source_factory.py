@@ -63,17 +63,34 @@ def transports_for(settings: AgentSettings) -> Iterator[TransportPlan]:
         )
     if settings.source_path is None:
         raise ConfigError(f"source_path: required for source {kind.value}")
+    path = settings.source_path
     if kind == SourceKind.REPLAY:
         module = _module("replay", kind)
-        make = lambda: module.open_replay(settings.source_path, speed=0)  # noqa: E731
+        if path.endswith(".json"):  # a Vigil label export
+
+            def make():
+                return module.VigilExportSource(path, speed=0)
+        else:  # a URFD sequence name, e.g. fall-01 (real data)
+
+            def make():
+                return module.UrfdReplaySource(
+                    path.removeprefix("urfd:"), speed=0, depth_dir=settings.depth_dir
+                )
     elif kind == SourceKind.OPENPOSE:
         module = _module("openpose_dir", kind)
-        make = lambda: module.OpenPoseDirSource(  # noqa: E731
-            settings.source_path, depth_dir=settings.depth_dir, speed=0
-        )
+
+        def make():
+            return module.OpenPoseDirSource(
+                path, depth_dir=settings.depth_dir, depth_scale_mm=settings.depth_scale_mm
+            )
     else:
         module = _module("mediapipe_video", kind)
-        make = lambda: module.MediaPipeSource(settings.source_path)  # noqa: E731
+        video = int(path) if path.isdigit() else path  # a number is a camera index
+        crop = module.parse_crop(settings.crop) if settings.crop else None
+
+        def make():
+            return module.MediaPipeVideoSource(video, crop=crop)
+
     try:
         make()  # a bad path fails now, naming the field, not in the middle of a run
     except (OSError, ValueError) as error:
