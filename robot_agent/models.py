@@ -58,7 +58,18 @@ def fetch_model(
     models_dir: Path,
     mode: TransportMode,
 ) -> FrameClassifier:
-    """Download, verify, store and load an assigned model (blocking: run it in a thread)."""
+    """Download, verify, store and load an assigned model (blocking: run it in a thread).
+    A copy stored earlier with the assignment's sha256 is loaded without downloading."""
+    stored = models_dir / assignment.version
+    if (stored / MANIFEST_NAME).is_file():
+        try:
+            classifier = FrameClassifier.from_dir(stored)  # checks the file's sha256
+            manifest = classifier.manifest
+            if manifest.sha256 == assignment.sha256 and manifest.mode == TransportMode(mode):
+                log.info("model %s found in %s, verified", assignment.version, stored)
+                return classifier
+        except Exception as error:  # damaged copy: download it again
+            log.warning("stored model %s unusable (%s): downloading it", stored, error)
     data = _get(assignment.url, robot_id, token)
     try:
         manifest_json = json.loads(_get(manifest_url(assignment.url), robot_id, token))
