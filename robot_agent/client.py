@@ -108,6 +108,11 @@ class RobotLink:
                 self.last_problem = f"backend unreachable ({type(error).__name__}: {error})"
             except InvalidURI as error:
                 raise LinkFatal(f"backend_url is not a websocket URL: {error}") from None
+            except (LinkFatal, asyncio.CancelledError):
+                raise
+            except Exception as error:  # e.g. an unreadable welcome: keep trying, say what
+                log.exception("robot %s: unexpected error on the link", self.robot_id)
+                self.last_problem = f"unexpected error ({type(error).__name__}: {error})"
             finally:
                 self.connected = False
             delay = self.backoff.next_delay()

@@ -216,35 +216,41 @@ class Outbox:
     def on_welcome(self, last_seq: int | None) -> None:
         """Align with what the backend already stored for this robot.
 
-        If the backend holds sequence numbers this outbox never handed out (a fresh outbox file,
-        a re-installed robot), the pending frames are renumbered after `last_seq`; otherwise
-        would the backend take them for duplicates and drop them.
+        If the backend holds sequence numbers this outbox never handed out (a fresh outbox file
+        on a robot that streamed before, a re-installed robot), the waiting frames are
+        renumbered after `last_seq`; the backend would otherwise take them for duplicates and
+        drop them. An outbox that was never welcomed cannot have sent anything yet, so on its
+        first welcome every number up to `last_seq` belongs to someone else.
         """
-        if last_seq is None:
-            return
-        if last_seq >= self._next_seq:
-            offset = last_seq + 1 - self._lowest_pending_seq()
-            self._db.execute("BEGIN")
-            # Two steps: shifting in place could collide with the UNIQUE seq of a later row.
-            self._db.execute("UPDATE outbox SET seq = -seq - 1 WHERE seq IS NOT NULL")
-            self._db.execute(
-                "UPDATE outbox SET seq = -seq - 1 + ?, after_seq = after_seq + ? "
-                "WHERE seq IS NOT NULL",
-                (offset, offset),
-            )
-            self._db.execute(
-                "UPDATE outbox SET after_seq = after_seq + ? WHERE seq IS NULL", (offset,)
-            )
-            self._next_seq += offset
-            self._set_meta("next_seq", self._next_seq)
-            self._db.execute("COMMIT")
-            log.warning(
-                "the backend already holds frames up to seq %d that this outbox never sent "
-                "(new outbox file?): numbering continues at %d",
-                last_seq,
-                self._lowest_pending_seq(),
-            )
-        self.acknowledge(last_seq)
+        first_welcome = not self._meta("welcomed", 0)
+        if last_seq is not None and (
+            last_seq >= self._next_seq or (first_welcome and self._lowest_pending_seq() <= last_seq)
+        ):
+            self._renumber_after(last_seq)
+        if first_welcome:
+            self._set_meta("welcomed", 1)
+        if last_seq is not None:
+            self.acknowledge(last_seq)
+
+    def _renumber_after(self, last_seq: int) -> None:
+        offset = last_seq + 1 - self._lowest_pending_seq()
+        self._db.execute("BEGIN")
+        # Two steps: shifting in place could collide with the UNIQUE seq of a later row.
+        self._db.execute("UPDATE outbox SET seq = -seq - 1 WHERE seq IS NOT NULL")
+        self._db.execute(
+            "UPDATE outbox SET seq = -seq - 1 + ?, after_seq = after_seq + ? WHERE seq IS NOT NULL",
+            (offset, offset),
+        )
+        self._db.execute("UPDATE outbox SET after_seq = after_seq + ? WHERE seq IS NULL", (offset,))
+        self._next_seq += offset
+        self._set_meta("next_seq", self._next_seq)
+        self._db.execute("COMMIT")
+        log.warning(
+            "the backend already holds frames up to seq %d that this outbox did not send "
+            "(new outbox file?): the waiting frames are numbered from %d on",
+            last_seq,
+            self._lowest_pending_seq(),
+        )
 
     def _lowest_pending_seq(self) -> int:
         row = self._db.execute("SELECT MIN(seq) FROM outbox WHERE seq IS NOT NULL").fetchone()

@@ -83,6 +83,7 @@ def test_over_budget_oldest_normal_frames_go_first_then_pause_never_emergency(tm
 
 def test_welcome_trims_what_the_backend_already_stored(tmp_path):
     outbox = Outbox(tmp_path / "o.sqlite")
+    outbox.on_welcome(None)  # first connection: the backend had nothing of this robot
     for i in range(5):
         outbox.add_frame(body(i), Priority.NORMAL)
     outbox.on_welcome(2)
@@ -109,3 +110,17 @@ def test_fresh_outbox_continues_after_the_backends_last_sequence_number(tmp_path
 def test_budget_must_be_positive(tmp_path):
     with pytest.raises(ValueError, match="budget_bytes"):
         Outbox(tmp_path / "o.sqlite", budget_bytes=0)
+
+
+def test_fresh_outbox_with_more_frames_than_the_backend_renumbers_them_all(tmp_path):
+    """Offline since installation: 8 frames waiting, the backend has 0..4 from an old outbox.
+    Trimming 0..4 as 'already stored' would lose five new frames."""
+    outbox = Outbox(tmp_path / "o.sqlite")
+    for i in range(8):
+        outbox.add_frame(body(i), Priority.NORMAL)
+    outbox.on_welcome(4)
+    assert seqs(outbox) == list(range(5, 13))
+    outbox.close()
+    reopened = Outbox(tmp_path / "o.sqlite")
+    reopened.on_welcome(6)  # later welcomes trim as usual
+    assert seqs(reopened) == list(range(7, 13))
