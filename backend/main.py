@@ -122,6 +122,11 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         reason = str(error.orig).splitlines()[0] if error.orig else "invalid value"
         return JSONResponse({"detail": f"value cannot be stored: {reason}"}, status_code=422)
 
+    @app.exception_handler(OverflowError)
+    def integer_out_of_range(request: Request, error: OverflowError) -> JSONResponse:
+        # SQLite raises this for integers beyond 64 bits, e.g. an absurd id in a path.
+        return JSONResponse({"detail": f"value out of range: {error}"}, status_code=422)
+
     _mount_frontend(app, settings.frontend_dir)
     return app
 
