@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from robot_agent.sources.base import Observation
 from vigil.skeleton import SkeletonFrame
 
 DEFAULT_WINDOW = 5  # pixels on a side; odd
@@ -81,3 +82,21 @@ def with_depth(
     """A copy of ``frame`` whose depth is sampled from ``depth_image`` (keypoints unchanged)."""
     depth = sample_depth(depth_image, frame.keypoints, scale_mm, window, keypoint_image_size)
     return SkeletonFrame(frame.keypoints, depth, frame.timestamp)
+
+
+def people_with_depth(
+    observation: Observation,
+    window: int = DEFAULT_WINDOW,
+    keypoint_image_size: tuple[float, float] | None = None,
+) -> list[SkeletonFrame]:
+    """Everyone in ``observation`` with depth sampled from its depth image, in one vectorised
+    call; without a depth image the people are returned as they are (depth the source knew, or
+    NaN). Run it before tracking so the tracker can tell people apart by distance too."""
+    people = observation.people
+    if observation.depth_image is None or not people:
+        return list(people)
+    keypoints = np.stack([p.keypoints for p in people])
+    depth = sample_depth(
+        observation.depth_image, keypoints, observation.depth_scale_mm, window, keypoint_image_size
+    )
+    return [SkeletonFrame(p.keypoints, d, p.timestamp) for p, d in zip(people, depth, strict=True)]

@@ -58,6 +58,8 @@ class MediaPipeVideoSource:
     runs at its own pace. max_frames stops early (None: the whole video / forever).
     """
 
+    generated = False
+
     def __init__(
         self,
         video: str | Path | int,
@@ -95,6 +97,7 @@ class MediaPipeVideoSource:
         self.frames_read = 0
         self.frames_with_person = 0
         self.busy_seconds = 0.0
+        self.frame_seconds: list[float] = []  # per frame: read, crop, convert, estimate
 
     @property
     def measured_fps(self) -> float:
@@ -150,7 +153,9 @@ class MediaPipeVideoSource:
                     size = (image.shape[1], image.shape[0])
                     people.append(from_mediapipe33(landmarks, timestamp, image_size=size))
                     self.frames_with_person += 1
-                self.busy_seconds += time.perf_counter() - busy
+                spent = time.perf_counter() - busy
+                self.busy_seconds += spent
+                self.frame_seconds.append(spent)
                 self.frames_read += 1
                 pacer.wait(timestamp)
                 yield Observation(timestamp=timestamp, people=people, index=index, rgb=image)

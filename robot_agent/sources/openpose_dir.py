@@ -25,6 +25,8 @@ class OpenPoseDirSource:
     URFD fall sequences: 6000 / 65535). speed: 1 real time, 0 as fast as possible.
     """
 
+    generated = False
+
     def __init__(
         self,
         directory: Path | str,

@@ -100,6 +100,7 @@ class UrfdReplaySource:
     """A URFD sequence (REAL data) from the shared keypoint file."""
 
     fps = urfd.FPS
+    generated = False
 
     def __init__(
         self,

@@ -54,8 +54,8 @@ class SimulatorSource:
     time, 0 as fast as possible.
     """
 
-    name = "simulator"
     fps = FPS
+    generated = True
 
     def __init__(
         self,
@@ -78,6 +78,7 @@ class SimulatorSource:
         self.speed = speed
         self.render_rgb = render_rgb
         self.marker_id = marker_id
+        self.name = f"simulator:{mode} (generated)"
         self.transport(0)  # bad parameters fail here, not in the middle of a run
 
     def transport(self, number: int) -> GeneratedTransport:

@@ -1,0 +1,158 @@
+"""Patient selection and tracking, on GENERATED scenes of people crossing the view."""
+
+import cv2
+import numpy as np
+import pytest
+
+from robot_agent.sources.base import Observation
+from robot_agent.sources.simulator import SimulatorSource
+from robot_agent.tracking import (
+    TRANSITIONS,
+    PatientTracker,
+    SelectedBy,
+    TrackState,
+    central_closest,
+    detect_markers,
+)
+from vigil.skeleton import SkeletonFrame
+from vigil.synthetic import generate_transport
+
+
+def crossing_seeds(mode, count, n_people=3, duration_s=12.0):
+    """Seeds whose bystanders really cross in front of or behind the patient (their skeleton
+    boxes overlap the patient's in some frames), so the test is not an easy one."""
+    seeds = []
+    seed = 0
+    while len(seeds) < count:
+        transport = generate_transport(mode, seed, duration_s, n_people=n_people)
+        patient = transport.patient_frames
+        overlap = 0
+        for other in range(transport.n_people):
+            if other == transport.patient_index:
+                continue
+            for a, b in zip(patient, transport.frames_per_person[other], strict=True):
+                if a is not None and b is not None and _overlap(a, b):
+                    overlap += 1
+        if overlap >= 5:
+            seeds.append(seed)
+        seed += 1
+    return seeds
+
+
+def _overlap(a: SkeletonFrame, b: SkeletonFrame) -> bool:
+    pa, pb = a.keypoints[a.present, :2], b.keypoints[b.present, :2]
+    return bool(np.all(pa.min(0) < pb.max(0)) and np.all(pb.min(0) < pa.max(0)))
+
+
+@pytest.mark.parametrize("mode", ["walking", "rollator", "wheelchair"])
+def test_three_people_crossing_patient_identity_never_switches(mode):
+    for seed in crossing_seeds(mode, 3):
+        tracker = PatientTracker()
+        visible = tracked = 0
+        for obs in SimulatorSource(mode, seed=seed, duration_s=12, n_people=3, speed=0):
+            result = tracker.update(obs)
+            if result.state is TrackState.TRACKING:
+                assert result.index == obs.patient_hint, (mode, seed, obs.index)
+                assert result.patient is obs.people[result.index]
+                tracked += 1
+            else:
+                assert result.patient is None and result.index is None
+            visible += obs.patient_hint is not None
+        assert tracked > 0.9 * visible, (mode, seed, tracked, visible)
+
+
+def test_occluded_patient_goes_lost_then_back_and_searches_after_max_missed():
+    source = SimulatorSource("walking", seed=1, duration_s=4, n_people=1, speed=0)
+    observations = list(source)
+    tracker = PatientTracker(max_missed=5)
+    states = [tracker.update(o).state for o in observations[:10]]
+    assert states == [TrackState.TRACKING] * 10
+    empty = Observation(timestamp=0.0, people=[])
+    states = [tracker.update(empty) for _ in range(6)]
+    assert [r.state for r in states] == [TrackState.LOST] * 5 + [TrackState.SEARCHING]
+    assert [r.missed for r in states[:5]] == [1, 2, 3, 4, 5]
+    back = tracker.update(observations[10])
+    assert back.state is TrackState.TRACKING and back.selected_by is SelectedBy.CENTRAL_CLOSEST
+    # a short gap keeps the identity without a new selection
+    tracker.update(empty)
+    again = tracker.update(observations[12])
+    assert again.state is TrackState.TRACKING and again.selected_by is None
+
+
+def test_state_transitions_are_checked():
+    tracker = PatientTracker()
+    assert TrackState.LOST not in TRANSITIONS[TrackState.SEARCHING]
+    with pytest.raises(RuntimeError, match="illegal transition searching -> lost"):
+        tracker._move(TrackState.LOST)
+    with pytest.raises(ValueError, match="max_missed"):
+        PatientTracker(max_missed=-1)
+
+
+def _standing_person(centre_x: float, height: float, depth: float | None = None) -> SkeletonFrame:
+    transport = generate_transport("walking", seed=3, duration_s=1, n_people=1)
+    frame = next(f for f in transport.patient_frames if f is not None)
+    kp = frame.keypoints.copy()
+    present = kp[:, 2] > 0
+    xy = kp[present, :2]
+    scale = height / (xy[:, 1].max() - xy[:, 1].min())
+    kp[present, :2] = (xy - xy.mean(0)) * scale + (centre_x, 240)
+    depth_arr = np.full(25, np.nan if depth is None else depth, np.float32)
+    return SkeletonFrame(kp, depth_arr)
+
+
+def test_central_closest_uses_depth_when_known_else_skeleton_size():
+    left_big = _standing_person(200, 300, depth=2.0)
+    centre_small = _standing_person(330, 150, depth=4.0)
+    assert central_closest([centre_small, left_big], 640) == 1  # twice as close beats central
+    left_big.depth[:] = np.nan
+    centre_small.depth[:] = np.nan
+    assert central_closest([centre_small, left_big], 640) == 1  # twice as tall, same verdict
+    similar = _standing_person(330, 280)
+    assert central_closest([left_big, similar], 640) == 1  # about as close: central wins
+
+
+def _marker_image(centre, side=40, marker_id=7):
+    image = np.full((480, 640, 3), 110, np.uint8)
+    dictionary = cv2.aruco.getPredefinedDictionary(cv2.aruco.DICT_4X4_50)
+    marker = cv2.aruco.generateImageMarker(dictionary, marker_id, side)
+    tile = cv2.copyMakeBorder(marker, 8, 8, 8, 8, cv2.BORDER_CONSTANT, value=255)
+    x0, y0 = int(centre[0]) - tile.shape[1] // 2, int(centre[1]) - tile.shape[0] // 2
+    image[y0 : y0 + tile.shape[0], x0 : x0 + tile.shape[1]] = tile[:, :, None]
+    return image
+
+
+def test_aruco_marker_selects_its_wearer_over_the_central_closest_person():
+    central = _standing_person(320, 320)
+    wearer = _standing_person(140, 220)  # off-centre and smaller: not the fallback's choice
+    people = [central, wearer]
+    chest = wearer.keypoints[[1, 8], :2].mean(0)  # between neck and mid hip
+    image = _marker_image(chest)
+    markers = detect_markers(image)
+    assert set(markers) == {7}
+    np.testing.assert_allclose(markers[7], chest, atol=2.0)
+
+    with_rgb = PatientTracker().update(Observation(0.0, people, rgb=image))
+    assert with_rgb.index == 1 and with_rgb.selected_by is SelectedBy.MARKER
+    without = PatientTracker().update(Observation(0.0, people))
+    assert without.index == 0 and without.selected_by is SelectedBy.CENTRAL_CLOSEST
+    other_id = PatientTracker(marker_id=3).update(Observation(0.0, people, rgb=image))
+    assert other_id.index == 0 and other_id.selected_by is SelectedBy.CENTRAL_CLOSEST
+    blank = np.full_like(image, 110)
+    waiting = PatientTracker(require_marker=True).update(Observation(0.0, people, rgb=blank))
+    assert waiting.state is TrackState.SEARCHING and waiting.index is None
+
+
+def test_marker_in_generated_rgb_picks_the_patient_end_to_end():
+    for seed in crossing_seeds("walking", 2, n_people=4, duration_s=6):
+        source = SimulatorSource(
+            "walking", seed=seed, duration_s=6, n_people=4, speed=0, render_rgb=True
+        )
+        tracker = PatientTracker()
+        first = None
+        for obs in source:
+            result = tracker.update(obs)
+            if first is None and result.state is TrackState.TRACKING:
+                first = result
+            if result.state is TrackState.TRACKING:
+                assert result.index == obs.patient_hint
+        assert first is not None and first.selected_by is SelectedBy.MARKER
