@@ -166,6 +166,9 @@ def main(argv: list[str] | None = None) -> int:
     except LinkFatal as error:
         log.error("stopped: %s", error)
         return EXIT_REFUSED
+    except Exception as error:
+        log.exception("stopped by an unexpected error: %s", error)
+        return EXIT_REFUSED
     return 0
 
 
