@@ -15,7 +15,7 @@ from pathlib import Path
 from robot_agent.alarm import LocalAlarm
 from robot_agent.backoff import Backoff
 from robot_agent.client import LinkFatal, RobotLink
-from robot_agent.models import ModelRefused, fetch_model
+from robot_agent.models import ModelRefused, fetch_model, remember_running
 from robot_agent.outbox import Outbox
 from robot_agent.pipeline import Pipeline
 from robot_agent.sources.base import Observation
@@ -71,6 +71,7 @@ class RobotAgent:
             self.outbox,
             running_model=lambda: pipeline.running_model,
             on_assignment=self.on_assignment,
+            on_welcome=self._on_welcome,
             heartbeat_s=options.heartbeat_s,
             batch_frames=options.batch_frames,
             backoff=Backoff(options.backoff_initial_s, options.backoff_max_s),
@@ -88,45 +89,46 @@ class RobotAgent:
         self._fetching: set[str] = set()
 
     # --- models ------------------------------------------------------------------------------
+    def _on_welcome(self) -> None:
+        # A shadow model lasts one connection: the backend sends it again after each welcome
+        # while it is still assigned, and has no message to withdraw it.
+        self.pipeline.set_shadow(None)
+
     async def on_assignment(self, assignment: ModelAssignment) -> None:
+        running = self.pipeline.running_model
         if assignment.shadow:
-            log.info(
-                "robot %s: shadow model %s not run (this agent runs its assigned model only)",
-                self.robot_id,
-                assignment.version,
-            )
+            shadow = self.pipeline.shadow
+            if shadow is not None and shadow.manifest.version == assignment.version:
+                return
+        elif assignment.version == running:
             return
-        if assignment.version == self.pipeline.running_model:
+        key = ("shadow:" if assignment.shadow else "") + assignment.version
+        if key in self._fetching:
             return
-        if assignment.version in self._fetching:
-            return
-        self._fetching.add(assignment.version)
-        log.info(
-            "robot %s: backend assigned model %s; downloading", self.robot_id, assignment.version
-        )
+        self._fetching.add(key)
+        role = "shadow model" if assignment.shadow else "model"
+        log.info("robot %s: backend assigned %s %s; fetching it", self.robot_id, role,
+                 assignment.version)  # fmt: skip
         try:
             classifier = await asyncio.to_thread(
-                fetch_model,
-                assignment,
-                self.robot_id,
-                self.token,
-                self.models_dir,
+                fetch_model, assignment, self.robot_id, self.token, self.models_dir,
                 self.pipeline.mode,
-            )
+            )  # fmt: skip
         except ModelRefused as refused:
             self.link.model_error = str(refused)[:500]
-            log.error(
-                "robot %s: %s; model %s keeps running",
-                self.robot_id,
-                refused,
-                self.pipeline.running_model,
-            )
+            log.error("robot %s: %s; model %s keeps running", self.robot_id, refused,
+                      self.pipeline.running_model)  # fmt: skip
             self.link.heartbeat_now()
             return
         finally:
-            self._fetching.discard(assignment.version)
-        self.pipeline.swap_model(classifier)  # on the event loop: between two frames
-        self.link.model_error = None
+            self._fetching.discard(key)
+        # Both swaps run on the event loop, so they happen between two frames.
+        if assignment.shadow:
+            self.pipeline.set_shadow(classifier)
+        else:
+            self.pipeline.swap_model(classifier)
+            remember_running(self.models_dir, assignment.version)
+            self.link.model_error = None
         self.link.heartbeat_now()
 
     # --- frames ------------------------------------------------------------------------------

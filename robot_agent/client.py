@@ -53,6 +53,7 @@ class RobotLink:
         outbox: Outbox,
         running_model: Callable[[], str | None],
         on_assignment: Callable[[ModelAssignment], Awaitable[None]] | None = None,
+        on_welcome: Callable[[], None] | None = None,
         heartbeat_s: float = 5.0,
         batch_frames: int = 100,
         backoff: Backoff | None = None,
@@ -61,6 +62,7 @@ class RobotLink:
         self.outbox = outbox
         self.running_model = running_model
         self.on_assignment = on_assignment
+        self.on_welcome = on_welcome
         self.heartbeat_s = heartbeat_s
         self.batch_frames = batch_frames
         self.backoff = backoff or Backoff()
@@ -137,6 +139,8 @@ class RobotLink:
         before = self.outbox.status().pending_frames
         self.outbox.on_welcome(welcome.last_seq)
         pending = self.outbox.status()
+        if self.on_welcome is not None:
+            self.on_welcome()
         self.connected = True
         self.last_problem = None
         self.connections += 1

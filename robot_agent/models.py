@@ -109,6 +109,33 @@ def fetch_model(
     return classifier
 
 
+RUNNING_FILE = "RUNNING"
+
+
+def remember_running(models_dir: Path, version: str) -> None:
+    """Note the assigned model now running, so that a restart starts with it."""
+    models_dir.mkdir(parents=True, exist_ok=True)
+    temporary = models_dir / f".{RUNNING_FILE}.tmp"
+    temporary.write_text(version + "\n")
+    temporary.replace(models_dir / RUNNING_FILE)
+
+
+def last_running(models_dir: Path) -> FrameClassifier | None:
+    """The assigned model that ran before a restart, verified again; None if there is none or
+    it is no longer usable (then the backend's assignment brings it back)."""
+    marker = models_dir / RUNNING_FILE
+    if not marker.is_file():
+        return None
+    version = marker.read_text().strip()
+    try:
+        classifier = FrameClassifier.from_dir(models_dir / version)
+    except Exception as error:
+        log.warning("model %s that ran before the restart is unusable: %s", version, error)
+        return None
+    log.info("starting with model %s, assigned before the restart", version)
+    return classifier
+
+
 def load_initial_model(model_dir: Path | None) -> FrameClassifier | None:
     """The model the agent starts with (raises on a missing or tampered model)."""
     if model_dir is None:

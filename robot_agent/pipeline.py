@@ -83,6 +83,7 @@ class Pipeline:
         self.outbox = outbox
         self.mode = TransportMode(mode)
         self.classifier = classifier
+        self.shadow: FrameClassifier | None = None  # a candidate: decisions stored, never alarmed
         self.tracker = tracker if tracker is not None else TrackingPatientTracker()
         self.depth_sampler = depth_sampler if depth_sampler is not None else sample_depth
         self.ground_truth_fallback = ground_truth_fallback
@@ -111,8 +112,9 @@ class Pipeline:
         self._clock_offset = None
         self._last_ts = None
         self.tracker.reset()
-        if self.classifier is not None:
-            self.classifier.reset()
+        for model in (self.classifier, self.shadow):
+            if model is not None:
+                model.reset()
         self._history.clear()
         self.last_decision = None
         message = TransportStart(
@@ -151,10 +153,23 @@ class Pipeline:
             self.transport_id, self._last_ts, timestamp,
         )  # fmt: skip
         self.tracker.reset()
-        if self.classifier is not None:
-            self.classifier.reset()
+        for model in (self.classifier, self.shadow):
+            if model is not None:
+                model.reset()
         self._history.clear()
         self._clock_offset = self._last_wall_ts + 0.001 - timestamp
+
+    def set_shadow(self, classifier: FrameClassifier | None) -> None:
+        """Run `classifier` beside the model from the next frame on (None: stop)."""
+        if classifier is not None:
+            classifier.reset()
+            for frame in self._history:
+                classifier.classify(frame)
+            log.info("shadow model %s runs beside %s", classifier.manifest.version,
+                     self.running_model)  # fmt: skip
+        elif self.shadow is not None:
+            log.info("shadow model %s stopped", self.shadow.manifest.version)
+        self.shadow = classifier
 
     # --- frames ----------------------------------------------------------------------------
     def process(self, observation: Observation) -> FrameResult:
@@ -171,10 +186,11 @@ class Pipeline:
                     observation.depth_image, patient.keypoints, observation.depth_scale_mm
                 )
             frame = SkeletonFrame(patient.keypoints, depth, observation.timestamp)
+        self._history.append(frame)
+        shadow = self.shadow.classify(frame) if self.shadow is not None else None
         classification = None
         if self.classifier is not None:
             classification = self.classifier.classify(frame)
-            self._history.append(frame)
             decision = classification.decision
         elif self.ground_truth_fallback and observation.truth is not None:
             decision = DEFAULT_TAXONOMY.decision(observation.truth, self.mode)
@@ -184,7 +200,7 @@ class Pipeline:
             self._clock_offset = self._transport_started - observation.timestamp
         wall_ts = observation.timestamp + self._clock_offset
         self._last_wall_ts = wall_ts
-        body = self._frame_body(frame, wall_ts, decision, classification)
+        body = self._frame_body(frame, wall_ts, decision, classification, shadow)
         seq = self.outbox.add_frame(body, _priority(classification, decision))
         changed = decision is not None and decision != self.last_decision
         if changed and (decision != Decision.NORMAL or self.last_decision is not None):
@@ -198,6 +214,7 @@ class Pipeline:
         wall_ts: float,
         decision: Decision | None,
         classification: Classification | None,
+        shadow: Classification | None = None,
     ) -> str:
         keypoints = np.nan_to_num(frame.keypoints, nan=0.0, posinf=0.0, neginf=0.0)
         depth = [_finite_or_none(d) for d in frame.depth.tolist()]
@@ -216,6 +233,12 @@ class Pipeline:
         elif decision is not None:  # the generator's label: no model, no threshold, no delay
             fields["scores"] = {decision.value: 1.0}
             fields["model_version"] = GROUND_TRUTH_VERSION
+        if shadow is not None:
+            fields["shadow"] = {
+                "decision": shadow.decision.value,
+                "scores": {k.value: v for k, v in shadow.scores.items()},
+                "model_version": shadow.model_version,
+            }
         # Validate here, not at the backend: a frame the backend refused would block the outbox.
         FrameRecord.model_validate({"seq": 0, **fields})
         return json.dumps(fields, allow_nan=False, separators=(",", ":"))

@@ -6,7 +6,7 @@ from pathlib import Path
 
 from robot_agent.agent import AgentOptions, RobotAgent
 from robot_agent.config import AgentSettings, ConfigError, SourceKind
-from robot_agent.models import load_initial_model
+from robot_agent.models import last_running, load_initial_model
 from robot_agent.outbox import Outbox
 from robot_agent.pipeline import Pipeline
 from robot_agent.source_factory import transports_for
@@ -34,6 +34,16 @@ def initial_classifier(settings: AgentSettings) -> FrameClassifier | None:
     return classifier
 
 
+def starting_classifier(settings: AgentSettings, robot_id: str) -> FrameClassifier | None:
+    """The model assigned by the backend before a restart (kept in models_dir) if it is still
+    usable for this mode, else the configured model_dir."""
+    configured = initial_classifier(settings)  # checked even when not used: a clear error
+    remembered = last_running(settings.models_dir / robot_id)
+    if remembered is not None and remembered.manifest.mode == settings.mode:
+        return remembered
+    return configured
+
+
 def agent_options(settings: AgentSettings, speed: float | None = None) -> AgentOptions:
     return AgentOptions(
         url=settings.backend_url,
@@ -52,7 +62,7 @@ def build_robot(settings: AgentSettings) -> RobotAgent:
     if not settings.robot_id:
         raise ConfigError("robot_id: required (flag --robot-id or VIGIL_ROBOT_ROBOT_ID)")
     token = settings.resolve_token()
-    classifier = initial_classifier(settings)
+    classifier = starting_classifier(settings, settings.robot_id)
     transports = transports_for(settings)
     outbox_path = settings.outbox_path or DEFAULT_OUTBOX_DIR / f"{settings.robot_id}.sqlite"
     outbox = Outbox(outbox_path, settings.outbox_budget_bytes)

@@ -125,3 +125,25 @@ def test_swapped_model_takes_over_between_two_frames_warmed_up(tmp_path, model_d
         pipeline.process(observation)
     versions = [f["model_version"] for f in frames_of(outbox)]
     assert versions == ["upright-1"] * 100 + ["upright-2"] * (len(observations) - 100)
+
+
+def test_a_shadow_model_decides_beside_the_model_and_travels_with_the_frame(tmp_path, model_dir):
+    outbox = Outbox(tmp_path / "o.sqlite")
+    pipeline = Pipeline(outbox, TransportMode.WALKING, FrameClassifier.from_dir(model_dir))
+    pipeline.start_transport("t-1", ts=0.0)
+    observations = list(FallSource())
+    for observation in observations[:50]:
+        pipeline.process(observation)
+    candidate = write_upright_model(tmp_path / "c", "upright-candidate", threshold=0.9)
+    pipeline.set_shadow(FrameClassifier.from_dir(candidate))
+    for observation in observations[50:]:
+        pipeline.process(observation)
+    frames = frames_of(outbox)
+    assert all("shadow" not in f for f in frames[:50])
+    shadows = [f["shadow"] for f in frames[50:]]
+    assert {s["model_version"] for s in shadows} == {"upright-candidate"}
+    assert {f["model_version"] for f in frames} == {"upright-1"}  # the model still decides
+    assert "emergency" in {s["decision"] for s in shadows}
+    pipeline.set_shadow(None)
+    pipeline.process(observations[-1])
+    assert "shadow" not in frames_of(outbox)[-1]
