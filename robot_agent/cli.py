@@ -169,6 +169,7 @@ def main(argv: list[str] | None = None) -> int:
     except Exception as error:
         log.exception("stopped by an unexpected error: %s", error)
         return EXIT_REFUSED
+    log.info("stopped")
     return 0
 
 
