@@ -6,6 +6,10 @@ messages sit in the same ordered queue; one is confirmed once a frame queued aft
 acknowledged (the backend handles a connection's messages in order), and is resent after a
 reconnect until then (the backend treats a repeated start/end as a no-op).
 
+Durability: SQLite in WAL mode. Every commit survives a crash of the agent; Emergency frames are
+also fsynced (synchronous=FULL for their commit), so they survive a power cut, while a power cut
+may lose the last Normal frames written before it (synchronous=NORMAL keeps the frame time low).
+
 Disk policy (``budget_bytes`` counts the stored message bodies): when a new frame pushes the
 outbox over its budget, the oldest unacknowledged **Normal** frames are dropped first, then the
 oldest **Pause** frames. **Emergency** frames (decided Emergency, or on their way to it during
@@ -116,17 +120,20 @@ class Outbox:
     def add_frame(self, body: str, priority: Priority) -> int:
         """Queue a frame (FrameRecord JSON without "seq"); returns its sequence number."""
         seq = self._next_seq
+        durable = priority == Priority.KEPT
+        if durable:  # an Emergency frame survives a power cut too: fsync its commit
+            self._db.execute("PRAGMA synchronous=FULL")
         self._db.execute("BEGIN")
         try:
-            self._db.execute(
-                INSERT_ROW,
-                (seq, seq - 1, int(priority), body, time.time()),
-            )
+            self._db.execute(INSERT_ROW, (seq, seq - 1, int(priority), body, time.time()))
             self._set_meta("next_seq", seq + 1)
             self._db.execute("COMMIT")
         except BaseException:
             self._db.execute("ROLLBACK")
             raise
+        finally:
+            if durable:
+                self._db.execute("PRAGMA synchronous=NORMAL")
         self._next_seq = seq + 1
         self._bytes += len(body)
         if self._bytes > self.budget_bytes:
