@@ -6,9 +6,10 @@ messages sit in the same ordered queue; one is confirmed once a frame queued aft
 acknowledged (the backend handles a connection's messages in order), and is resent after a
 reconnect until then (the backend treats a repeated start/end as a no-op).
 
-Durability: SQLite in WAL mode. Every commit survives a crash of the agent; Emergency frames are
-also fsynced (synchronous=FULL for their commit), so they survive a power cut, while a power cut
-may lose the last Normal frames written before it (synchronous=NORMAL keeps the frame time low).
+Durability: SQLite in WAL mode with synchronous=NORMAL: every commit survives a crash of the
+agent. After an Emergency frame a background thread fsyncs the write-ahead log (a few ms later,
+off the frame path: an fsync takes milliseconds), so Emergency frames also survive a power cut;
+a power cut may lose the last Normal frames written before it.
 
 Disk policy (``budget_bytes`` counts the stored message bodies): when a new frame pushes the
 outbox over its budget, the oldest unacknowledged **Normal** frames are dropped first, then the
@@ -21,7 +22,9 @@ persistent) and reported in the log and in heartbeats.
 from __future__ import annotations
 
 import logging
+import os
 import sqlite3
+import threading
 import time
 from dataclasses import dataclass
 from enum import IntEnum
@@ -70,6 +73,44 @@ class OutboxStatus:
     oldest_unacked_emergency: float | None  # wall-clock time it was queued
 
 
+class WalSyncer:
+    """fsyncs the SQLite write-ahead log on request, in its own thread."""
+
+    def __init__(self, wal_path: Path) -> None:
+        self.wal_path = wal_path
+        self.synced = 0
+        self._wanted = threading.Event()
+        self._stopping = False
+        self._thread = threading.Thread(target=self._run, name="outbox-fsync", daemon=True)
+        self._thread.start()
+
+    def request(self) -> None:
+        self._wanted.set()
+
+    def _run(self) -> None:
+        while True:
+            self._wanted.wait()
+            self._wanted.clear()
+            if self._stopping:
+                return
+            try:
+                fd = os.open(self.wal_path, os.O_RDONLY)
+            except FileNotFoundError:  # checkpointed into the database file, which is synced
+                continue
+            try:
+                os.fsync(fd)
+                self.synced += 1
+            except OSError as error:
+                log.error("outbox: fsync of %s failed: %s", self.wal_path, error)
+            finally:
+                os.close(fd)
+
+    def stop(self) -> None:
+        self._stopping = True
+        self._wanted.set()
+        self._thread.join(5)
+
+
 class Outbox:
     """Not thread-safe: use it from one thread (the agent's event loop)."""
 
@@ -91,6 +132,7 @@ class Outbox:
             "SELECT COALESCE(SUM(LENGTH(body)), 0) FROM outbox"
         ).fetchone()[0]
         self._over_budget_warned = False
+        self._syncer = None if str(path) == ":memory:" else WalSyncer(Path(f"{path}-wal"))
 
     # --- meta ------------------------------------------------------------------------------
     def _meta(self, key: str, default: int) -> int:
@@ -120,9 +162,6 @@ class Outbox:
     def add_frame(self, body: str, priority: Priority) -> int:
         """Queue a frame (FrameRecord JSON without "seq"); returns its sequence number."""
         seq = self._next_seq
-        durable = priority == Priority.KEPT
-        if durable:  # an Emergency frame survives a power cut too: fsync its commit
-            self._db.execute("PRAGMA synchronous=FULL")
         self._db.execute("BEGIN")
         try:
             self._db.execute(INSERT_ROW, (seq, seq - 1, int(priority), body, time.time()))
@@ -131,9 +170,8 @@ class Outbox:
         except BaseException:
             self._db.execute("ROLLBACK")
             raise
-        finally:
-            if durable:
-                self._db.execute("PRAGMA synchronous=NORMAL")
+        if priority == Priority.KEPT and self._syncer is not None:
+            self._syncer.request()  # to the disk itself, off the frame path
         self._next_seq = seq + 1
         self._bytes += len(body)
         if self._bytes > self.budget_bytes:
@@ -298,4 +336,6 @@ class Outbox:
         )
 
     def close(self) -> None:
+        if self._syncer is not None:
+            self._syncer.stop()
         self._db.close()

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import time
 
 import pytest
 
@@ -124,3 +125,16 @@ def test_fresh_outbox_with_more_frames_than_the_backend_renumbers_them_all(tmp_p
     reopened = Outbox(tmp_path / "o.sqlite")
     reopened.on_welcome(6)  # later welcomes trim as usual
     assert seqs(reopened) == list(range(7, 13))
+
+
+def test_emergency_frames_are_fsynced_in_the_background_normal_frames_are_not(tmp_path):
+    outbox = Outbox(tmp_path / "o.sqlite")
+    outbox.add_frame(body(0), Priority.NORMAL)
+    time.sleep(0.2)
+    assert outbox._syncer.synced == 0
+    outbox.add_frame(body(1, "emergency"), Priority.KEPT)
+    deadline = time.monotonic() + 5
+    while outbox._syncer.synced == 0 and time.monotonic() < deadline:
+        time.sleep(0.01)
+    assert outbox._syncer.synced >= 1
+    outbox.close()
