@@ -103,6 +103,14 @@ class Heartbeat(_Message):
     type: Literal["heartbeat"] = "heartbeat"
     ts: FiniteFloat
     running_model: str | None = None
+    # Optional robot health (protocol 1 extension; older robots omit them).
+    outbox_frames: int | None = Field(default=None, ge=0, description="frames not yet acked")
+    dropped_frames: int | None = Field(
+        default=None, ge=0, description="frames the robot's outbox dropped under its disk budget"
+    )
+    model_error: str | None = Field(
+        default=None, max_length=500, description="why the robot refused its assigned model"
+    )
 
 
 RobotMessage = Annotated[

@@ -275,6 +275,8 @@ class FrameWriter:
                 if message.running_model is not None:
                     robot.running_model_version = message.running_model
                     robot.running_model_changed = True
+                if message.model_error:
+                    log.warning("robot %s refused a model: %s", robot.id, message.model_error)
         store_run()
         outcome.stored = context.flush_rows(session)
         context.write_back(session)

@@ -1,0 +1,221 @@
+"""One robot: its transports flow through the pipeline into the outbox while the link streams
+the outbox to the backend, the local alarm watches for unacknowledged Emergencies and model
+assignments are fetched and swapped in."""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import logging
+import time
+from collections.abc import Iterable, Iterator
+from dataclasses import dataclass
+from pathlib import Path
+
+from robot_agent.alarm import LocalAlarm
+from robot_agent.backoff import Backoff
+from robot_agent.client import LinkFatal, RobotLink
+from robot_agent.models import ModelRefused, fetch_model, remember_running
+from robot_agent.outbox import Outbox
+from robot_agent.pipeline import Pipeline
+from robot_agent.sources.base import Observation
+from vigil.protocol import ModelAssignment
+
+log = logging.getLogger(__name__)
+
+
+@dataclass
+class TransportPlan:
+    """One transport: its observations, and what the backend should show about it."""
+
+    observations: Iterable[Observation]
+    patient: str | None = None
+    location: str | None = None
+    materialise: bool = False  # generate all observations in a thread first (generated data)
+
+
+@dataclass
+class AgentOptions:
+    url: str
+    heartbeat_s: float = 5.0
+    batch_frames: int = 100
+    backoff_initial_s: float = 0.5
+    backoff_max_s: float = 15.0
+    alarm_after_s: float = 3.0
+    alarm_hook: str | None = None
+    speed: float = 1.0  # pace observations at their timestamps / speed; 0: as fast as possible
+    exit_when_done: bool = False
+
+
+class RobotAgent:
+    def __init__(
+        self,
+        robot_id: str,
+        token: str,
+        pipeline: Pipeline,
+        transports: Iterator[TransportPlan],
+        options: AgentOptions,
+        models_dir: Path,
+    ) -> None:
+        self.robot_id = robot_id
+        self.token = token
+        self.pipeline = pipeline
+        self.outbox: Outbox = pipeline.outbox
+        self.transports = transports
+        self.options = options
+        self.models_dir = models_dir
+        self.link = RobotLink(
+            options.url,
+            robot_id,
+            token,
+            self.outbox,
+            running_model=lambda: pipeline.running_model,
+            on_assignment=self.on_assignment,
+            on_welcome=self._on_welcome,
+            heartbeat_s=options.heartbeat_s,
+            batch_frames=options.batch_frames,
+            backoff=Backoff(options.backoff_initial_s, options.backoff_max_s),
+        )
+        self.alarm = LocalAlarm(
+            robot_id,
+            self.outbox,
+            problem=lambda: self.link.last_problem,
+            transport=lambda: pipeline.transport_id,
+            after_s=options.alarm_after_s,
+            hook=options.alarm_hook,
+        )
+        self.frames = 0
+        self.source_done = asyncio.Event()
+        self._fetching: set[str] = set()
+
+    # --- models ------------------------------------------------------------------------------
+    def _on_welcome(self) -> None:
+        # A shadow model lasts one connection: the backend sends it again after each welcome
+        # while it is still assigned, and has no message to withdraw it.
+        self.pipeline.set_shadow(None)
+
+    async def on_assignment(self, assignment: ModelAssignment) -> None:
+        running = self.pipeline.running_model
+        if assignment.shadow:
+            shadow = self.pipeline.shadow
+            if shadow is not None and shadow.manifest.version == assignment.version:
+                return
+        elif assignment.version == running:
+            return
+        key = ("shadow:" if assignment.shadow else "") + assignment.version
+        if key in self._fetching:
+            return
+        self._fetching.add(key)
+        role = "shadow model" if assignment.shadow else "model"
+        log.info("robot %s: backend assigned %s %s; fetching it", self.robot_id, role,
+                 assignment.version)  # fmt: skip
+        try:
+            classifier = await asyncio.to_thread(
+                fetch_model, assignment, self.robot_id, self.token, self.models_dir,
+                self.pipeline.mode,
+            )  # fmt: skip
+        except ModelRefused as refused:
+            self.link.model_error = str(refused)[:500]
+            log.error("robot %s: %s; model %s keeps running", self.robot_id, refused,
+                      self.pipeline.running_model)  # fmt: skip
+            self.link.heartbeat_now()
+            return
+        finally:
+            self._fetching.discard(key)
+        # Both swaps run on the event loop, so they happen between two frames.
+        if assignment.shadow:
+            self.pipeline.set_shadow(classifier)
+        else:
+            self.pipeline.swap_model(classifier)
+            remember_running(self.models_dir, assignment.version)
+            self.link.model_error = None
+        self.link.heartbeat_now()
+
+    # --- frames ------------------------------------------------------------------------------
+    async def produce(self) -> None:
+        number = 0
+        # The next plan is made in a thread: preparing a generated transport takes a while.
+        while (plan := await asyncio.to_thread(next, self.transports, None)) is not None:
+            number += 1
+            transport_id = f"{self.robot_id}-{int(time.time())}-{number}"[-64:]
+            self.pipeline.start_transport(transport_id, time.time(), plan.patient, plan.location)
+            log.info(
+                "robot %s: transport %s started (patient %s, %s)",
+                self.robot_id,
+                transport_id,
+                plan.patient or "unknown",
+                plan.location or "no location",
+            )
+            await self._stream(plan)
+            self.pipeline.end_transport(time.time())
+            self.link.notify_queued()
+            log.info(
+                "robot %s: transport %s ended after %d frames in total",
+                self.robot_id,
+                transport_id,
+                self.frames,
+            )
+        self.source_done.set()
+
+    async def _stream(self, plan: TransportPlan) -> None:
+        if plan.materialise:  # generated data: make the whole transport in a thread at once
+            ready = iter(await asyncio.to_thread(list, plan.observations))
+        else:  # a recording or camera: read frame by frame in a thread
+            iterator = iter(plan.observations)
+        speed = self.options.speed
+        started: float | None = None
+        first_ts = 0.0
+        while True:
+            if plan.materialise:
+                observation = next(ready, None)
+            else:
+                observation = await asyncio.to_thread(next, iterator, None)
+            if observation is None:
+                return
+            if speed > 0:
+                if started is None:
+                    started, first_ts = time.monotonic(), observation.timestamp
+                delay = started + (observation.timestamp - first_ts) / speed - time.monotonic()
+                if delay > 0:
+                    await asyncio.sleep(delay)
+            elif self.frames % 50 == 0:
+                await asyncio.sleep(0)  # let the link breathe when running flat out
+            self.pipeline.process(observation)
+            self.frames += 1
+            self.link.notify_queued()
+
+    # --- the whole robot ---------------------------------------------------------------------
+    async def run(self) -> None:
+        """Until cancelled (or, with exit_when_done, until everything was acknowledged)."""
+        tasks = [
+            asyncio.create_task(self.link.run(), name=f"{self.robot_id}-link"),
+            asyncio.create_task(self.alarm.run(), name=f"{self.robot_id}-alarm"),
+            asyncio.create_task(self.produce(), name=f"{self.robot_id}-source"),
+        ]
+        if self.options.exit_when_done:
+            tasks.append(asyncio.create_task(self._until_drained(), name="drained"))
+        try:
+            while True:
+                done, _ = await asyncio.wait(tasks, return_when=asyncio.FIRST_COMPLETED)
+                for task in done:
+                    if task.exception() is not None:
+                        raise task.exception()
+                    if task.get_name() == "drained":
+                        return
+                tasks = [t for t in tasks if not t.done()]
+        finally:
+            for task in tasks:
+                task.cancel()
+            for task in tasks:
+                with contextlib.suppress(asyncio.CancelledError, LinkFatal, Exception):
+                    await task
+
+    async def _until_drained(self) -> None:
+        await self.source_done.wait()
+        while not self.link.delivered_all():
+            await asyncio.sleep(0.1)
+        log.info(
+            "robot %s: source ended and the backend acknowledged every frame (%d frames)",
+            self.robot_id,
+            self.frames,
+        )

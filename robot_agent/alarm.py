@@ -1,0 +1,115 @@
+"""The local alarm: an Emergency the backend has not acknowledged within `after_s` (it is
+unreachable, or does not commit) is announced on the robot itself: an ERROR log line and the
+configured hook command. When the backend acknowledges the Emergency frames the alarm clears
+(log and hook again).
+
+The hook is run without a shell (split like a shell command line) with these variables added to
+its environment: VIGIL_ALARM_STATE (raised|cleared), VIGIL_ALARM_ROBOT, VIGIL_ALARM_TRANSPORT,
+VIGIL_ALARM_SINCE (Unix time of the oldest unacknowledged Emergency frame), VIGIL_ALARM_REASON.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import logging
+import os
+import shlex
+import time
+from collections.abc import Callable
+from enum import StrEnum
+
+from robot_agent.outbox import Outbox
+
+log = logging.getLogger(__name__)
+HOOK_TIMEOUT_S = 10.0
+
+
+class AlarmState(StrEnum):
+    QUIET = "quiet"
+    RAISED = "raised"
+
+
+class LocalAlarm:
+    # Transitions, written once: QUIET -raise-> RAISED -clear-> QUIET.
+    def __init__(
+        self,
+        robot_id: str,
+        outbox: Outbox,
+        problem: Callable[[], str | None],
+        transport: Callable[[], str | None],
+        after_s: float = 3.0,
+        hook: str | None = None,
+        period_s: float = 0.25,
+    ) -> None:
+        self.robot_id = robot_id
+        self.outbox = outbox
+        self.problem = problem
+        self.transport = transport
+        self.after_s = after_s
+        self.hook = shlex.split(hook) if hook else None
+        self.period_s = period_s
+        self.state = AlarmState.QUIET
+        self.raised_count = 0
+        self._hooks: set[asyncio.Task] = set()
+
+    async def run(self) -> None:
+        while True:
+            self.check()
+            await asyncio.sleep(self.period_s)
+
+    def check(self, now: float | None = None) -> AlarmState:
+        now = time.time() if now is None else now
+        oldest = self.outbox.oldest_unacked_emergency()
+        if self.state == AlarmState.QUIET and oldest is not None and now - oldest >= self.after_s:
+            reason = self.problem() or "the backend did not acknowledge the Emergency frames"
+            self.state = AlarmState.RAISED
+            self.raised_count += 1
+            log.error(
+                "LOCAL ALARM robot %s: Emergency since %s not acknowledged by the backend for "
+                "%.1f s (%s)",
+                self.robot_id,
+                time.strftime("%H:%M:%S", time.localtime(oldest)),
+                now - oldest,
+                reason,
+            )
+            self._run_hook("raised", oldest, reason)
+        elif self.state == AlarmState.RAISED and oldest is None:
+            self.state = AlarmState.QUIET
+            log.warning(
+                "local alarm cleared, robot %s: the backend acknowledged the Emergency frames",
+                self.robot_id,
+            )
+            self._run_hook("cleared", None, "acknowledged by the backend")
+        return self.state
+
+    def _run_hook(self, state: str, since: float | None, reason: str) -> None:
+        if not self.hook:
+            return
+        env = {
+            **os.environ,
+            "VIGIL_ALARM_STATE": state,
+            "VIGIL_ALARM_ROBOT": self.robot_id,
+            "VIGIL_ALARM_TRANSPORT": self.transport() or "",
+            "VIGIL_ALARM_SINCE": "" if since is None else f"{since:.3f}",
+            "VIGIL_ALARM_REASON": reason,
+        }
+        task = asyncio.get_running_loop().create_task(self._hook(env, state))
+        self._hooks.add(task)
+        task.add_done_callback(self._hooks.discard)
+
+    async def _hook(self, env: dict[str, str], state: str) -> None:
+        try:
+            process = await asyncio.create_subprocess_exec(*self.hook, env=env)
+        except OSError as error:
+            log.error("alarm hook %s could not be started: %s", self.hook[0], error)
+            return
+        try:
+            code = await asyncio.wait_for(process.wait(), HOOK_TIMEOUT_S)
+        except TimeoutError:
+            process.kill()
+            log.error(
+                "alarm hook %s (%s) ran over %.0f s: killed", self.hook[0], state, HOOK_TIMEOUT_S
+            )
+            return
+        if code != 0:
+            log.error("alarm hook %s (%s) failed with exit code %d", self.hook[0], state, code)

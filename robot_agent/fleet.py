@@ -1,0 +1,96 @@
+"""`vigil-robot simulate`: several robots in one process (asyncio), each with its own outbox,
+link and pipeline, streaming GENERATED transports (walking and rollator patients, falls,
+stumbles, bystanders).
+
+Decisions: with --model-dir every robot classifies with that model; without it a robot streams
+the generator's ground truth, marked model_version 'generated-ground-truth' (no threshold, no
+delay), until the backend assigns it a model, which it then downloads, verifies and runs.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import logging
+from pathlib import Path
+
+from robot_agent.agent import RobotAgent
+from robot_agent.client import LinkFatal
+from robot_agent.config import AgentSettings, ConfigError
+from robot_agent.outbox import Outbox
+from robot_agent.pipeline import Pipeline
+from robot_agent.runner import agent_options, initial_classifier, starting_classifier
+from robot_agent.source_factory import generated_transports
+from vigil.classes import TransportMode
+
+log = logging.getLogger(__name__)
+
+
+class Fleet:
+    def __init__(self, agents: list[RobotAgent]) -> None:
+        self.agents = agents
+
+    async def run(self) -> None:
+        results = await asyncio.gather(*(a.run() for a in self.agents), return_exceptions=True)
+        for agent, result in zip(self.agents, results, strict=True):
+            if isinstance(result, LinkFatal):
+                log.error("robot %s stopped: %s", agent.robot_id, result)
+            elif isinstance(result, BaseException):
+                log.error("robot %s failed: %r", agent.robot_id, result)
+
+
+def _locomotion(mode: TransportMode, number: int) -> str:
+    if mode == TransportMode.WHEELCHAIR:
+        return "wheelchair"
+    if mode == TransportMode.COMBINED:
+        return ("walking", "rollator", "wheelchair")[number % 3]
+    return ("walking", "rollator")[number % 2]
+
+
+def build_fleet(
+    settings: AgentSettings,
+    tokens: dict[str, str],
+    robots: int,
+    transports: int | None,
+    outbox_dir: Path,
+) -> Fleet:
+    if robots > len(tokens):
+        raise ConfigError(
+            f"robots: {robots} requested but the tokens file has {len(tokens)} robots"
+        )
+    if transports is not None:
+        settings = settings.model_copy(update={"exit_when_done": True})
+    initial_classifier(settings)  # check --model-dir once, with a clear message
+    agents = []
+    for number, robot_id in enumerate(sorted(tokens)[:robots]):
+        classifier = starting_classifier(settings, robot_id)  # one per robot: stream state
+        pipeline = Pipeline(
+            Outbox(outbox_dir / f"{robot_id}.sqlite", settings.outbox_budget_bytes),
+            settings.mode,
+            classifier,
+            ground_truth_fallback=True,
+        )
+        plans = generated_transports(
+            seed=settings.seed + 1000 * number,
+            locomotion=_locomotion(settings.mode, number),
+            count=transports,
+            n_people=settings.people,
+            duration_s=settings.duration_s,
+            patient_prefix=f"GEN-{number + 1}",
+        )
+        agents.append(
+            RobotAgent(
+                robot_id,
+                tokens[robot_id],
+                pipeline,
+                plans,
+                agent_options(settings),
+                settings.models_dir / robot_id,
+            )
+        )
+        log.info(
+            "robot %s: %s transports of GENERATED patients, decisions from %s",
+            robot_id,
+            _locomotion(settings.mode, number),
+            pipeline.running_model,
+        )
+    return Fleet(agents)

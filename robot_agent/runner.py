@@ -1,0 +1,85 @@
+"""Build one robot agent from its settings (`vigil-robot run`)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from robot_agent.agent import AgentOptions, RobotAgent
+from robot_agent.config import AgentSettings, ConfigError, SourceKind
+from robot_agent.models import last_running, load_initial_model
+from robot_agent.outbox import Outbox
+from robot_agent.pipeline import Pipeline
+from robot_agent.source_factory import transports_for
+from vigil.model_file import ModelIntegrityError
+from vigil.runtime import FrameClassifier
+
+DEFAULT_OUTBOX_DIR = Path("var/robot-outbox")
+
+
+def initial_classifier(settings: AgentSettings) -> FrameClassifier | None:
+    """The --model-dir model, checked (exists, sha256, feature version, mode) or ConfigError."""
+    try:
+        classifier = load_initial_model(settings.model_dir)
+    except FileNotFoundError as error:
+        raise ConfigError(f"model_dir: {error.filename or settings.model_dir} not found") from None
+    except ModelIntegrityError as error:
+        raise ConfigError(f"model_dir: refused, {error}") from None
+    except ValueError as error:
+        raise ConfigError(f"model_dir: {error}") from None
+    if classifier is not None and classifier.manifest.mode != settings.mode:
+        raise ConfigError(
+            f"model_dir: the model is for {classifier.manifest.mode.value} transports, "
+            f"mode is {settings.mode.value}"
+        )
+    return classifier
+
+
+def starting_classifier(settings: AgentSettings, robot_id: str) -> FrameClassifier | None:
+    """The model assigned by the backend before a restart (kept in models_dir) if it is still
+    usable for this mode, else the configured model_dir."""
+    configured = initial_classifier(settings)  # checked even when not used: a clear error
+    remembered = last_running(settings.models_dir / robot_id)
+    if remembered is not None and remembered.manifest.mode == settings.mode:
+        return remembered
+    return configured
+
+
+def agent_options(settings: AgentSettings, speed: float | None = None) -> AgentOptions:
+    return AgentOptions(
+        url=settings.backend_url,
+        heartbeat_s=settings.heartbeat_s,
+        batch_frames=settings.batch_frames,
+        backoff_initial_s=settings.backoff_initial_s,
+        backoff_max_s=settings.backoff_max_s,
+        alarm_after_s=settings.alarm_after_s,
+        alarm_hook=settings.alarm_hook,
+        speed=settings.speed if speed is None else speed,
+        exit_when_done=settings.exit_when_done,
+    )
+
+
+def build_robot(settings: AgentSettings) -> RobotAgent:
+    if not settings.robot_id:
+        raise ConfigError("robot_id: required (flag --robot-id or VIGIL_ROBOT_ROBOT_ID)")
+    token = settings.resolve_token()
+    classifier = starting_classifier(settings, settings.robot_id)
+    transports = transports_for(settings)
+    outbox_path = settings.outbox_path or DEFAULT_OUTBOX_DIR / f"{settings.robot_id}.sqlite"
+    outbox = Outbox(outbox_path, settings.outbox_budget_bytes)
+    pipeline = Pipeline(
+        outbox,
+        settings.mode,
+        classifier,
+        ground_truth_fallback=settings.source == SourceKind.GENERATED,
+    )
+    # A camera paces itself; recorded, generated and video frames are paced by the agent.
+    camera = settings.source == SourceKind.MEDIAPIPE and (settings.source_path or "").isdigit()
+    speed = 0.0 if camera else settings.speed
+    return RobotAgent(
+        settings.robot_id,
+        token,
+        pipeline,
+        transports,
+        agent_options(settings, speed),
+        settings.models_dir / settings.robot_id,
+    )

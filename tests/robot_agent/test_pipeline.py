@@ -1,0 +1,149 @@
+"""The frame path without a network: observations -> patient -> depth -> model -> outbox."""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Iterator
+
+import numpy as np
+import pytest
+
+from robot_agent.outbox import Outbox
+from robot_agent.pipeline import GROUND_TRUTH_VERSION, Pipeline
+from robot_agent.sources.base import Observation
+from robot_agent.sources.simulator import SimulatorSource
+from vigil.classes import TransportMode
+from vigil.protocol import FrameRecord
+from vigil.runtime import FrameClassifier
+from vigil.skeleton import N_KEYPOINTS, SkeletonFrame
+
+from .tiny_model import write_upright_model
+
+
+class FallSource:
+    """In-test source: one GENERATED walking patient who falls (vigil.synthetic)."""
+
+    name, fps = "fall", 30.0
+
+    def __iter__(self) -> Iterator[Observation]:
+        source = SimulatorSource(
+            "walking", seed=3, duration_s=12, n_people=1, events=["fall"], speed=0
+        )
+        return iter(source)
+
+
+@pytest.fixture
+def model_dir(tmp_path):
+    return write_upright_model(tmp_path / "m1", "upright-1", threshold=0.5, delay_ms=200)
+
+
+def frames_of(outbox: Outbox) -> list[dict]:
+    return [json.loads(m.text) for m in outbox.pending(limit=100_000) if m.seq is not None]
+
+
+def test_every_frame_carries_the_models_decision_version_threshold_and_delay(tmp_path, model_dir):
+    outbox = Outbox(tmp_path / "o.sqlite")
+    pipeline = Pipeline(outbox, TransportMode.WALKING, FrameClassifier.from_dir(model_dir))
+    pipeline.start_transport("t-1", ts=1_700_000_000.0, patient="GEN-1")
+    observations = list(FallSource())
+    for observation in observations:
+        pipeline.process(observation)
+    pipeline.end_transport(1_700_000_100.0)
+
+    messages = outbox.pending(limit=100_000)
+    assert json.loads(messages[0].text)["type"] == "transport_start"
+    assert json.loads(messages[-1].text)["type"] == "transport_end"
+    frames = frames_of(outbox)
+    assert [f["seq"] for f in frames] == list(range(len(observations)))
+    for frame in frames:
+        FrameRecord.model_validate(frame)  # what the backend will accept
+        assert (frame["model_version"], frame["threshold"], frame["delay_ms"]) == (
+            "upright-1",
+            0.5,
+            200,
+        )
+        assert frame["transport_id"] == "t-1"
+    decisions = [f["decision"] for f in frames]
+    truths = [o.truth for o in observations]
+    first_emergency = decisions.index("emergency")
+    assert truths[first_emergency] in ("falling", "impact", "lying_on_floor")
+    assert decisions[:first_emergency].count("emergency") == 0
+    # Wall-clock timestamps: the transport start plus the source's own timing.
+    assert frames[0]["ts"] == pytest.approx(1_700_000_000.0)
+    assert frames[30]["ts"] - frames[0]["ts"] == pytest.approx(1.0, abs=1e-3)
+    assert outbox.oldest_unacked_emergency() is not None
+
+
+def test_without_a_model_generated_frames_carry_the_ground_truth_marked_as_such(tmp_path):
+    outbox = Outbox(tmp_path / "o.sqlite")
+    pipeline = Pipeline(outbox, TransportMode.WALKING, ground_truth_fallback=True)
+    assert pipeline.running_model == GROUND_TRUTH_VERSION
+    pipeline.start_transport("t-1", ts=0.0)
+    for observation in FallSource():
+        pipeline.process(observation)
+    frames = frames_of(outbox)
+    assert {f["model_version"] for f in frames} == {GROUND_TRUTH_VERSION}
+    assert all(f.get("threshold") is None and f.get("delay_ms") is None for f in frames)
+    assert "emergency" in {f["decision"] for f in frames}
+
+
+def test_depth_is_sampled_from_the_depth_image_at_the_patients_keypoints(tmp_path):
+    outbox = Outbox(tmp_path / "o.sqlite")
+    pipeline = Pipeline(outbox, TransportMode.WALKING)
+    keypoints = np.zeros((N_KEYPOINTS, 3), np.float32)
+    keypoints[:, 0], keypoints[:, 1], keypoints[:, 2] = 100 + np.arange(N_KEYPOINTS), 50, 0.9
+    keypoints[5, 2] = 0  # missing keypoint: no depth
+    depth_image = np.full((120, 160), 2500, np.uint16)  # 2.5 m everywhere
+    person = SkeletonFrame(keypoints, timestamp=0.0)
+    pipeline.process(Observation(0.0, [person], depth_image=depth_image, depth_scale_mm=1.0))
+    (frame,) = frames_of(outbox)
+    assert frame["depth"][0] == pytest.approx(2.5)
+    assert frame["depth"][5] is None
+    assert frame["decision"] is None and "model_version" not in frame
+
+
+def test_nobody_in_view_still_sends_a_frame_without_keypoints(tmp_path):
+    outbox = Outbox(tmp_path / "o.sqlite")
+    pipeline = Pipeline(outbox, TransportMode.WALKING)
+    result = pipeline.process(Observation(0.0, []))
+    assert not result.seen
+    (frame,) = frames_of(outbox)
+    assert all(point[2] == 0 for point in frame["keypoints"])
+
+
+def test_swapped_model_takes_over_between_two_frames_warmed_up(tmp_path, model_dir):
+    outbox = Outbox(tmp_path / "o.sqlite")
+    pipeline = Pipeline(outbox, TransportMode.WALKING, FrameClassifier.from_dir(model_dir))
+    pipeline.start_transport("t-1", ts=0.0)
+    observations = list(FallSource())
+    for observation in observations[:100]:
+        pipeline.process(observation)
+    v2 = FrameClassifier.from_dir(write_upright_model(tmp_path / "m2", "upright-2", delay_ms=0))
+    pipeline.swap_model(v2)
+    assert pipeline.running_model == "upright-2"
+    for observation in observations[100:]:
+        pipeline.process(observation)
+    versions = [f["model_version"] for f in frames_of(outbox)]
+    assert versions == ["upright-1"] * 100 + ["upright-2"] * (len(observations) - 100)
+
+
+def test_a_shadow_model_decides_beside_the_model_and_travels_with_the_frame(tmp_path, model_dir):
+    outbox = Outbox(tmp_path / "o.sqlite")
+    pipeline = Pipeline(outbox, TransportMode.WALKING, FrameClassifier.from_dir(model_dir))
+    pipeline.start_transport("t-1", ts=0.0)
+    observations = list(FallSource())
+    for observation in observations[:50]:
+        pipeline.process(observation)
+    candidate = write_upright_model(tmp_path / "c", "upright-candidate", threshold=0.9)
+    pipeline.set_shadow(FrameClassifier.from_dir(candidate))
+    for observation in observations[50:]:
+        pipeline.process(observation)
+    frames = frames_of(outbox)
+    assert all("shadow" not in f for f in frames[:50])
+    shadows = [f["shadow"] for f in frames[50:]]
+    assert {s["model_version"] for s in shadows} == {"upright-candidate"}
+    assert {f["model_version"] for f in frames} == {"upright-1"}  # the model still decides
+    assert "emergency" in {s["decision"] for s in shadows}
+    pipeline.set_shadow(None)
+    pipeline.process(observations[-1])
+    assert "shadow" not in frames_of(outbox)[-1]
