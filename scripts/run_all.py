@@ -52,7 +52,12 @@ def stop(children: list[subprocess.Popen]) -> None:
             os.killpg(child.pid, signal.SIGKILL)
 
 
+def _terminate(signum, frame) -> None:
+    raise KeyboardInterrupt  # SIGTERM stops the children exactly as Ctrl-C does
+
+
 def main() -> int:
+    signal.signal(signal.SIGTERM, _terminate)
     VAR.mkdir(exist_ok=True)
     step("applying database migrations", "-m", "backend.cli", "migrate")
     step("creating demo users and robots", "-m", "backend.cli", "seed-demo", "--robots", "3")
