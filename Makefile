@@ -9,7 +9,8 @@ FRONTEND_STAMP := frontend/node_modules/.installed
 PYTEST_ARGS ?=
 
 .PHONY: run test test-python test-sqlite test-postgresql test-frontend test-browser setup \
-	frontend chromium lint format bench-detection bench-ingest bench-robot clean
+	frontend chromium lint format bench-detection bench-ingest bench-robot \
+	bench-labelling bench-registry bench-alarm-latency readme clean
 
 setup: $(STAMP) frontend
 
@@ -57,6 +58,19 @@ bench-ingest: $(STAMP)
 
 bench-robot: $(STAMP)
 	$(PY) -m bench.robot
+
+bench-labelling: $(STAMP)
+	$(PY) -m bench.labelling
+
+bench-registry: $(STAMP)
+	$(PY) -m bench.registry
+
+bench-alarm-latency: $(STAMP) frontend chromium
+	$(PY) -m bench.alarm_latency
+
+# README's configuration and benchmark sections are generated; tests/test_readme.py checks them.
+readme: $(STAMP)
+	$(PY) -m scripts.readme --write
 
 clean:
 	rm -rf var frontend/dist

@@ -56,6 +56,9 @@ class Settings(BaseSettings):
         default=10.0,
         description="no message from a robot for this long during a transport: robot offline",
     )
+    gil_switch_interval_s: float = Field(
+        default=0.0005, description="sys.setswitchinterval of the backend process (ingest latency)"
+    )
     monitor_interval_s: float = Field(default=1.0, description="alarm monitor period")
     urfd_dir: Path | None = Field(
         default=None,

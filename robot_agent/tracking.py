@@ -23,12 +23,13 @@ anew, never choosing a known bystander (the marker, if seen, still decides).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from enum import StrEnum
 
 import cv2
 import numpy as np
 
+from robot_agent.depth import people_with_depth
 from robot_agent.sources.base import Observation
 from vigil.skeleton import INDEX, SkeletonFrame
 
@@ -61,7 +62,8 @@ class SelectedBy(StrEnum):
 class TrackResult:
     """The tracker's verdict for one observation.
 
-    patient: the patient's skeleton in this frame (None unless state is TRACKING);
+    patient: the patient's skeleton in this frame (None unless state is TRACKING; with depth
+    sampled when the observation had a depth image and the tracker samples depth);
     index: its position in ``observation.people``; selected_by: set on the frame the patient
     was chosen; missed: consecutive frames without a match.
     """
@@ -216,6 +218,9 @@ class PatientTracker:
     tracking to use it. marker_id: the ArUco id the patient wears (None:
     any DICT_4X4_50 marker). require_marker: with RGB, wait for a marker instead of falling back
     to the central, closest person. image_width: used when the observation carries no image.
+    sample_depth: when the observation has a depth image, sample everyone's depth first (one
+    vectorised call, about 0.2 ms for five people) so distance separates people who overlap in
+    the image; the reported patient then carries that depth.
     """
 
     def __init__(
@@ -228,6 +233,7 @@ class PatientTracker:
         marker_id: int | None = None,
         require_marker: bool = False,
         image_width: float = 640.0,
+        sample_depth: bool = True,
     ) -> None:
         if max_missed < 0:
             raise ValueError(f"max_missed must be >= 0, got {max_missed}")
@@ -241,6 +247,7 @@ class PatientTracker:
         self.marker_id = marker_id
         self.require_marker = require_marker
         self.image_width = image_width
+        self.sample_depth = sample_depth
         self.reset()
 
     def reset(self) -> None:
@@ -261,6 +268,8 @@ class PatientTracker:
 
     def update(self, observation: Observation) -> TrackResult:
         self.frame_ += 1
+        if self.sample_depth and observation.depth_image is not None and observation.people:
+            observation = replace(observation, people=people_with_depth(observation))
         people = observation.people
         assigned = self._associate(people)  # detection index -> track, for everyone
         if self.state_ is TrackState.SEARCHING:

@@ -5,13 +5,14 @@ from __future__ import annotations
 
 import json
 from contextlib import asynccontextmanager
-from typing import Literal
+from typing import Annotated, Literal
 
 from fastapi import APIRouter, FastAPI, Query, Request, Response, UploadFile, status
+from fastapi import Path as FastPath
 from fastapi.responses import JSONResponse
 from sqlalchemy import select
 
-from backend.deps import CurrentUser, SessionDep
+from backend.deps import MAX_DB_INT, CurrentUser, DbId, SessionDep
 from backend.labelling import exchange, export, segments
 from backend.labelling.agreement import agreement
 from backend.labelling.errors import Forbidden, LabellingError, NotFound
@@ -24,7 +25,7 @@ from backend.labelling.queries import (
     video_segments,
 )
 from backend.labelling.review import review_queue
-from backend.labelling.rgb import FrameCache, blur_head, crop, encode_jpeg
+from backend.labelling.rgb import FrameCache, JpegCache, blur_head, crop, encode_jpeg
 from backend.labelling.schemas import (
     AgreementOut,
     AnnotatorsOut,
@@ -64,6 +65,7 @@ ExportFormat = Literal["csv", "json", "coco"]
 def install(app: FastAPI, settings: Settings) -> None:
     """Start-up wiring: frame cache, model lane, and 4xx for labelling errors."""
     app.state.rgb_frames = FrameCache(settings.rgb_cache_frames)
+    app.state.rgb_jpegs = JpegCache()
     app.state.model_lane = LaneComputer(settings.labelling_model_dir)
     app.state.viewer3d = viewer = Viewer3D(settings.viser_host, settings.viser_port)
     startup_shutdown = app.router.lifespan_context
@@ -73,6 +75,7 @@ def install(app: FastAPI, settings: Settings) -> None:
         async with startup_shutdown(app_) as state:
             yield state
         viewer.stop()
+        app_.state.rgb_frames.close()
 
     app.router.lifespan_context = lifespan
 
@@ -162,14 +165,14 @@ def facets(session: SessionDep, user: CurrentUser) -> Facets:
 
 
 @router.get("/videos/{video_id}")
-def get_video(video_id: int, session: SessionDep, user: CurrentUser) -> LabellingVideoOut:
+def get_video(video_id: DbId, session: SessionDep, user: CurrentUser) -> LabellingVideoOut:
     video = segments.get_video(session, video_id)
     return _video_out(video, progress_by_video(session).get(video.id, {}))
 
 
 @router.patch("/videos/{video_id}")
 def patch_video(
-    video_id: int, body: VideoPatch, session: SessionDep, user: CurrentUser
+    video_id: DbId, body: VideoPatch, session: SessionDep, user: CurrentUser
 ) -> LabellingVideoOut:
     video = segments.get_video(session, video_id)
     for field, value in body.model_dump(exclude_unset=True).items():
@@ -205,7 +208,7 @@ def _segment_outs(session, items: list[AnnotationSegment]) -> list[SegmentOut]:
 
 @router.get("/videos/{video_id}/segments")
 def list_segments(
-    video_id: int,
+    video_id: DbId,
     session: SessionDep,
     user: CurrentUser,
     annotator: str | None = None,
@@ -223,7 +226,7 @@ def list_segments(
 
 @router.post("/videos/{video_id}/segments", status_code=status.HTTP_201_CREATED)
 def create_segment(
-    video_id: int, body: SegmentIn, session: SessionDep, user: CurrentUser
+    video_id: DbId, body: SegmentIn, session: SessionDep, user: CurrentUser
 ) -> SegmentOut:
     video = segments.get_video(session, video_id)
     segment = segments.create_segment(
@@ -238,7 +241,7 @@ def create_segment(
 
 @router.patch("/segments/{segment_id}")
 def update_segment(
-    segment_id: int, body: SegmentPatch, session: SessionDep, user: CurrentUser
+    segment_id: DbId, body: SegmentPatch, session: SessionDep, user: CurrentUser
 ) -> SegmentOut:
     segment = segments.get_segment(session, segment_id)
     segments.update_segment(session, segment, user, **body.model_dump(exclude_unset=True))
@@ -246,14 +249,14 @@ def update_segment(
 
 
 @router.delete("/segments/{segment_id}", status_code=status.HTTP_204_NO_CONTENT)
-def delete_segment(segment_id: int, session: SessionDep, user: CurrentUser) -> Response:
+def delete_segment(segment_id: DbId, session: SessionDep, user: CurrentUser) -> Response:
     segments.delete_segment(session, segments.get_segment(session, segment_id), user)
     return Response(status_code=status.HTTP_204_NO_CONTENT)
 
 
 @router.post("/segments/{segment_id}/status")
 def change_status(
-    segment_id: int, body: StatusAction, session: SessionDep, user: CurrentUser
+    segment_id: DbId, body: StatusAction, session: SessionDep, user: CurrentUser
 ) -> SegmentOut:
     segment = segments.get_segment(session, segment_id)
     segments.transition(session, segment, user, body.action, body.comment)
@@ -261,7 +264,7 @@ def change_status(
 
 
 @router.post("/videos/{video_id}/submit")
-def submit_drafts(video_id: int, session: SessionDep, user: CurrentUser) -> SubmitAllOut:
+def submit_drafts(video_id: DbId, session: SessionDep, user: CurrentUser) -> SubmitAllOut:
     """Submit every draft (and rejected, revised) segment of the caller on this video."""
     segments.get_video(session, video_id)
     mine = [
@@ -278,7 +281,7 @@ def submit_drafts(video_id: int, session: SessionDep, user: CurrentUser) -> Subm
 
 @router.post("/segments/{segment_id}/review")
 def review_segment(
-    segment_id: int, body: ReviewIn, session: SessionDep, user: CurrentUser
+    segment_id: DbId, body: ReviewIn, session: SessionDep, user: CurrentUser
 ) -> SegmentOut:
     segment = segments.get_segment(session, segment_id)
     segments.transition(session, segment, user, body.decision, body.comment)
@@ -287,7 +290,7 @@ def review_segment(
 
 @router.get("/segments/{segment_id}/history")
 def segment_history(
-    segment_id: int, session: SessionDep, user: CurrentUser
+    segment_id: DbId, session: SessionDep, user: CurrentUser
 ) -> list[SegmentEventOut]:
     segments.get_segment(session, segment_id)
     events = segments.history(session, segment_id)
@@ -321,7 +324,7 @@ def get_review_queue(
 
 @router.get("/videos/{video_id}/export")
 def export_video(
-    video_id: int,
+    video_id: DbId,
     session: SessionDep,
     user: CurrentUser,
     format: ExportFormat = "csv",
@@ -372,7 +375,7 @@ async def import_file(
 
 
 @router.get("/videos/{video_id}/annotators")
-def video_annotators(video_id: int, session: SessionDep, user: CurrentUser) -> AnnotatorsOut:
+def video_annotators(video_id: DbId, session: SessionDep, user: CurrentUser) -> AnnotatorsOut:
     segments.get_video(session, video_id)
     ids = {s.annotator_id for s in video_segments(session, video_id) if s.annotator_id}
     return AnnotatorsOut(annotators=sorted(usernames(session, ids).values()))
@@ -380,7 +383,7 @@ def video_annotators(video_id: int, session: SessionDep, user: CurrentUser) -> A
 
 @router.get("/videos/{video_id}/agreement")
 def video_agreement(
-    video_id: int, a: str, b: str, session: SessionDep, user: CurrentUser
+    video_id: DbId, a: str, b: str, session: SessionDep, user: CurrentUser
 ) -> AgreementOut:
     video = segments.get_video(session, video_id)
     taxonomy = load_taxonomy(session)
@@ -424,8 +427,8 @@ def vars_(obj) -> dict:
     responses={200: {"content": {"image/jpeg": {}}}},
 )
 def rgb_frame(
-    video_id: int,
-    frame: int,
+    video_id: DbId,
+    frame: Annotated[int, FastPath(ge=0, le=MAX_DB_INT)],
     request: Request,
     session: SessionDep,
     user: CurrentUser,
@@ -438,6 +441,10 @@ def rgb_frame(
         raise LabellingError(f"frame: {frame} is outside 0..{video.frame_count - 1}")
     if not blur and user.role != Role.ANNOTATOR:
         raise Forbidden("blur: only annotators may see unblurred faces")
+    headers = {"Cache-Control": "private, max-age=3600"}
+    cached = request.app.state.rgb_jpegs.get((video.id, frame, blur))
+    if cached is not None:
+        return Response(cached, media_type="image/jpeg", headers=headers)
     number = max(frame + video.rgb_frame_offset, 0)
     picture = crop(request.app.state.rgb_frames.get(video.rgb_path, number), video.rgb_crop)
     if blur:
@@ -451,16 +458,14 @@ def rgb_frame(
             height / video.image_height if video.image_height else float(height),
         )
         picture = blur_head(picture, keypoints, scale)
-    return Response(
-        encode_jpeg(picture),
-        media_type="image/jpeg",
-        headers={"Cache-Control": "private, max-age=3600"},
-    )
+    data = encode_jpeg(picture)
+    request.app.state.rgb_jpegs.put((video.id, frame, blur), data)
+    return Response(data, media_type="image/jpeg", headers=headers)
 
 
 @router.get("/videos/{video_id}/probability")
 def probability_lane(
-    video_id: int, request: Request, session: SessionDep, user: CurrentUser
+    video_id: DbId, request: Request, session: SessionDep, user: CurrentUser
 ) -> ProbabilityOut:
     video = segments.get_video(session, video_id)
     lane = request.app.state.model_lane.lane(session, video)
@@ -480,11 +485,13 @@ def probability_lane(
 
 @router.post("/videos/{video_id}/view3d")
 def view_3d(
-    video_id: int,
+    video_id: DbId,
     request: Request,
     session: SessionDep,
     user: CurrentUser,
-    frame: int = Query(ge=0, description="frame to show; the nearest frames with depth are used"),
+    frame: int = Query(
+        ge=0, le=MAX_DB_INT, description="frame to show; the nearest frames with depth are used"
+    ),
 ) -> View3DOut:
     """Show the frame (and up to 30 nearby frames with depth) in 3D in the viser viewer."""
     video = segments.get_video(session, video_id)

@@ -213,6 +213,26 @@ class IngestContext:
                 .values(last_frame_at=bindparam("_at")),
                 [{"_id": t.id, "_at": t.last_frame_at} for t in transports],
             )  # fmt: skip
+        for robot in robots:
+            robot.last_seen_at = None
+            robot.running_model_changed = False
+        for transport in transports:
+            transport.last_frame_at = None
+
+    def detach(self) -> IngestContext:
+        """After the commit: a context for the next flush that keeps the robot, transport and
+        video rows (as plain states, ORM objects converted) and nothing else."""
+        transports = {
+            key: TransportState(t.id, t.robot_id, t.mode, t.patient, t.location)
+            if isinstance(t, Transport) else t
+            for key, t in self.transports.items()
+        }  # fmt: skip
+        videos = {
+            key: VideoState(v.id, v.name, v.frame_count, v.frame_count)
+            if isinstance(v, Video) else v
+            for key, v in self.videos.items()
+        }  # fmt: skip
+        return IngestContext(robots=self.robots, transports=transports, videos=videos)
 
     def transport(
         self, session: Session, transport_id: str | None

@@ -29,6 +29,7 @@ from vigil.protocol import FrameBatch, Heartbeat, TransportEnd, TransportStart
 log = logging.getLogger(__name__)
 
 RobotWork = FrameBatch | TransportStart | TransportEnd | Heartbeat
+CACHE_SECONDS = 5.0
 
 
 class RejectedMessage(Exception):
@@ -92,6 +93,8 @@ class FrameWriter:
         self._room.set()
         self._max_pending_frames = max_pending_frames
         self._task: asyncio.Task | None = None
+        self._cache: service.IngestContext | None = None
+        self._cache_born = 0.0
 
     # -- called by robot connections -------------------------------------------------------
     async def submit(self, link: RobotLink, message: RobotWork, received: float) -> Job:
@@ -166,13 +169,26 @@ class FrameWriter:
             await link.send_ack(outcome.acks[key])
 
     # -- in a worker thread ----------------------------------------------------------------
+    def _cached_context(self) -> service.IngestContext:
+        """Robot, transport and video rows are kept between flushes (this writer is what
+        changes them), dropped every CACHE_SECONDS to see changes made elsewhere (another
+        replica, a revoked token) and after any failed flush."""
+        now = time.monotonic()
+        if self._cache is None or now - self._cache_born > CACHE_SECONDS:
+            self._cache, self._cache_born = service.IngestContext(), now
+        return self._cache
+
     def _commit(self, jobs: list[Job]) -> Outcome:
         try:
+            context = self._cached_context()
             with transaction(self._session_factory) as session:
-                return self._apply(session, jobs)
+                outcome = self._apply(session, jobs, context)
+            self._cache = context.detach()
+            return outcome
         except RejectedMessage:
-            pass
+            self._cache = None
         except Exception as error:
+            self._cache = None
             log.warning("shared ingest transaction failed (%s); retrying robot by robot", error)
         outcome = Outcome()
         by_link: dict[int, list[Job]] = {}
@@ -181,7 +197,7 @@ class FrameWriter:
         for link_jobs in by_link.values():
             try:
                 with transaction(self._session_factory) as session:
-                    single = self._apply(session, link_jobs)
+                    single = self._apply(session, link_jobs, service.IngestContext())
             except RejectedMessage as error:
                 for job in link_jobs:
                     outcome.rejected[id(job)] = error
@@ -204,7 +220,7 @@ class FrameWriter:
             outcome.alarms.extend(single.alarms)
         return outcome
 
-    def _apply(self, session: Session, jobs: list[Job]) -> Outcome:
+    def _apply(self, session: Session, jobs: list[Job], context: service.IngestContext) -> Outcome:
         outcome = Outcome()
         streams: set[tuple[str, str | None]] = set()
         alarming: set[str] = set()
@@ -217,7 +233,7 @@ class FrameWriter:
                         alarming.add(robot_id)
             else:
                 streams.add((robot_id, None))
-        context = service.IngestContext().preload(session, streams, alarming)
+        context.preload(session, streams, alarming)
         touched = {}
         # Consecutive frame batches of one connection become one store_frames call.
         run: list[protocol.FrameRecord] = []

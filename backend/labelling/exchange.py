@@ -116,7 +116,10 @@ def import_coco(session: Session, document: dict, name: str | None = None) -> Vi
     by_image = {a.get("image_id"): a for a in document.get("annotations") or []}
     indices, points, labels = [], [], []
     for image in sorted(images, key=lambda im: im.get("frame_index", im.get("id", 0))):
-        index = int(image.get("frame_index", image["id"] - 1))
+        try:
+            index = int(image.get("frame_index", image["id"] - 1))
+        except (KeyError, TypeError, ValueError) as error:
+            raise LabellingError(f"images: each image needs an integer id ({error})") from error
         annotation = by_image.get(image["id"])
         coco = np.zeros((17, 3), np.float32)
         if annotation is not None:
@@ -154,6 +157,11 @@ def import_csv(session: Session, text: str) -> dict[str, int]:
         video = video_by_name(session, name)
         if video is None:
             raise LabellingError(f"csv: video {name!r} does not exist; import its frames first")
-        frame_label = [labels.get(i) for i in range(max(labels) + 1)]
+        outside = [f for f in labels if not 0 <= f < video.frame_count]
+        if outside:
+            raise LabellingError(
+                f"csv: video {name!r} has frames 0..{video.frame_count - 1}, not {outside[0]}"
+            )
+        frame_label = [labels.get(i) for i in range(video.frame_count)]
         created[name] = len(_add_segments(session, video, label_runs(frame_label)))
     return created

@@ -23,14 +23,24 @@ MIN_HEAD_RADIUS = 12.0  # pixels of the RGB picture
 
 
 class FrameCache:
-    """Decoded RGB frames per (clip, frame number), least recently used dropped first."""
+    """Decoded RGB frames per (clip, frame number), least recently used dropped first.
+
+    Each clip keeps a reader open at its decode position, so playing forward decodes each frame
+    once; a request behind the reader reopens the clip and decodes from its start (exact, never
+    the codec's approximate seek).
+    """
+
+    READ_AHEAD = 30
+    MAX_READERS = 4
 
     def __init__(self, max_frames: int = 600) -> None:
         self.max_frames = max_frames
         self._frames: OrderedDict[tuple[str, int], np.ndarray] = OrderedDict()
+        self._readers: OrderedDict[str, tuple[cv2.VideoCapture, int]] = OrderedDict()
         self._lock = threading.Lock()
         self.hits = 0
         self.misses = 0
+        self.decoded = 0
 
     def get(self, path: str, number: int) -> np.ndarray:
         key = (path, number)
@@ -45,31 +55,69 @@ class FrameCache:
                 raise NotFound(f"frame: clip has no frame {number}")
             return self._frames[key]
 
-    def _decode_through(self, path: str, number: int) -> None:
-        """Decode from the start of the clip up to `number` (+ a little read-ahead), caching."""
+    def _reader(self, path: str, number: int) -> tuple[cv2.VideoCapture, int]:
+        if path in self._readers:
+            capture, position = self._readers.pop(path)
+            if position <= number:
+                return capture, position
+            capture.release()
         if not Path(path).is_file():
             raise NotFound(f"rgb: clip {Path(path).name} is missing on the server")
         capture = cv2.VideoCapture(path)
-        try:
-            if not capture.isOpened():
-                raise LabellingError(f"rgb: cannot open clip {Path(path).name}")
-            read_ahead = number + 30
-            index = 0
-            while index <= read_ahead:
-                ok, picture = capture.read()
-                if not ok:
-                    break
-                if index >= number - 30:
-                    self._put((path, index), picture)
-                index += 1
-        finally:
-            capture.release()
+        if not capture.isOpened():
+            raise LabellingError(f"rgb: cannot open clip {Path(path).name}")
+        return capture, 0
+
+    def _decode_through(self, path: str, number: int) -> None:
+        """Decode up to `number` plus a read-ahead, caching the frames around `number`."""
+        capture, position = self._reader(path, number)
+        while position <= number + self.READ_AHEAD:
+            ok, picture = capture.read()
+            if not ok:
+                break
+            self.decoded += 1
+            if position >= number - self.READ_AHEAD:
+                self._put((path, position), picture)
+            position += 1
+        self._readers[path] = (capture, position)
+        while len(self._readers) > self.MAX_READERS:
+            _, (old, _) = self._readers.popitem(last=False)
+            old.release()
 
     def _put(self, key: tuple[str, int], picture: np.ndarray) -> None:
         self._frames[key] = picture
         self._frames.move_to_end(key)
         while len(self._frames) > self.max_frames:
             self._frames.popitem(last=False)
+
+    def close(self) -> None:
+        with self._lock:
+            for capture, _ in self._readers.values():
+                capture.release()
+            self._readers.clear()
+
+
+class JpegCache:
+    """Finished pictures (blurred or not) per (video, frame, blur): a repeat is a lookup."""
+
+    def __init__(self, max_items: int = 1000) -> None:
+        self.max_items = max_items
+        self._items: OrderedDict[tuple[int, int, bool], bytes] = OrderedDict()
+        self._lock = threading.Lock()
+
+    def get(self, key: tuple[int, int, bool]) -> bytes | None:
+        with self._lock:
+            if key in self._items:
+                self._items.move_to_end(key)
+                return self._items[key]
+            return None
+
+    def put(self, key: tuple[int, int, bool], data: bytes) -> None:
+        with self._lock:
+            self._items[key] = data
+            self._items.move_to_end(key)
+            while len(self._items) > self.max_items:
+                self._items.popitem(last=False)
 
 
 def crop(picture: np.ndarray, region: dict | None) -> np.ndarray:

@@ -7,6 +7,7 @@ from typing import Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
+from backend.deps import MAX_DB_INT
 from backend.models.annotations import SegmentSource, SegmentStatus
 from backend.models.videos import Split
 from vigil.classes import Decision, TransportMode
@@ -49,15 +50,15 @@ class Facets(BaseModel):
 
 
 class SegmentIn(BaseModel):
-    first_frame: int = Field(ge=0, description="exact frame number (inclusive)")
-    last_frame: int = Field(ge=0, description="exact frame number (inclusive)")
+    first_frame: int = Field(ge=0, le=MAX_DB_INT, description="exact frame number (inclusive)")
+    last_frame: int = Field(ge=0, le=MAX_DB_INT, description="exact frame number (inclusive)")
     label_key: str = Field(min_length=1, max_length=64)
     source: Literal["annotator", "model_suggestion"] = "annotator"
 
 
 class SegmentPatch(BaseModel):
-    first_frame: int | None = Field(default=None, ge=0)
-    last_frame: int | None = Field(default=None, ge=0)
+    first_frame: int | None = Field(default=None, ge=0, le=MAX_DB_INT)
+    last_frame: int | None = Field(default=None, ge=0, le=MAX_DB_INT)
     label_key: str | None = Field(default=None, min_length=1, max_length=64)
 
 

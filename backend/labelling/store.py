@@ -8,9 +8,11 @@ import numpy as np
 from sqlalchemy import insert, select
 from sqlalchemy.orm import Session
 
-from backend.labelling.errors import Conflict
+from backend.labelling.errors import Conflict, LabellingError
 from backend.models.videos import Frame, Video
 from vigil.skeleton import encode_depth, encode_keypoints
+
+MAX_FRAMES = 10_000_000  # about 3.8 days at 30 frames/s: far more than any recording
 
 
 def video_by_name(session: Session, name: str) -> Video | None:
@@ -29,6 +31,10 @@ def add_video(
     if video_by_name(session, video.name) is not None:
         raise Conflict(f"name: a video called {video.name!r} already exists")
     indices = list(range(len(keypoints))) if indices is None else [int(i) for i in indices]
+    if indices and not 0 <= min(indices) <= max(indices) < MAX_FRAMES:
+        raise LabellingError(f"frames: frame numbers must lie in 0..{MAX_FRAMES - 1}")
+    if not np.isfinite(np.asarray(timestamps, dtype=np.float64)).all():
+        raise LabellingError("frames: every timestamp must be a finite number")
     video.frame_count = (max(indices) + 1) if indices else 0
     session.add(video)
     session.flush()

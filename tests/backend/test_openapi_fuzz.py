@@ -13,7 +13,7 @@ from backend.process import BackendProcess
 from backend.security import create_access_token, hash_password
 from tests.backend.test_reliability import SECRET, backend_env  # noqa: F401  (fixture)
 
-EXAMPLES_PER_OPERATION = 12
+EXAMPLES_PER_OPERATION = 10
 
 
 @pytest.mark.timeout(180)

@@ -293,3 +293,25 @@ def test_metrics_count_frames_ack_latency_open_alarms_and_robots(client, robot, 
     assert metrics["vigil_ingest_commit_seconds_count"] == 1
     assert metrics['vigil_open_alarms{kind="emergency"}'] == 1
     assert metrics["vigil_connected_robots"] == 1
+
+
+def test_frames_written_by_another_replica_meanwhile_are_neither_duplicated_nor_clobbered(
+    client, robot, session_factory
+):
+    """The writer keeps robot and video rows between flushes; when another replica wrote for
+    the same robot in between, the conflict is detected and the batch retried on fresh rows."""
+    from backend.ingest import service
+
+    with client.websocket_connect("/ws/robot") as ws:
+        hello(ws, robot, ROBOT_TOKEN)
+        ws.send_text(
+            protocol.TransportStart(transport_id="t-1", mode="walking", ts=0.0).model_dump_json()
+        )
+        assert send_frames(ws, 0, 1) == {"type": "ack", "seq": 1}
+        with transaction(session_factory) as session:  # "replica B" stores 2 and 3
+            service.store_frames(session, session.get(Robot, robot), [frame(2), frame(3)])
+        assert send_frames(ws, 2, 3, 4, 5) == {"type": "ack", "seq": 5}
+    with session_factory() as session:
+        rows = session.execute(select(Frame.seq, Frame.index).order_by(Frame.seq)).all()
+    assert [seq for seq, _ in rows] == [0, 1, 2, 3, 4, 5]
+    assert sorted(index for _, index in rows) == [0, 1, 2, 3, 4, 5]

@@ -18,7 +18,9 @@ from backend.models import AnnotationSegment, Role, User, Video
 from backend.security import hash_password
 from vigil.datasets import urfd
 
-from .conftest import PASSWORD, SCREENSHOTS, sign_in
+from .live_server import PASSWORD, REPO_ROOT, sign_in
+
+SCREENSHOTS = REPO_ROOT / "docs" / "screenshots"
 
 pytestmark = pytest.mark.browser
 
@@ -111,6 +113,8 @@ def test_annotator_labels_fall_stages_reviewer_accepts_export_matches(live_serve
 
     page.get_by_role("button", name="Sign out").click()
     sign_in(page, live_server.base_url, "rita")
+    expect(page.get_by_text("rita · annotator")).to_be_visible()
+    page.goto(f"{live_server.base_url}/annotate")
     page.get_by_role("link", name="Review queue").click()
     rows = page.get_by_test_id("queue-row")
     expect(rows).to_have_count(3)

@@ -156,3 +156,23 @@ def test_marker_in_generated_rgb_picks_the_patient_end_to_end():
             if result.state is TrackState.TRACKING:
                 assert result.index == obs.patient_hint
         assert first is not None and first.selected_by is SelectedBy.MARKER
+
+
+def test_depth_image_keeps_a_person_further_away_from_taking_the_patients_place():
+    patient = _standing_person(320, 300)
+    near = np.full((480, 640), 2000, np.uint16)  # millimetres
+    far = np.full((480, 640), 4000, np.uint16)
+    # the patient vanishes; someone 2 m further back stands exactly where they stood in the image
+    stranger = SkeletonFrame(patient.keypoints.copy())
+    first = Observation(0.0, [patient], depth_image=near, depth_scale_mm=1.0)
+    second = Observation(0.033, [stranger], depth_image=far, depth_scale_mm=1.0)
+
+    tracker = PatientTracker()
+    selected = tracker.update(first)
+    assert selected.state is TrackState.TRACKING
+    assert np.nanmedian(selected.patient.depth) == pytest.approx(2.0)
+    assert tracker.update(second).state is TrackState.LOST
+
+    blind = PatientTracker(sample_depth=False)  # image distance alone cannot tell them apart
+    blind.update(first)
+    assert blind.update(second).state is TrackState.TRACKING

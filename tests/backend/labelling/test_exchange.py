@@ -97,3 +97,16 @@ def test_bad_import_files_are_refused_and_store_nothing(client, urfd_videos, ann
     )
     assert unknown_video.status_code == 422 and "nope" in unknown_video.json()["detail"]
     assert len(client.get(f"{API}/videos", headers=annotator.headers).json()) == before
+
+
+def test_frame_numbers_outside_the_video_or_storage_are_refused(client, urfd_videos, annotator):
+    too_far = _import(
+        client, annotator, "csv", "video,frame,ts,label_key\nfall-01,160,5.3,walking\n"
+    )
+    assert too_far.status_code == 422 and "0..159" in too_far.json()["detail"]
+    document = _export(client, annotator, urfd_videos["fall-01"], "json").json()
+    document["frames"][0]["index"] = 2**40
+    huge = _import(client, annotator, "json", json.dumps(document), name="huge")
+    assert huge.status_code == 422 and "frame numbers" in huge.json()["detail"]
+    response = client.get(f"{API}/videos/{2**40}/segments", headers=annotator.headers)
+    assert response.status_code == 422

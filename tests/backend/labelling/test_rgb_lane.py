@@ -14,12 +14,12 @@ def _decode(content: bytes) -> np.ndarray:
     return cv2.imdecode(np.frombuffer(content, np.uint8), cv2.IMREAD_COLOR)
 
 
-def _clip_frame(number: int) -> np.ndarray:
+def _clip_frame(number: int, crop: bool = True) -> np.ndarray:
     capture = cv2.VideoCapture(str(URFD_DIR / "video" / "fall-01-cam0.mp4"))
     for _ in range(number + 1):
         ok, picture = capture.read()
     capture.release()
-    return picture[:, 320:]
+    return picture[:, 320:] if crop else picture
 
 
 def test_rgb_frame_is_the_exact_clip_frame(client, urfd_videos, annotator):
@@ -74,3 +74,17 @@ def test_probability_lane_from_stored_scores_suggests_the_fall(
     assert lane["source"] == "stored" and lane["model_version"] == "m-1"
     assert lane["probability"][99] == 0.1 and lane["probability"][100] == 0.9
     assert lane["suggestions"] == [{"first_frame": 100, "last_frame": 159, "label_key": "falling"}]
+
+
+def test_frame_cache_decodes_each_frame_once_when_playing_forward():
+    from backend.labelling.rgb import FrameCache
+
+    clip = str(URFD_DIR / "video" / "fall-01-cam0.mp4")
+    cache = FrameCache(max_frames=61)
+    for number in range(0, 160, 7):
+        cache.get(clip, number)
+    assert cache.decoded == 160  # the whole clip once, never from the start again
+    again = cache.get(clip, 20)  # evicted and behind the reader: reopened, decoded 0..50
+    assert cache.decoded == 160 + 51
+    assert np.array_equal(again, _clip_frame(20, crop=False))
+    cache.close()

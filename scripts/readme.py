@@ -1,0 +1,226 @@
+"""README sections generated from the code and the benchmark files, so README cannot drift:
+
+- the configuration table, from the pydantic-settings classes of each process;
+- the benchmark tables, from `bench/results/*.json` as the `make bench-*` targets wrote them.
+
+`python -m scripts.readme` prints both; `--write` replaces them between README's markers;
+tests/test_readme.py fails when README no longer matches.
+"""
+
+from __future__ import annotations
+
+import importlib
+import json
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+README = ROOT / "README.md"
+RESULTS = ROOT / "bench" / "results"
+
+#: (process, module, class name)
+SETTINGS_CLASSES = (
+    ("backend", "backend.settings", "Settings"),
+    ("worker", "worker.settings", "WorkerSettings"),
+    ("robot agent", "robot_agent.config", "AgentSettings"),
+)
+
+
+def _default(value) -> str:
+    text = str(value).replace(str(ROOT), "<repo>")
+    return f"`{text}`" if text else '`""`'
+
+
+def settings_table() -> str:
+    rows = ["| process | environment variable | default | meaning |", "| --- | --- | --- | --- |"]
+    for process, module_name, class_name in SETTINGS_CLASSES:
+        try:
+            cls = getattr(importlib.import_module(module_name), class_name)
+        except (ImportError, AttributeError):
+            continue
+        prefix = cls.model_config.get("env_prefix", "")
+        for name, field in cls.model_fields.items():
+            env = (prefix + name).upper()
+            meaning = (field.description or "").replace("|", "\\|").replace("\n", " ")
+            default = _default(field.default) if field.default_factory is None else "(computed)"
+            rows.append(f"| {process} | `{env}` | {default} | {meaning} |")
+    return "\n".join(rows)
+
+
+def _load(name: str) -> dict | None:
+    path = RESULTS / name
+    return json.loads(path.read_text()) if path.exists() else None
+
+
+def _fmt(value, digits: int = 3) -> str:
+    if value is None:
+        return "–"
+    if isinstance(value, float):
+        return f"{value:.{digits}g}" if abs(value) < 1000 else f"{value:,.0f}"
+    if isinstance(value, int) and abs(value) >= 10000:
+        return f"{value:,}"
+    return str(value)
+
+
+def _table(header: list[str], rows: list[list]) -> str:
+    lines = ["| " + " | ".join(header) + " |", "|" + " --- |" * len(header)]
+    lines += ["| " + " | ".join(_fmt(v) for v in row) + " |" for row in rows]
+    return "\n".join(lines)
+
+
+def _detection() -> str | None:
+    data = _load("detection_urfd.json")
+    if data is None:
+        return None
+    keys = ["name", "frame_recall", "frame_f1", "falls_detected", "falls_total",
+            "adl_false_alarms", "adl_total", "median_time_to_alarm_s", "threshold", "delay_ms"]  # fmt: skip
+    rows = [[m.get(k) for k in keys] for m in data["models"]]
+    text = (
+        f"**Detection on URFD (real data)**: `make bench-detection` → "
+        f"`bench/results/detection_urfd.json`, {data['folds']}-fold cross-validation grouped by "
+        f"sequence; thresholds and delay chosen on the training folds only. Best: "
+        f"**{data['best']}**.\n\n"
+    )
+    text += _table(
+        ["model", "frame recall", "frame F1", "falls detected", "of", "ADL false alarms", "of",
+         "median time to alarm (s)", "threshold", "delay (ms)"],  # fmt: skip
+        rows,
+    )
+    extras = [
+        f"{label}: {_fmt(data[key])}"
+        for key, label in (
+            ("retrain_seconds", "full retrain of all model types (s)"),
+            ("frame_latency_p99_ms", "per-frame features + ONNX inference p99 (ms)"),
+        )
+        if key in data
+    ]
+    if extras:
+        text += "\n\n" + "; ".join(extras) + "."
+    return text
+
+
+def _ingest() -> str | None:
+    data = _load("ingest.json")
+    if data is None:
+        return None
+    keys = ["database", "robots", "hz", "seconds", "frames_per_s", "ack_p50_ms", "ack_p99_ms",
+            "alarm_p50_ms", "alarm_p99_ms", "frames_lost", "duplicates"]  # fmt: skip
+    rows = [[run.get(k) for k in keys] for run in data["runs"]]
+    return (
+        "**Ingest** (`make bench-ingest` → `bench/results/ingest.json`): the real backend and "
+        "simulated robots over loopback websockets; `hz` 0 is a saturation run (robots send as "
+        "fast as acknowledgements allow).\n\n" + _table(keys, rows)
+    )
+
+
+def _robot() -> str | None:
+    data = _load("robot.json")
+    if data is None:
+        return None
+    keys = ["frame_p50_ms", "frame_p99_ms", "sustained_hz", "mediapipe_fps",
+            "outbox_replay_frames_per_s"]  # fmt: skip
+    return (
+        "**Robot agent** (`make bench-robot` → `bench/results/robot.json`): one frame = depth "
+        "sampling + features + inference + delay filter + outbox write.\n\n"
+        + _table(keys, [[data.get(k) for k in keys]])
+    )
+
+
+def _alarm_latency() -> str | None:
+    data = _load("alarm_latency.json")
+    if data is None:
+        return None
+    rows = [
+        [label, data[key]["n"], data[key]["p50_ms"], data[key]["p95_ms"], data[key]["max_ms"]]
+        for key, label in (
+            ("show", "Emergency sent → card on the nurse board"),
+            ("sound", "Emergency sent → tone playing"),
+            ("ack_roundtrip", "acknowledge click → card acknowledged"),
+        )
+    ]
+    return (
+        "**Alarm to nurse in Chromium** (`make bench-alarm-latency` → "
+        f"`bench/results/alarm_latency.json`, {data['data']}).\n\n"
+        + _table(["path", "n", "p50 ms", "p95 ms", "max ms"], rows)
+    )
+
+
+def _labelling() -> str | None:
+    data = _load("labelling.json")
+    if data is None:
+        return None
+    rows = [
+        ["URFD import (70 videos), s", data["import_urfd_s"]],
+        ["RGB frame, first request, median ms", data["rgb_frame_ms"]["cold_median"]],
+        ["RGB frame, cached, median ms", data["rgb_frame_ms"]["warm_median"]],
+        ["RGB frame, next while playing, median ms", data["rgb_frame_ms"]["next_frame_median"]],
+        ["timeline load, ms", data["timeline_load_ms"]],
+        ["segment create + update + delete, ms", data["segment_create_update_delete_ms"]],
+    ]
+    return (
+        "**Labelling** (`make bench-labelling` → `bench/results/labelling.json`, "
+        f"{data['data']}).\n\n" + _table(["what", "value"], rows)
+    )
+
+
+def _registry() -> str | None:
+    data = _load("registry.json")
+    if data is None:
+        return None
+    queue_rows = [
+        [db, q["jobs"], q["jobs_per_s"], q["claimed_twice"], q["never_claimed"]]
+        for db, q in data["queue"].items()
+    ]
+    text = (
+        "**Job queue** (`make bench-registry` → `bench/results/registry.json`): two workers "
+        "claiming concurrently.\n\n"
+        + _table(["database", "jobs", "jobs/s", "claimed twice", "never claimed"], queue_rows)
+    )
+    retrain = data.get("retrain")
+    if retrain:
+        gold = retrain["gold"]
+        text += (
+            f"\n\nA retrain job ({retrain['data']}) took {_fmt(retrain['job_seconds'])} s and "
+            f"registered `{retrain['model_version']}`: on the gold set it detected "
+            f"{gold['falls_detected']} of {gold['falls_total']} falls with "
+            f"{gold['adl_false_alarms']} of {gold['adl_total']} daily-activity recordings "
+            f"alarming, frame recall {_fmt(gold['frame_recall'])}, F1 {_fmt(gold['frame_f1'])}."
+        )
+    return text
+
+
+BENCH_SECTIONS = (_detection, _ingest, _robot, _alarm_latency, _labelling, _registry)
+
+
+def bench_section() -> str:
+    parts = [text for render in BENCH_SECTIONS if (text := render()) is not None]
+    return "\n\n".join(parts)
+
+
+SECTIONS = {"bench": bench_section, "settings": settings_table}
+
+
+def readme_section(name: str, text: str | None = None) -> str | None:
+    text = README.read_text() if text is None else text
+    start, end = f"<!-- {name}:start -->", f"<!-- {name}:end -->"
+    if start not in text or end not in text:
+        return None
+    return text.split(start, 1)[1].split(end, 1)[0].strip()
+
+
+def write() -> None:
+    text = README.read_text()
+    for name, render in SECTIONS.items():
+        start, end = f"<!-- {name}:start -->", f"<!-- {name}:end -->"
+        head, rest = text.split(start, 1)
+        _, tail = rest.split(end, 1)
+        text = f"{head}{start}\n{render()}\n{end}{tail}"
+    README.write_text(text)
+
+
+if __name__ == "__main__":
+    if "--write" in sys.argv:
+        write()
+    else:
+        for name, render in SECTIONS.items():
+            print(f"## {name}\n{render()}\n")
