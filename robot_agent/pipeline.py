@@ -10,6 +10,7 @@ from __future__ import annotations
 import json
 import logging
 import math
+import time
 from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -197,7 +198,8 @@ class Pipeline:
         else:
             decision = None
         if self._clock_offset is None:
-            self._clock_offset = self._transport_started - observation.timestamp
+            anchor = self._transport_started if self.transport_id is not None else time.time()
+            self._clock_offset = anchor - observation.timestamp
         wall_ts = observation.timestamp + self._clock_offset
         self._last_wall_ts = wall_ts
         body = self._frame_body(frame, wall_ts, decision, classification, shadow)
