@@ -16,6 +16,7 @@ import pytest
 import uvicorn
 from sqlalchemy import func, select
 
+from backend.db import transaction
 from backend.main import create_app
 from backend.models import (
     Alarm,
@@ -91,10 +92,17 @@ def test_robot_process_switches_to_the_promoted_version_and_back_on_rollback(
         assert api.post(f"/api/deployments/{second['id']}/rollback", json={}).status_code == 200
         _wait_running(session_factory, "robot-a", "rf-test-1")
         assert (tmp_path / "robot-models" / "rf-test-2" / "model.onnx").is_file()
+        # A change made outside this backend (the worker's automatic rollback writes only the
+        # database) reaches the robot through the backend's reconcile loop.
+        with transaction(session_factory) as session:
+            session.get(Robot, "robot-a").assigned_model_id = v2
+        _wait_running(session_factory, "robot-a", "rf-test-2")
     finally:
         robot.terminate()
         out, err = robot.communicate(timeout=10)
-    assert out.splitlines() == ["RUNNING rf-test-1", "RUNNING rf-test-2", "RUNNING rf-test-1"], err
+    assert out.splitlines() == [
+        "RUNNING rf-test-1", "RUNNING rf-test-2", "RUNNING rf-test-1", "RUNNING rf-test-2"
+    ], err  # fmt: skip
 
 
 def _frame(seq: int, decision: str, shadow: str) -> FrameRecord:
