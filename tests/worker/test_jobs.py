@@ -12,6 +12,7 @@ from backend.db import transaction
 from backend.models.jobs import Job, JobKind, JobStatus
 from backend.models.registry import ModelStatus, ModelVersion
 from backend.models.users import Role, User
+from backend.registry.gate import gate_report
 from tests.registry_fixtures import GOLD, SMALL_GRID, TRAIN
 from vigil.model_file import load_classifier
 from worker import queue
@@ -59,6 +60,9 @@ def test_retrain_on_urfd_registers_a_model_with_lineage_metrics_and_plots(
         # The registered file is what the manifest says (sha256 verified on load).
         assert load_classifier(directory).manifest.sha256 == model.sha256
         json.dumps(model.metrics)  # stored metrics are plain JSON
+        gate = gate_report(model, false_alarm_budget=0.5, latency_ms=1000)
+        assert gate["warnings"] == []  # training and gold recordings are known to be disjoint
+        assert [c["passed"] for c in gate["checks"]][0] == (gold["falls_detected"] == 2)
 
 
 def test_retrain_without_enough_labelled_recordings_fails_with_a_clear_message(
