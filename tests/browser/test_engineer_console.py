@@ -97,7 +97,7 @@ def test_engineer_registry_gate_promote_what_if_and_rollback(system, page):
     page.get_by_role("link", name="Fleet & deployments").click()
     fleet = page.get_by_role("table", name="Fleet")
     expect(fleet.get_by_role("row", name="robot-a")).to_contain_text("rf-test-1")
-    expect(fleet.get_by_role("row", name="robot-a")).to_contain_text("switching")
+    expect(fleet.get_by_role("row", name="robot-a")).to_contain_text("pending: robot offline")
     page.screenshot(path=SCREENSHOTS / "engineer-fleet.png", full_page=True)
     page.get_by_role("table", name="Deployments").get_by_role("button", name="Roll back").click()
     expect(page.get_by_role("table", name="Deployments")).to_contain_text("rolled_back")
@@ -107,4 +107,16 @@ def test_engineer_registry_gate_promote_what_if_and_rollback(system, page):
         assert deployment.status == "rolled_back" and deployment.gate_report["passed"]
 
     page.get_by_role("link", name="Jobs").click()
-    expect(page.get_by_role("table", name="Jobs")).to_contain_text("whatif")
+    jobs = page.get_by_role("table", name="Jobs")
+    expect(jobs).to_contain_text("whatif")
+    jobs.get_by_role("row").filter(has_text="whatif").get_by_role("button", name="Log").click()
+    expect(page.locator("pre.job-log")).to_contain_text("replaying 4 recordings")
+
+    page.get_by_role("link", name="Model registry").click()
+    page.get_by_label("pick rf-test-1").check()
+    page.get_by_label("pick blind-1").check()
+    page.get_by_role("button", name="Compare the two selected").click()
+    comparison = page.get_by_role("table", name="Comparison")
+    expect(comparison.get_by_role("row", name="delay_ms")).to_contain_text("10000")
+    expect(comparison.get_by_role("row", name="falls_detected")).to_contain_text("-2")
+    page.screenshot(path=SCREENSHOTS / "engineer-compare.png", full_page=True)

@@ -40,7 +40,7 @@ export function FleetPage() {
             <tr key={r.id} className={r.in_sync ? "" : "out-of-sync"}>
               <td>{r.id}</td><td>{r.ward}</td><td>{r.connected ? "yes" : "no"}</td>
               <td>{r.target_version ?? "–"}</td><td>{r.running_version ?? "–"}</td><td>{r.shadow_version ?? "–"}</td>
-              <td>{r.in_sync ? "in sync" : "switching…"}</td>
+              <td>{r.in_sync ? "in sync" : r.connected ? "switching…" : "pending: robot offline"}</td>
             </tr>))}</tbody>
         </table>
       )}
