@@ -17,6 +17,9 @@ def main(argv: list[str] | None = None) -> int:
     demo = commands.add_parser("seed-demo", help="create demo users and robots (idempotent)")
     demo.add_argument("--robots", type=int, default=3)
     demo.add_argument("--tokens-file", type=Path, default=REPO_ROOT / "var" / "robot_tokens.json")
+    demo.add_argument(
+        "--no-urfd", action="store_true", help="skip importing URFD into the labelling workspace"
+    )
     serve = commands.add_parser("serve", help="run the backend")
     serve.add_argument("--host", default="127.0.0.1")
     serve.add_argument("--port", type=int, default=8000)
@@ -37,6 +40,18 @@ def main(argv: list[str] | None = None) -> int:
         with transaction(make_session_factory(engine)) as session:
             credentials = ensure_demo_users(session)
             ensure_demo_robots(session, args.robots, args.tokens_file)
+        if not args.no_urfd:
+            from backend.labelling.importers.urfd import import_urfd
+
+            try:
+                with transaction(make_session_factory(engine)) as session:
+                    report = import_urfd(session, settings.urfd_dir)
+                print(
+                    f"URFD in the labelling workspace: {len(report.created)} videos imported, "
+                    f"{len(report.skipped)} already there"
+                )
+            except FileNotFoundError as error:
+                print(f"URFD not imported: {error}")
         engine.dispose()
         print("Demo accounts (generated for this machine; change them before real use):")
         for username, password, role in credentials:

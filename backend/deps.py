@@ -5,7 +5,7 @@ from __future__ import annotations
 from collections.abc import Iterator
 from typing import Annotated
 
-from fastapi import Depends, HTTPException, Request, status
+from fastapi import Depends, HTTPException, Path, Request, status
 from sqlalchemy.orm import Session
 
 from backend.models.users import User
@@ -26,8 +26,14 @@ def get_session(request: Request) -> Iterator[Session]:
         yield session
 
 
+#: Integer ids and counters fit PostgreSQL INTEGER columns; larger values get a 422, not a 500.
+MAX_DB_INT = 2**31 - 1
+DbId = Annotated[int, Path(ge=1, le=MAX_DB_INT)]
+
 SettingsDep = Annotated[Settings, Depends(get_settings)]
-SessionDep = Annotated[Session, Depends(get_session)]
+# scope="function": the commit happens when the endpoint returns, BEFORE the response is sent
+# (with the default request scope a client could get 201 for a row that then fails to commit).
+SessionDep = Annotated[Session, Depends(get_session, scope="function")]
 
 
 def bearer_token(request: Request) -> str | None:

@@ -7,14 +7,26 @@ import logging
 from contextlib import asynccontextmanager
 from pathlib import Path
 
-from fastapi import FastAPI, HTTPException, Response, status
-from fastapi.responses import FileResponse
+from fastapi import FastAPI, HTTPException, Request, Response, status
+from fastapi.responses import FileResponse, JSONResponse
 from fastapi.staticfiles import StaticFiles
 from prometheus_client import CONTENT_TYPE_LATEST, generate_latest
 from sqlalchemy import func, select
+from sqlalchemy.exc import DataError
 
 from backend.alarms.monitor import AlarmMonitor
-from backend.api import alarm_review, alarms, audit, auth, jobs, misc, registry, robots, videos
+from backend.api import (
+    alarm_review,
+    alarms,
+    audit,
+    auth,
+    jobs,
+    labelling,
+    misc,
+    registry,
+    robots,
+    videos,
+)
 from backend.db import make_engine, make_session_factory
 from backend.deps import CurrentUser
 from backend.ingest import robot_ws
@@ -86,6 +98,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.state.robots = RobotRegistry(on_change=metrics.connected_robots.set)
     for router in ROUTERS:
         app.include_router(router)
+    labelling.install(app, settings)
     app.include_router(robot_ws.router)
     app.include_router(browser_ws.router)
 
@@ -102,6 +115,17 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         for kind in ("emergency", "pause", "robot_offline", "stream_stalled"):
             metrics.open_alarms.labels(kind).set(counts.get(kind, 0))
         return Response(generate_latest(metrics.registry), media_type=CONTENT_TYPE_LATEST)
+
+    @app.exception_handler(DataError)
+    def unstorable_value(request: Request, error: DataError) -> JSONResponse:
+        # e.g. a NUL byte in a text field on PostgreSQL: the client's value, not our fault.
+        reason = str(error.orig).splitlines()[0] if error.orig else "invalid value"
+        return JSONResponse({"detail": f"value cannot be stored: {reason}"}, status_code=422)
+
+    @app.exception_handler(OverflowError)
+    def integer_out_of_range(request: Request, error: OverflowError) -> JSONResponse:
+        # SQLite raises this for integers beyond 64 bits, e.g. an absurd id in a path.
+        return JSONResponse({"detail": f"value out of range: {error}"}, status_code=422)
 
     _mount_frontend(app, settings.frontend_dir)
     return app

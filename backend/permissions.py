@@ -9,6 +9,7 @@ from backend.models.users import Role
 ANNOTATOR, NURSE, ENGINEER, ADMIN = Role.ANNOTATOR, Role.NURSE, Role.ENGINEER, Role.ADMIN
 EVERYONE = frozenset(Role)
 PUBLIC: frozenset[Role] = frozenset()  # no login needed
+LABELLERS = frozenset({ANNOTATOR, ENGINEER, ADMIN})
 ROBOT_TOKEN: frozenset[Role] = frozenset()  # no user login; the route checks the robot's token
 
 #: (method, path template) -> roles allowed. PUBLIC routes need no credentials at all.
@@ -40,6 +41,31 @@ PERMISSIONS: dict[tuple[str, str], frozenset[Role]] = {
     ("GET", "/api/videos/{video_id}"): frozenset({ANNOTATOR, ENGINEER, ADMIN}),
     ("GET", "/api/videos/{video_id}/frames"): frozenset({ANNOTATOR, NURSE, ENGINEER, ADMIN}),
     ("GET", "/api/taxonomy"): EVERYONE,
+    # Labelling workspace: annotators label, any annotator/engineer/admin may review another's
+    # segments (never their own: checked in the service); only admins change a video's split.
+    ("GET", "/api/labelling/videos"): LABELLERS,
+    ("GET", "/api/labelling/facets"): LABELLERS,
+    ("GET", "/api/labelling/videos/{video_id}"): LABELLERS,
+    ("PATCH", "/api/labelling/videos/{video_id}"): frozenset({ADMIN}),
+    ("GET", "/api/labelling/videos/{video_id}/segments"): LABELLERS,
+    ("POST", "/api/labelling/videos/{video_id}/segments"): frozenset({ANNOTATOR, ADMIN}),
+    ("PATCH", "/api/labelling/segments/{segment_id}"): frozenset({ANNOTATOR, ADMIN}),
+    ("DELETE", "/api/labelling/segments/{segment_id}"): frozenset({ANNOTATOR, ADMIN}),
+    ("POST", "/api/labelling/segments/{segment_id}/status"): frozenset({ANNOTATOR, ADMIN}),
+    ("POST", "/api/labelling/videos/{video_id}/submit"): frozenset({ANNOTATOR, ADMIN}),
+    ("POST", "/api/labelling/segments/{segment_id}/review"): LABELLERS,
+    ("GET", "/api/labelling/segments/{segment_id}/history"): LABELLERS,
+    ("GET", "/api/labelling/review-queue"): LABELLERS,
+    ("GET", "/api/labelling/videos/{video_id}/export"): LABELLERS,
+    ("POST", "/api/labelling/import"): frozenset({ANNOTATOR, ADMIN}),
+    ("GET", "/api/labelling/videos/{video_id}/annotators"): LABELLERS,
+    ("GET", "/api/labelling/videos/{video_id}/agreement"): LABELLERS,
+    # Blurred pictures for everyone who handles recordings; ?blur=false: annotators only.
+    ("GET", "/api/labelling/videos/{video_id}/rgb/{frame}"): frozenset(
+        {ANNOTATOR, NURSE, ENGINEER, ADMIN}
+    ),
+    ("GET", "/api/labelling/videos/{video_id}/probability"): LABELLERS,
+    ("POST", "/api/labelling/videos/{video_id}/view3d"): LABELLERS,
     ("GET", "/metrics"): frozenset({ENGINEER, ADMIN}),
     # Model registry, promotion, fleet and jobs (issue 8).
     ("GET", "/api/models"): frozenset({ENGINEER, ADMIN}),

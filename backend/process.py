@@ -24,9 +24,14 @@ class BackendProcess:
     """`python -m uvicorn backend.main:app` with VIGIL_* settings taken from `env`."""
 
     def __init__(
-        self, env: dict[str, str], port: int | None = None, log_path: Path | None = None
+        self,
+        env: dict[str, str],
+        port: int | None = None,
+        log_path: Path | None = None,
+        workers: int = 1,
     ) -> None:
         self.port = port or free_port()
+        self.workers = workers
         self.env = env
         self.log_path = log_path
         self.process: subprocess.Popen | None = None
@@ -43,7 +48,8 @@ class BackendProcess:
         log = open(self.log_path, "ab") if self.log_path else subprocess.DEVNULL  # noqa: SIM115
         self.process = subprocess.Popen(
             [sys.executable, "-m", "uvicorn", "backend.main:app", "--host", "127.0.0.1",
-             "--port", str(self.port), "--log-level", "warning", "--ws-max-size", "4194304"],
+             "--port", str(self.port), "--log-level", "warning", "--ws-max-size", "4194304",
+             *(["--workers", str(self.workers)] if self.workers > 1 else [])],
             cwd=REPO_ROOT,
             env={**os.environ, "PYTHONPATH": str(REPO_ROOT), **self.env},
             stdout=log,
@@ -60,6 +66,16 @@ class BackendProcess:
                 time.sleep(0.1)
         self.stop()
         raise RuntimeError(f"backend did not answer on {self.http} within {timeout_s} s")
+
+    def pids(self) -> list[int]:
+        """The server process and, with several workers, its worker processes."""
+        if self.process is None:
+            return []
+        pids = [self.process.pid]
+        children = Path(f"/proc/{self.process.pid}/task/{self.process.pid}/children")
+        if children.exists():
+            pids += [int(pid) for pid in children.read_text().split()]
+        return pids
 
     def kill(self) -> None:
         """kill -9: no shutdown handlers, no final flush."""

@@ -57,6 +57,18 @@ class Settings(BaseSettings):
         description="no message from a robot for this long during a transport: robot offline",
     )
     monitor_interval_s: float = Field(default=1.0, description="alarm monitor period")
+    urfd_dir: Path | None = Field(
+        default=None,
+        description="URFD dataset directory; None = ../shared/datasets/urfd next to the repo",
+    )
+    labelling_model_dir: Path | None = Field(
+        default=REPO_ROOT / "var" / "models" / "default-walking",
+        description="model that fills the labelling timeline's probability lane when a video "
+        "has no stored scores; None disables it",
+    )
+    rgb_cache_frames: int = Field(default=600, description="decoded RGB frames kept in memory")
+    viser_host: str = Field(default="127.0.0.1", description="3D view (viser) listens here")
+    viser_port: int = Field(default=8090, description="3D view (viser) port, started on first use")
     robot_hello_timeout_s: float = Field(default=5.0, description="time a robot has to say hello")
     gate_false_alarm_budget: float = Field(
         default=0.15,

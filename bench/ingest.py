@@ -41,6 +41,7 @@ PG_ADMIN_URL = os.environ.get(
     "VIGIL_TEST_PG_ADMIN_URL", "postgresql+psycopg://postgres@127.0.0.1:5432/postgres"
 )
 SECRET = "bench-secret"
+REDIS_URL = os.environ.get("VIGIL_BENCH_REDIS_URL", "redis://127.0.0.1:6379/0")
 WARD = "ward-bench"
 
 _KEYPOINTS = json.dumps([[320.0 + i, 240.0 + 2 * i, 0.87] for i in range(25)])
@@ -73,6 +74,7 @@ class RunConfig:
     seconds: float
     window: int  # most unacknowledged frames per robot
     emergency_every: int  # every n-th frame is an Emergency decision
+    workers: int = 1  # uvicorn worker processes (>1: alarms fan out through Redis)
 
 
 async def robot_client(
@@ -172,6 +174,37 @@ async def nurse_client(url: str, token: str, alarms: dict[str, list[tuple[float,
                     )
 
 
+def _cpu_seconds(pid: int) -> float:
+    """User + system CPU time of a process (Linux /proc)."""
+    fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
+def _histogram(server: BackendProcess, name: str) -> tuple[float, float] | None:
+    """p50 and p99 of a Prometheus histogram of the backend, as bucket upper bounds in ms."""
+    import urllib.request
+
+    token = create_access_token(SECRET, 2, 60)
+    request = urllib.request.Request(
+        f"{server.http}/metrics", headers={"Authorization": f"Bearer {token}"}
+    )
+    with urllib.request.urlopen(request, timeout=10) as response:
+        text = response.read().decode()
+    buckets = []
+    for line in text.splitlines():
+        if line.startswith(f"{name}_bucket"):
+            bound = line.split('le="')[1].split('"')[0]
+            buckets.append((float(bound), float(line.rsplit(" ", 1)[1])))
+    if not buckets or buckets[-1][1] == 0:
+        return None
+    total = buckets[-1][1]
+
+    def quantile(q: float) -> float:
+        return next(b for b, count in buckets if count >= q * total) * 1000
+
+    return quantile(0.5), quantile(0.99)
+
+
 def _percentiles(values: list[float]) -> tuple[float | None, float | None]:
     if not values:
         return None, None
@@ -205,6 +238,9 @@ def _prepare_database(kind: str, workdir: Path, robots: int) -> tuple[str, calla
                               token_hash=hash_robot_token(f"token-{i}")))  # fmt: skip
         session.add(User(username="nurse", password_hash=hash_password("bench-password"),
                          role=Role.NURSE, ward=WARD))  # fmt: skip
+        session.flush()
+        session.add(User(username="engineer", password_hash=hash_password("bench-password"),
+                         role=Role.ENGINEER))  # fmt: skip
     engine.dispose()
     return url, drop
 
@@ -235,9 +271,15 @@ async def _drive(server: BackendProcess, config: RunConfig, nurse_token: str) ->
     ]
     warmup = 2.0
     await asyncio.sleep(warmup)
+    pids = server.pids()
+    cpu0 = sum(_cpu_seconds(pid) for pid in pids)
+    client_cpu0 = time.process_time()
     t0 = time.perf_counter()
     await asyncio.sleep(config.seconds)
     t1 = time.perf_counter()
+    cpu1 = sum(_cpu_seconds(pid) for pid in pids)
+    client_cpu1 = time.process_time()
+    load = os.getloadavg()[0]
     stop.set()
     await asyncio.gather(*clients)
     await asyncio.sleep(0.5)
@@ -256,7 +298,14 @@ async def _drive(server: BackendProcess, config: RunConfig, nurse_token: str) ->
     sent = sum(len(s.sent_at) for s in stats)
     ack50, ack99 = _percentiles(ack)
     al50, al99 = _percentiles(alarm_latency)
+    flush = _histogram(server, "vigil_ingest_flush_seconds")
     return {
+        "server_cpu_percent": round(100 * (cpu1 - cpu0) / (t1 - t0), 1),
+        "server_cpu_us_per_frame": round(1e6 * (cpu1 - cpu0) / max(committed, 1), 1),
+        "client_cpu_percent": round(100 * (client_cpu1 - client_cpu0) / (t1 - t0), 1),
+        "flush_ms_p50_bucket": flush and flush[0],
+        "flush_ms_p99_bucket": flush and flush[1],
+        "load_average": round(load, 2),
         "sent": sent,
         "committed_in_window": committed,
         "frames_per_s": round(committed / (t1 - t0), 1),
@@ -279,9 +328,12 @@ def run(config: RunConfig, workdir: Path) -> dict:
         "VIGIL_STREAM_STALL_SECONDS": "60",
         "VIGIL_ROBOT_OFFLINE_SECONDS": "60",
     }
+    if config.workers > 1:
+        env["VIGIL_REDIS_URL"] = REDIS_URL
+        env["VIGIL_REDIS_CHANNEL"] = f"vigil-bench-{os.getpid()}-{time.time_ns()}"
     log = workdir / f"backend-{config.database}-{config.robots}.log"
     try:
-        with BackendProcess(env, log_path=log) as server:
+        with BackendProcess(env, log_path=log, workers=config.workers) as server:
             nurse_token = create_access_token(SECRET, 1, 60)
             measured = asyncio.run(_drive(server, config, nurse_token))
         rows, distinct = _stored(url)
@@ -301,9 +353,16 @@ def run(config: RunConfig, workdir: Path) -> dict:
         "duplicates": rows - distinct,
         "kind": "saturation" if not config.hz else "fleet",
         "frames_per_message": config.batch,
+        "backend_workers": config.workers,
         "frames_sent": measured["sent"],
         "emergencies_sent": measured["emergencies_sent"],
         "emergencies_pushed": measured["emergencies_pushed"],
+        "server_cpu_percent": measured["server_cpu_percent"],
+        "server_cpu_us_per_frame": measured["server_cpu_us_per_frame"],
+        "bench_client_cpu_percent": measured["client_cpu_percent"],
+        "flush_ms_p50_bucket": measured["flush_ms_p50_bucket"],
+        "flush_ms_p99_bucket": measured["flush_ms_p99_bucket"],
+        "load_average_1min": measured["load_average"],
     }
     print(json.dumps(result), flush=True)
     return result
@@ -315,17 +374,18 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--seconds", type=float, default=12)
     parser.add_argument("--saturation-robots", type=int, default=20)
     parser.add_argument("--only", choices=("saturation", "fleet"), default=None)
+    parser.add_argument("--workers", type=int, default=1, help="backend worker processes")
     parser.add_argument("--output", type=Path, default=RESULTS)
     args = parser.parse_args(argv)
     runs = []
     with tempfile.TemporaryDirectory(prefix="vigil-bench-") as tmp:
         for database in args.databases.split(","):
             if args.only in (None, "saturation"):
-                runs.append(run(RunConfig(database, args.saturation_robots, 0, 50,
-                                          args.seconds, 400, 997), Path(tmp)))  # fmt: skip
+                runs.append(run(RunConfig(database, args.saturation_robots, 0, 50, args.seconds,
+                                          400, 997, args.workers), Path(tmp)))  # fmt: skip
             if args.only in (None, "fleet"):
-                runs.append(run(RunConfig(database, 100, 10, 1, args.seconds, 50, 20),
-                                Path(tmp)))  # fmt: skip
+                runs.append(run(RunConfig(database, 100, 10, 1, args.seconds, 50, 20,
+                                          args.workers), Path(tmp)))  # fmt: skip
     args.output.parent.mkdir(parents=True, exist_ok=True)
     args.output.write_text(
         json.dumps(

@@ -10,7 +10,9 @@ centre height, horizontal position, size, aspect, uprightness, head height and d
 latest frame at least that long ago (by timestamp), in units of the body size back then; plus
 decaying peaks (time constants 1.5 s and 4 s) of the downward speeds, so that a fast drop is
 remembered while the person lies still afterwards. That is what separates a fall from lying down
-on purpose, which looks the same in a single frame.
+on purpose, which looks the same in a single frame. `above_floor` is the body centre's height
+above the lowest keypoint of the earlier frame (the floor line under a standing person): a fall
+ends on the floor, a deliberate lie-down usually on a bed.
 
 Frames with too few keypoints (fewer than MIN_KEYPOINTS; e.g. the pose estimator found nobody)
 repeat the last usable pose with zero motion and set the `held` flag: the decision holds.
@@ -34,9 +36,23 @@ _NECK, _MID_HIP = INDEX["neck"], INDEX["mid_hip"]
 _SHOULDERS, _HIP_PAIR = [INDEX["r_shoulder"], INDEX["l_shoulder"]], [INDEX["r_hip"], INDEX["l_hip"]]
 
 # Per-frame scalar quantities tracked over time (columns of the "state" array).
-_STATE = ("cx", "cy", "scale", "aspect", "upright", "top", "depth", "has_depth", "seen")
+_STATE = (
+    "cx",
+    "cy",
+    "scale",
+    "aspect",
+    "upright",
+    "top",
+    "depth",
+    "has_depth",
+    "seen",
+    "bottom",
+    "seen_at",
+)
 _S = {name: i for i, name in enumerate(_STATE)}
-_DELTAS = ("d_down", "d_side", "d_logscale", "d_aspect", "d_upright", "d_top", "d_depth")
+_DELTAS = (
+    "d_down", "d_side", "d_logscale", "d_aspect", "d_upright", "d_top", "d_depth", "above_floor"
+)  # fmt: skip
 # Downward speeds whose decaying peaks are kept: centre drop, head drop, loss of uprightness.
 _PEAKED = ("d_down", "d_top", "d_upright")
 
@@ -60,7 +76,9 @@ _MAX_HORIZON = max(HORIZONS_S)
 _PEAK_SOURCE = [HORIZONS_S.index(0.4) * len(_DELTAS) + _DELTAS.index(p) for p in _PEAKED]
 
 
-def _pose_and_state(keypoints: np.ndarray, depth: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _pose_and_state(
+    keypoints: np.ndarray, depth: np.ndarray, timestamps: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(n, 25, 3), (n, 25) -> pose features (n, N_POSE - 1) without `held`, state (n, len(_STATE)),
     and a usable-frame mask."""
     n = keypoints.shape[0]
@@ -72,7 +90,9 @@ def _pose_and_state(keypoints: np.ndarray, depth: np.ndarray) -> tuple[np.ndarra
 
     hips_present = present[:, _HIPS]
     n_hips = hips_present.sum(axis=1)
-    hip_centre = (xy[:, _HIPS] * hips_present[..., None]).sum(axis=1) / np.maximum(n_hips, 1)[:, None]
+    hip_centre = (xy[:, _HIPS] * hips_present[..., None]).sum(axis=1) / np.maximum(n_hips, 1)[
+        :, None
+    ]
     all_centre = (xy * present[..., None]).sum(axis=1) / np.maximum(count, 1)[:, None]
     centre = np.where((n_hips > 0)[:, None], hip_centre, all_centre)
 
@@ -102,8 +122,13 @@ def _pose_and_state(keypoints: np.ndarray, depth: np.ndarray) -> tuple[np.ndarra
         axis=1,
     )
     seen = usable.astype(np.float64)
+    bottom = np.where(usable, hi[:, 1], 0.0)
     state = np.stack(
-        [centre[:, 0], centre[:, 1], scale, aspect, upright, top, depth_m, has_depth, seen], axis=1
+        [
+            *(centre[:, 0], centre[:, 1], scale, aspect, upright, top, depth_m, has_depth, seen),
+            *(bottom, timestamps),
+        ],
+        axis=1,
     )
     return pose, state, usable
 
@@ -133,10 +158,14 @@ def _hold(pose: np.ndarray, state: np.ndarray, usable: np.ndarray, last: tuple |
     return pose_out, state_out
 
 
-def _deltas(state_now: np.ndarray, state_then: np.ndarray) -> np.ndarray:
+def _deltas(state_now: np.ndarray, state_then: np.ndarray, horizon: float) -> np.ndarray:
     """(m, len(_STATE)) pairs -> (m, len(_DELTAS)) in body sizes (the larger of then and now, so
     one frame with a few clustered keypoints cannot blow a change up); 0 if no pose was seen then.
+    When the earlier pose is older than the horizon (the person was not detected in between), the
+    change is scaled down to the horizon, so reappearing elsewhere does not look like a fast drop.
     """
+    elapsed = state_now[:, _S["seen_at"]] - state_then[:, _S["seen_at"]]
+    pace = np.minimum(1.0, 1.5 * horizon / np.maximum(elapsed, 1e-9))[:, None]
     ref = np.maximum(state_then[:, _S["scale"]], state_now[:, _S["scale"]])
     both_seen = (state_then[:, _S["seen"]] * state_now[:, _S["seen"]])[:, None]
     deltas = np.stack(
@@ -150,10 +179,12 @@ def _deltas(state_now: np.ndarray, state_then: np.ndarray) -> np.ndarray:
             (state_now[:, _S["depth"]] - state_then[:, _S["depth"]])
             * state_now[:, _S["has_depth"]]
             * state_then[:, _S["has_depth"]],
+            # body centre above the lowest keypoint back then (the floor under a standing person)
+            (state_then[:, _S["bottom"]] - state_now[:, _S["cy"]]) / ref,
         ],
         axis=1,
     )
-    return np.clip(deltas, -DELTA_LIMIT, DELTA_LIMIT) * both_seen
+    return np.clip(deltas * pace, -DELTA_LIMIT, DELTA_LIMIT) * both_seen
 
 
 def _lag_index(timestamps: np.ndarray, now: np.ndarray, horizon: float) -> np.ndarray:
@@ -195,13 +226,13 @@ def extract_arrays(
     _check_time(timestamps, None)
     if n == 0:
         return np.zeros((0, len(FEATURE_SETS[feature_set])), np.float32)
-    pose, state, usable = _pose_and_state(keypoints, np.asarray(depth, np.float32))
+    pose, state, usable = _pose_and_state(keypoints, np.asarray(depth, np.float32), timestamps)
     pose, state = _hold(pose, state, usable, None)
     held = (~usable).astype(np.float64)[:, None]
     temporal = []
     for horizon in HORIZONS_S:
         then = _lag_index(timestamps, timestamps, horizon)
-        delta = _deltas(state, state[then])
+        delta = _deltas(state, state[then], horizon)
         temporal.append(np.where(usable[:, None], delta, 0.0))
     temporal = np.concatenate(temporal, axis=1)
     peaks = np.zeros((n, len(PEAK_TAUS_S), len(_PEAKED)))
@@ -247,7 +278,9 @@ class FeatureExtractor:
         t = float(frame.timestamp)
         _check_time(np.array([t]), self._times[-1] if self._times else None)
         pose, state, usable = _pose_and_state(
-            frame.keypoints[None].astype(np.float32), frame.depth[None].astype(np.float32)
+            frame.keypoints[None].astype(np.float32),
+            frame.depth[None].astype(np.float32),
+            np.array([t]),
         )
         pose, state = _hold(pose, state, usable, self._last)
         self._last = (pose[0], state[0])
@@ -262,10 +295,22 @@ class FeatureExtractor:
         temporal = []
         for horizon in HORIZONS_S:
             then = self._states[int(_lag_index(times, now, horizon)[0])]
-            delta = _deltas(state, then[None])
+            delta = _deltas(state, then[None], horizon)
             temporal.append(np.where(usable[:, None], delta, 0.0))
         temporal = np.concatenate(temporal, axis=1)
         self._peaks = _peak_step(self._peaks, temporal[0, _PEAK_SOURCE], dt)
         held = (~usable).astype(np.float64)[:, None]
         features = np.concatenate([pose, held, temporal, self._peaks.reshape(1, -1)], axis=1)
         return features[0, self.columns_].astype(np.float32)
+
+
+def window_index(group: np.ndarray, window: int) -> np.ndarray:
+    """(n, window) row indices of each frame's last `window` frames within its own stream,
+    padded at a stream's start with its first frame (as vigil.runtime pads a new stream)."""
+    group = np.asarray(group)
+    n = len(group)
+    change = np.ones(n, bool)
+    change[1:] = group[1:] != group[:-1]
+    stream_start = np.maximum.accumulate(np.where(change, np.arange(n), 0)) if n else change
+    offsets = np.arange(-window + 1, 1)
+    return np.maximum(np.arange(n)[:, None] + offsets[None, :], stream_start[:, None])

@@ -50,7 +50,9 @@ def apply_delay(
     n = len(raw)
     if n == 0:
         return raw.copy()
-    settled = (raw == normal_index) | (timestamps - run_starts(raw, timestamps) >= delay_s - TIME_EPSILON)
+    settled = (raw == normal_index) | (
+        timestamps - run_starts(raw, timestamps) >= delay_s - TIME_EPSILON
+    )
     source = np.maximum.accumulate(np.where(settled, np.arange(n), -1))
     return np.where(source >= 0, raw[np.maximum(source, 0)], normal_index)
 

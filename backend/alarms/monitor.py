@@ -22,7 +22,7 @@ from backend.alarms import queries, service
 from backend.alarms.schemas import AlarmOut
 from backend.db import transaction
 from backend.models._types import utcnow
-from backend.models.alarms import Alarm, AlarmKind
+from backend.models.alarms import Alarm, AlarmKind, AlarmState
 from backend.settings import Settings
 
 log = logging.getLogger(__name__)
@@ -102,19 +102,26 @@ class AlarmMonitor:
         return raised
 
     def _escalations(self, session: Session, now: datetime) -> list[Alarm]:
-        escalated = []
-        for alarm in queries.open_emergencies(session):
+        def due(alarm: Alarm) -> bool:
+            if alarm.state != AlarmState.OPEN:
+                return False
             if alarm.escalation_level >= self._settings.escalation_max_level:
-                continue
+                return False
             wait = timedelta(seconds=self._settings.escalation_seconds_for(alarm.ward))
-            if now - (alarm.escalated_at or alarm.raised_at) >= wait:
-                escalated.append(service.escalate(session, alarm, now))
-        return escalated
+            return now - (alarm.escalated_at or alarm.raised_at) >= wait
+
+        candidates = [a.id for a in queries.open_emergencies(session) if due(a)]
+        return [service.escalate(session, a, now) for a in queries.claim(session, candidates)
+                if due(a)]  # fmt: skip
 
     def _realarms(self, session: Session, now: datetime) -> list[Alarm]:
         wait = timedelta(minutes=self._settings.realarm_minutes)
-        realarmed = []
-        for alarm in queries.acknowledged(session):
-            if now - (alarm.realarmed_at or alarm.acknowledged_at or alarm.updated_at) >= wait:
-                realarmed.append(service.realarm(session, alarm, now))
-        return realarmed
+
+        def due(alarm: Alarm) -> bool:
+            if alarm.state != AlarmState.ACKNOWLEDGED:
+                return False
+            return now - (alarm.realarmed_at or alarm.acknowledged_at or alarm.updated_at) >= wait
+
+        candidates = [a.id for a in queries.acknowledged(session) if due(a)]
+        return [service.realarm(session, a, now) for a in queries.claim(session, candidates)
+                if due(a)]  # fmt: skip

@@ -89,19 +89,10 @@ def latest_of_kind(
     ).first()
 
 
-def _claim(query):
-    # Replicas running the monitor at once: a row one of them holds is skipped by the others.
-    return query.with_for_update(skip_locked=True, of=Alarm)
-
-
 def open_emergencies(session: Session) -> Sequence[Alarm]:
     return (
         session.scalars(
-            _claim(
-                select(Alarm).where(
-                    Alarm.state == AlarmState.OPEN, Alarm.kind == AlarmKind.EMERGENCY
-                )
-            )
+            select(Alarm).where(Alarm.state == AlarmState.OPEN, Alarm.kind == AlarmKind.EMERGENCY)
         )
         .unique()
         .all()
@@ -110,10 +101,18 @@ def open_emergencies(session: Session) -> Sequence[Alarm]:
 
 def acknowledged(session: Session) -> Sequence[Alarm]:
     return (
-        session.scalars(_claim(select(Alarm).where(Alarm.state == AlarmState.ACKNOWLEDGED)))
-        .unique()
-        .all()
+        session.scalars(select(Alarm).where(Alarm.state == AlarmState.ACKNOWLEDGED)).unique().all()
     )
+
+
+def claim(session: Session, alarm_ids: Sequence[int]) -> Sequence[Alarm]:
+    """Lock these alarms for a change, skipping rows another replica's monitor holds (SQLite,
+    with its single writer, ignores the clause). Only due alarms are claimed, so the ingest
+    writer is never held up by a monitor pass that changes nothing."""
+    if not alarm_ids:
+        return []
+    query = select(Alarm).where(Alarm.id.in_(alarm_ids)).execution_options(populate_existing=True)
+    return session.scalars(query.with_for_update(skip_locked=True, of=Alarm)).unique().all()
 
 
 def audit_events(

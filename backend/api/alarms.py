@@ -6,7 +6,7 @@ from backend.alarm_review import feedback
 from backend.alarms import queries, service
 from backend.alarms.schemas import AcknowledgeIn, AlarmEventOut, AlarmOut, ResolveIn
 from backend.alarms.state import IllegalTransition
-from backend.deps import CurrentUser, SessionDep
+from backend.deps import CurrentUser, DbId, SessionDep
 from backend.models.alarms import Alarm, AlarmKind, AlarmState
 
 router = APIRouter(prefix="/api/alarms", tags=["alarms"])
@@ -35,12 +35,12 @@ def list_alarms(
 
 
 @router.get("/{alarm_id}")
-def get_alarm(alarm_id: int, session: SessionDep, user: CurrentUser) -> AlarmOut:
+def get_alarm(alarm_id: DbId, session: SessionDep, user: CurrentUser) -> AlarmOut:
     return AlarmOut.model_validate(_get(session, user, alarm_id))
 
 
 @router.get("/{alarm_id}/events")
-def alarm_events(alarm_id: int, session: SessionDep, user: CurrentUser) -> list[AlarmEventOut]:
+def alarm_events(alarm_id: DbId, session: SessionDep, user: CurrentUser) -> list[AlarmEventOut]:
     _get(session, user, alarm_id)
     return [AlarmEventOut.model_validate(e) for e in queries.events_of(session, alarm_id)]
 
@@ -57,7 +57,7 @@ def _commit_and_publish(
 
 @router.post("/{alarm_id}/acknowledge")
 def acknowledge(
-    alarm_id: int,
+    alarm_id: DbId,
     session: SessionDep,
     user: CurrentUser,
     request: Request,
@@ -74,7 +74,7 @@ def acknowledge(
 
 @router.post("/{alarm_id}/resolve")
 def resolve(
-    alarm_id: int,
+    alarm_id: DbId,
     body: ResolveIn,
     session: SessionDep,
     user: CurrentUser,

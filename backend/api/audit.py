@@ -4,7 +4,7 @@ from fastapi import APIRouter, Query
 
 from backend.alarms import queries
 from backend.alarms.schemas import AlarmEventOut
-from backend.deps import CurrentUser, SessionDep
+from backend.deps import MAX_DB_INT, CurrentUser, SessionDep
 
 router = APIRouter(prefix="/api/audit", tags=["audit"])
 
@@ -13,7 +13,7 @@ router = APIRouter(prefix="/api/audit", tags=["audit"])
 def audit_trail(
     session: SessionDep,
     user: CurrentUser,
-    alarm_id: int | None = None,
+    alarm_id: int | None = Query(default=None, ge=1, le=MAX_DB_INT),
     actor: str | None = Query(default=None, max_length=128, description="e.g. nurse:alice"),
     since: datetime | None = None,
     until: datetime | None = None,

@@ -1,9 +1,9 @@
-from fastapi import APIRouter, HTTPException, status
+from fastapi import APIRouter, HTTPException, Query, status
 from pydantic import BaseModel, ConfigDict, Field
 from sqlalchemy import func, select
 
 from backend.api.auth import UserOut
-from backend.deps import CurrentUser, SessionDep
+from backend.deps import MAX_DB_INT, CurrentUser, SessionDep
 from backend.models.taxonomy import TaxonomyLabel
 from backend.models.users import Role, User
 from backend.security import hash_password
@@ -33,7 +33,11 @@ class TaxonomyOut(BaseModel):
 
 
 @router.get("/taxonomy")
-def taxonomy(session: SessionDep, user: CurrentUser, version: int | None = None) -> TaxonomyOut:
+def taxonomy(
+    session: SessionDep,
+    user: CurrentUser,
+    version: int | None = Query(default=None, ge=1, le=MAX_DB_INT),
+) -> TaxonomyOut:
     if version is None:
         version = session.scalar(select(func.max(TaxonomyLabel.version)))
     labels = session.scalars(

@@ -5,7 +5,7 @@ from fastapi import APIRouter, HTTPException, Query, status
 from pydantic import BaseModel, ConfigDict
 from sqlalchemy import select
 
-from backend.deps import CurrentUser, SessionDep
+from backend.deps import MAX_DB_INT, CurrentUser, DbId, SessionDep
 from backend.models.videos import Frame, Split, Video
 from vigil.classes import Decision, TransportMode
 from vigil.skeleton import decode_depth, decode_keypoints
@@ -82,7 +82,7 @@ def _video(session: SessionDep, video_id: int) -> Video:
 
 
 @router.get("/{video_id}")
-def get_video(video_id: int, session: SessionDep, user: CurrentUser) -> VideoOut:
+def get_video(video_id: DbId, session: SessionDep, user: CurrentUser) -> VideoOut:
     return _video_out(_video(session, video_id))
 
 
@@ -108,11 +108,13 @@ def _frame_out(frame: Frame) -> FrameOut:
 
 @router.get("/{video_id}/frames")
 def get_frames(
-    video_id: int,
+    video_id: DbId,
     session: SessionDep,
     user: CurrentUser,
-    start: int = Query(default=0, ge=0, description="first frame index (inclusive)"),
-    end: int | None = Query(default=None, ge=0, description="last frame index (inclusive)"),
+    start: int = Query(default=0, ge=0, le=MAX_DB_INT, description="first frame index (inclusive)"),
+    end: int | None = Query(
+        default=None, ge=0, le=MAX_DB_INT, description="last frame index (inclusive)"
+    ),
 ) -> list[FrameOut]:
     _video(session, video_id)
     last = start + MAX_FRAMES_PER_REQUEST - 1 if end is None else end

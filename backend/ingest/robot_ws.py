@@ -11,13 +11,14 @@ import time
 
 from fastapi import APIRouter, WebSocket, WebSocketDisconnect
 from pydantic import ValidationError
+from sqlalchemy.exc import DataError
 from starlette.concurrency import run_in_threadpool
 
 from backend.db import transaction
 from backend.ingest import service
 from backend.registry import push as model_push
 from vigil import protocol
-from vigil.protocol import Ack, Hello, Welcome
+from vigil.protocol import Hello, Welcome
 
 log = logging.getLogger(__name__)
 router = APIRouter()
@@ -66,7 +67,7 @@ def parse(text: str | None, data: bytes | None) -> protocol.RobotMessage:
             ) from None
         if "union_tag_invalid" in kinds:
             raise CloseConnection(protocol.CLOSE_BAD_MESSAGE, "unknown message type") from None
-        if "union_tag_not_found" in kinds or "model_attributes_type" in kinds:
+        if "union_tag_not_found" in kinds or not error.errors()[0]["loc"]:
             raise CloseConnection(
                 protocol.CLOSE_BAD_MESSAGE, "message must be a JSON object with a 'type'"
             ) from None
@@ -94,7 +95,7 @@ class RobotConnection:
         if self.closed:
             return
         try:
-            await self.websocket.send_text(Ack(seq=seq).model_dump_json())
+            await self.websocket.send_text(f'{{"type":"ack","seq":{seq}}}')  # = Ack(seq=seq)
         except Exception:  # the robot went away; it will resend what it did not see acked
             self.closed = True
 
@@ -143,8 +144,10 @@ async def robot_socket(websocket: WebSocket) -> None:
 
         try:
             last_seq = await run_in_threadpool(_authenticate)
-        except service.RobotAuthError as error:
-            raise CloseConnection(protocol.CLOSE_UNAUTHORIZED, str(error)) from None
+        except (service.RobotAuthError, DataError):
+            raise CloseConnection(
+                protocol.CLOSE_UNAUTHORIZED, "unknown robot or wrong or revoked token"
+            ) from None
         connection = RobotConnection(websocket, hello.robot_id)
         previous = state.robots.connect(hello.robot_id, connection)
         if previous is not None:

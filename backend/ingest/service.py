@@ -10,7 +10,7 @@ from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from itertools import chain
 
-from sqlalchemy import select
+from sqlalchemy import bindparam, select, update
 from sqlalchemy.orm import Session
 
 from backend.alarms.service import DecisionEvidence, fold_evidence, raise_or_update
@@ -73,43 +73,95 @@ def end_transport(session: Session, robot: Robot, message: TransportEnd) -> None
         transport.ended_at = datetime.fromtimestamp(message.ts, UTC)
 
 
+@dataclass(slots=True)
+class RobotState:
+    """The robot columns the ingest path reads and writes, loaded without the ORM."""
+
+    id: str
+    ward: str
+    token_hash: str | None
+    last_seq: int | None
+    last_seen_at: datetime | None = None
+    running_model_version: str | None = None
+    running_model_changed: bool = False
+
+
+@dataclass(slots=True)
+class TransportState:
+    id: str
+    robot_id: str
+    mode: TransportMode
+    patient: str | None
+    location: str | None
+    last_frame_at: datetime | None = None
+
+
+@dataclass(slots=True)
+class VideoState:
+    id: int
+    name: str
+    frame_count: int
+    initial_count: int = 0
+
+
 @dataclass
 class IngestContext:
     """Rows and lookups shared by every robot's work in one writer transaction.
 
-    Frame rows are gathered here and inserted with one multi-row statement by `flush_rows`;
-    robots, transports and videos are loaded once per transaction instead of once per batch.
+    Frame rows are gathered here and inserted with one bulk statement by `flush_rows`; robots,
+    transports and videos are loaded once per transaction as plain rows (no ORM identity map)
+    and their changed columns written back with one executemany per table.
     """
 
-    robots: dict[str, Robot | None] = field(default_factory=dict)
-    transports: dict[str, Transport | None] = field(default_factory=dict)
-    videos: dict[str, Video] = field(default_factory=dict)
+    robots: dict[str, RobotState | None] = field(default_factory=dict)
+    transports: dict[str, TransportState | Transport | None] = field(default_factory=dict)
+    videos: dict[str, VideoState | Video] = field(default_factory=dict)
     rows: list[tuple] = field(default_factory=list)  # laid out as bulk.FRAME_COLUMNS
     pending_seqs: dict[str, set[int]] = field(default_factory=dict)
     open_alarms: dict[tuple[str, str, AlarmKind], Alarm] = field(default_factory=dict)
 
-    def preload(self, session: Session, streams: set[tuple[str, str | None]]) -> IngestContext:
-        """Load, in a few queries, what the (robot id, transport id) streams of a flush touch."""
+    def preload(
+        self,
+        session: Session,
+        streams: set[tuple[str, str | None]],
+        alarming_robots: set[str] | None = None,
+    ) -> IngestContext:
+        """Load, in a few queries, what the (robot id, transport id) streams of a flush touch;
+        unresolved alarms only for `alarming_robots` (those with an Emergency or Pause frame
+        in the flush; default: every robot)."""
         robot_ids = {robot_id for robot_id, _ in streams}
         transport_ids = {tid for _, tid in streams if tid is not None}
         missing = robot_ids - self.robots.keys()
         if missing:
-            found = {r.id: r for r in session.scalars(select(Robot).where(Robot.id.in_(missing)))}
-            self.robots.update({robot_id: found.get(robot_id) for robot_id in missing})
+            self.robots.update(dict.fromkeys(missing))
+            for row in session.execute(
+                select(Robot.id, Robot.ward, Robot.token_hash, Robot.last_seq).where(
+                    Robot.id.in_(missing)
+                )
+            ):
+                self.robots[row.id] = RobotState(row.id, row.ward, row.token_hash, row.last_seq)
         missing = transport_ids - self.transports.keys()
         if missing:
-            found = {
-                t.id: t for t in session.scalars(select(Transport).where(Transport.id.in_(missing)))
-            }
-            self.transports.update({tid: found.get(tid) for tid in missing})
+            self.transports.update(dict.fromkeys(missing))
+            for row in session.execute(
+                select(
+                    Transport.id, Transport.robot_id, Transport.mode, Transport.patient,
+                    Transport.location,
+                ).where(Transport.id.in_(missing))
+            ):  # fmt: skip
+                self.transports[row.id] = TransportState(*row)
         names = {_video_name(robot_id, tid) for robot_id, tid in streams} - self.videos.keys()
         if names:
-            for video in session.scalars(select(Video).where(Video.name.in_(names))):
-                self.videos[video.name] = video
-        if robot_ids:
+            for row in session.execute(
+                select(Video.id, Video.name, Video.frame_count).where(Video.name.in_(names))
+            ):
+                self.videos[row.name] = VideoState(row.id, row.name, row.frame_count,
+                                                   row.frame_count)  # fmt: skip
+        alarming = robot_ids if alarming_robots is None else alarming_robots & robot_ids
+        if alarming:
             for alarm in session.scalars(
                 select(Alarm).where(
-                    Alarm.robot_id.in_(robot_ids),
+                    Alarm.robot_id.in_(alarming),
                     Alarm.state != AlarmState.RESOLVED,
                     Alarm.kind.in_(ALARM_KIND_OF_DECISION.values()),
                 )
@@ -117,7 +169,54 @@ class IngestContext:
                 self.open_alarms[(alarm.robot_id, alarm.transport_key, alarm.kind)] = alarm
         return self
 
-    def transport(self, session: Session, transport_id: str | None) -> Transport | None:
+    def write_back(self, session: Session) -> None:
+        """One executemany per table for the columns the flush changed."""
+        connection = session.connection()
+        robots = [r for r in self.robots.values() if r is not None and r.last_seen_at]
+        if robots:
+            table = Robot.__table__
+            connection.execute(
+                update(table)
+                .where(table.c.id == bindparam("_id"))
+                .values(last_seq=bindparam("_last_seq"), last_seen_at=bindparam("_seen")),
+                [{"_id": r.id, "_last_seq": r.last_seq, "_seen": r.last_seen_at} for r in robots],
+            )
+            models = [r for r in robots if r.running_model_changed]
+            if models:
+                connection.execute(
+                    update(table)
+                    .where(table.c.id == bindparam("_id"))
+                    .values(running_model_version=bindparam("_model")),
+                    [{"_id": r.id, "_model": r.running_model_version} for r in models],
+                )
+        videos = [
+            v for v in self.videos.values()
+            if isinstance(v, VideoState) and v.frame_count != v.initial_count
+        ]  # fmt: skip
+        if videos:
+            table = Video.__table__
+            connection.execute(
+                update(table).where(table.c.id == bindparam("_id"))
+                .values(frame_count=bindparam("_count")),
+                [{"_id": v.id, "_count": v.frame_count} for v in videos],
+            )  # fmt: skip
+            for video in videos:
+                video.initial_count = video.frame_count
+        transports = [
+            t for t in self.transports.values()
+            if isinstance(t, TransportState) and t.last_frame_at is not None
+        ]  # fmt: skip
+        if transports:
+            table = Transport.__table__
+            connection.execute(
+                update(table).where(table.c.id == bindparam("_id"))
+                .values(last_frame_at=bindparam("_at")),
+                [{"_id": t.id, "_at": t.last_frame_at} for t in transports],
+            )  # fmt: skip
+
+    def transport(
+        self, session: Session, transport_id: str | None
+    ) -> TransportState | Transport | None:
         if transport_id is None:
             return None
         if transport_id not in self.transports:
@@ -133,8 +232,11 @@ class IngestContext:
 
 
 def _video_for(
-    session: Session, robot: Robot, transport: Transport | None, context: IngestContext
-) -> Video:
+    session: Session,
+    robot: Robot | RobotState,
+    transport: Transport | TransportState | None,
+    context: IngestContext,
+) -> Video | VideoState:
     name = _video_name(robot.id, transport.id if transport else None)
     video = context.videos.get(name)
     if video is None:
@@ -191,7 +293,7 @@ def _scores_json(scores: dict) -> str | None:
 
 
 def _existing_seqs(
-    session: Session, robot: Robot, seqs: list[int], context: IngestContext
+    session: Session, robot: Robot | RobotState, seqs: list[int], context: IngestContext
 ) -> set[int]:
     pending = context.pending_seqs.setdefault(robot.id, set())
     # robot.last_seq is the highest stored sequence number (kept in the same transaction as
@@ -206,7 +308,7 @@ def _existing_seqs(
 
 def store_frames(
     session: Session,
-    robot: Robot,
+    robot: Robot | RobotState,
     frames: Sequence[FrameRecord],
     context: IngestContext | None = None,
 ) -> IngestResult:

@@ -16,6 +16,7 @@ from collections.abc import Awaitable, Callable
 from dataclasses import dataclass, field
 from typing import Protocol
 
+from sqlalchemy.exc import DataError
 from sqlalchemy.orm import Session, sessionmaker
 
 from backend.alarms.schemas import AlarmOut
@@ -54,7 +55,6 @@ class Job:
     link: RobotLink
     message: RobotWork
     received: float  # time.perf_counter() when the message arrived
-    done: asyncio.Future = field(default_factory=lambda: asyncio.get_running_loop().create_future())
 
     @property
     def frame_count(self) -> int:
@@ -144,7 +144,10 @@ class FrameWriter:
         self._pending_frames = 0
         self._oldest = None
         self._room.set()
+        started = time.perf_counter()
         outcome = await asyncio.to_thread(self._commit, jobs)
+        self._metrics.flush_seconds.observe(time.perf_counter() - started)
+        self._metrics.flush_frames.observe(outcome.stored)
         # Committed: now tell the nurses, then the robots.
         for alarm in outcome.alarms:
             await self._publish_alarm(alarm)
@@ -154,11 +157,8 @@ class FrameWriter:
         for job in jobs:
             error = outcome.rejected.get(id(job))
             if error is not None:
-                job.done.set_exception(error)
-                job.done.exception()  # mark retrieved
                 await job.link.reject(error.code, error.reason)
                 continue
-            job.done.set_result(None)
             if id(job.link) in outcome.acks:
                 acked[id(job.link)] = job.link
                 self._metrics.ack_latency.observe(now - job.received)
@@ -187,6 +187,13 @@ class FrameWriter:
                     outcome.rejected[id(job)] = error
                 continue
             except Exception as error:
+                if _unstorable(error):  # e.g. a NUL byte in a text field on PostgreSQL
+                    reason = f"value cannot be stored: {str(error).splitlines()[0]}"
+                    for job in link_jobs:
+                        outcome.rejected[id(job)] = RejectedMessage(
+                            protocol.CLOSE_BAD_MESSAGE, reason
+                        )
+                    continue
                 log.exception("ingest of robot %s failed", link_jobs[0].link.robot_id)
                 failure = RejectedMessage(protocol.CLOSE_INTERNAL_ERROR, f"not stored: {error}")
                 for job in link_jobs:
@@ -200,12 +207,17 @@ class FrameWriter:
     def _apply(self, session: Session, jobs: list[Job]) -> Outcome:
         outcome = Outcome()
         streams: set[tuple[str, str | None]] = set()
+        alarming: set[str] = set()
         for job in jobs:
+            robot_id = job.link.robot_id
             if isinstance(job.message, FrameBatch):
-                streams.update((job.link.robot_id, f.transport_id) for f in job.message.frames)
+                for f in job.message.frames:
+                    streams.add((robot_id, f.transport_id))
+                    if f.decision in service.ALARM_KIND_OF_DECISION:
+                        alarming.add(robot_id)
             else:
-                streams.add((job.link.robot_id, None))
-        context = service.IngestContext().preload(session, streams)
+                streams.add((robot_id, None))
+        context = service.IngestContext().preload(session, streams, alarming)
         touched = {}
         # Consecutive frame batches of one connection become one store_frames call.
         run: list[protocol.FrameRecord] = []
@@ -246,8 +258,10 @@ class FrameWriter:
                 robot.last_seen_at = service.utcnow()
                 if message.running_model is not None:
                     robot.running_model_version = message.running_model
+                    robot.running_model_changed = True
         store_run()
         outcome.stored = context.flush_rows(session)
+        context.write_back(session)
         session.flush()
         outcome.alarms = [
             AlarmOut.model_validate(a).model_dump(mode="json") for a in touched.values()
@@ -260,3 +274,10 @@ class FrameWriter:
         if robot is None or robot.token_hash is None:
             raise RejectedMessage(protocol.CLOSE_UNAUTHORIZED, "robot token revoked")
         return robot
+
+
+def _unstorable(error: Exception) -> bool:
+    """A value the database refuses (SQLAlchemy's DataError, or the driver's own from COPY)."""
+    if isinstance(error, DataError):
+        return True
+    return any(cls.__name__ == "DataError" for cls in type(error).__mro__)

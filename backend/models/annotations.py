@@ -14,6 +14,7 @@ class SegmentStatus(StrEnum):
     SUBMITTED = "submitted"
     ACCEPTED = "accepted"
     REJECTED = "rejected"
+    DELETED = "deleted"  # kept (not removed) so the segment's history survives
 
 
 class SegmentSource(StrEnum):
@@ -35,7 +36,9 @@ class AnnotationSegment(Base):
     last_frame: Mapped[int] = mapped_column()
     label_key: Mapped[str] = mapped_column(String(64))
     taxonomy_version: Mapped[int] = mapped_column(ForeignKey("taxonomy_versions.version"))
-    status: Mapped[SegmentStatus] = mapped_column(String(16), default=SegmentStatus.DRAFT)
+    status: Mapped[SegmentStatus] = mapped_column(
+        String(16), default=SegmentStatus.DRAFT, index=True
+    )
     source: Mapped[SegmentSource] = mapped_column(String(32), default=SegmentSource.ANNOTATOR)
     priority: Mapped[int] = mapped_column(default=0)  # review queue: higher first
     annotator_id: Mapped[int | None] = mapped_column(ForeignKey("users.id"))

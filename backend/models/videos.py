@@ -35,6 +35,16 @@ class Video(Base):
     rgb_path: Mapped[str | None] = mapped_column(String(512))
     depth_path: Mapped[str | None] = mapped_column(String(512))
     frame_count: Mapped[int] = mapped_column(default=0)
+    # Size of the keypoints' coordinate space (pixels); None when keypoints are normalised.
+    image_width: Mapped[float | None] = mapped_column()
+    image_height: Mapped[float | None] = mapped_column()
+    # Pinhole camera of the keypoints' image: {"fx", "fy", "cx", "cy"} in pixels (3D view).
+    intrinsics: Mapped[dict | None] = mapped_column(JSON)
+    # Where the RGB picture sits in the clip's frames: {"x", "y", "width", "height"} in pixels
+    # (URFD clips put depth left and RGB right); None = the whole frame.
+    rgb_crop: Mapped[dict | None] = mapped_column(JSON)
+    # Clip frame = skeleton frame index + offset (clamped to the clip); URFD keypoints lag by 1.
+    rgb_frame_offset: Mapped[int] = mapped_column(default=0, server_default="0")
     created_at: Mapped[datetime] = mapped_column(UTCDateTime, default=utcnow)
 
 

@@ -32,6 +32,11 @@ class AlarmBus:
 
         self._redis = redis.from_url(self._redis_url)
         self._listener = asyncio.create_task(self._listen(), name="alarm-bus")
+        # Serve only once subscribed, so no alarm of another replica is missed at start-up.
+        try:
+            await asyncio.wait_for(self.subscribed.wait(), 5)
+        except TimeoutError:
+            log.warning("Redis at %s not reachable: alarms stay local until it is", self._redis_url)
 
     async def stop(self) -> None:
         if self._listener is not None:

@@ -6,7 +6,10 @@ import { AlarmDetailPage } from "./nurse/AlarmDetailPage";
 import { FatiguePage } from "./nurse/FatiguePage";
 import { HistoryPage } from "./nurse/HistoryPage";
 import { NurseBoard } from "./nurse/NurseBoard";
-import { AnnotatePage } from "./pages/AnnotatePage";
+import { AgreementPage } from "./pages/annotator/AgreementPage";
+import { LabelPage } from "./pages/annotator/LabelPage";
+import { ReviewPage } from "./pages/annotator/ReviewPage";
+import { VideosPage } from "./pages/annotator/VideosPage";
 import { ComparePage } from "./pages/engineer/ComparePage";
 import { EngineerLayout } from "./pages/engineer/EngineerLayout";
 import { FleetPage } from "./pages/engineer/FleetPage";
@@ -22,7 +25,10 @@ export function App() {
     <Routes>
       <Route path="/login" element={<LoginPage />} />
       <Route element={<Layout />}>
-        <Route path="/annotate" element={<RequireRole section="annotate"><AnnotatePage /></RequireRole>} />
+        <Route path="/annotate" element={<RequireRole section="annotate"><VideosPage /></RequireRole>} />
+        <Route path="/annotate/videos/:videoId" element={<RequireRole section="annotate"><LabelPage /></RequireRole>} />
+        <Route path="/annotate/review" element={<RequireRole section="annotate"><ReviewPage /></RequireRole>} />
+        <Route path="/annotate/agreement" element={<RequireRole section="annotate"><AgreementPage /></RequireRole>} />
         <Route path="/nurse" element={<RequireRole section="nurse"><NurseBoard /></RequireRole>} />
         <Route path="/nurse/history" element={<RequireRole section="nurse"><HistoryPage /></RequireRole>} />
         <Route path="/nurse/fatigue" element={<RequireRole section="nurse"><FatiguePage /></RequireRole>} />

@@ -108,7 +108,10 @@ def load(directory: Path | str | None = None, names: list[str] | None = None) ->
         seq_rows = sorted(rows[name], key=lambda r: int(r[column["npy_index"]]))
         index = np.array([int(r[column["npy_index"]]) for r in seq_rows])
         label = np.array(
-            [float(r[column["urfd_label"]]) if r[column["urfd_label"]] else np.nan for r in seq_rows]
+            [
+                float(r[column["urfd_label"]]) if r[column["urfd_label"]] else np.nan
+                for r in seq_rows
+            ]
         )
         detected = np.array([r[column["detected"]] == "1" for r in seq_rows])
         xy = np.array([[float(r[i]) for i in xy_columns] for r in seq_rows], np.float32)

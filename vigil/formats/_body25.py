@@ -20,7 +20,10 @@ def map_to_body25(xyc: np.ndarray, names: tuple[str | None, ...]) -> np.ndarray:
         if name is not None:
             out[:, INDEX[name]] = xyc[:, source_index]
     out[out[:, :, 2] <= 0] = 0.0  # a missing keypoint carries no coordinates
-    for derived, (a, b) in (("neck", ("r_shoulder", "l_shoulder")), ("mid_hip", ("r_hip", "l_hip"))):
+    for derived, (a, b) in (
+        ("neck", ("r_shoulder", "l_shoulder")),
+        ("mid_hip", ("r_hip", "l_hip")),
+    ):
         if derived in names:
             continue
         pa, pb = out[:, INDEX[a]], out[:, INDEX[b]]

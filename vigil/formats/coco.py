@@ -43,7 +43,9 @@ def from_coco17(
     points: np.ndarray, timestamp: float = 0.0, image_size: tuple[float, float] | None = None
 ) -> SkeletonFrame:
     """(17, 3) x, y, score in COCO order -> SkeletonFrame."""
-    return SkeletonFrame(coco17_to_body25(np.asarray(points)[None], image_size)[0], timestamp=timestamp)
+    return SkeletonFrame(
+        coco17_to_body25(np.asarray(points)[None], image_size)[0], timestamp=timestamp
+    )
 
 
 def from_movenet13(

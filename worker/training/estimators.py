@@ -25,7 +25,10 @@ class ModelSpec:
 
     def configurations(self) -> list[dict[str, Any]]:
         keys = list(self.grid)
-        return [dict(zip(keys, values, strict=True)) for values in itertools.product(*self.grid.values())]
+        return [
+            dict(zip(keys, values, strict=True))
+            for values in itertools.product(*self.grid.values())
+        ]
 
     def build(self, params: dict[str, Any], n_features: int, seed: int = 0) -> Pipeline:
         params = {**self.fixed, **params}

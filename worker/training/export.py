@@ -51,7 +51,9 @@ def sklearn_to_onnx(pipeline: Pipeline, sample: np.ndarray) -> bytes:
         # its sign) that equals sklearn's decision_function, then squash it like our scorer does.
         import onnxruntime as ort
 
-        session = ort.InferenceSession(model.SerializeToString(), providers=["CPUExecutionProvider"])
+        session = ort.InferenceSession(
+            model.SerializeToString(), providers=["CPUExecutionProvider"]
+        )
         raw = session.run(["probabilities"], {session.get_inputs()[0].name: sample})[0]
         reference = pipeline.decision_function(sample)
         column, sign = min(

@@ -104,7 +104,9 @@ def choose_delay(stream: StreamScores, threshold: float) -> tuple[float, dict]:
             tp[k] += np.sum(pred & true)
             fp[k] += np.sum(pred & ~true)
             fn[k] += np.sum(~pred & true)
-    f1_event = np.array([event_f1(d, m, f) for d, m, f in zip(detected, missed, false_alarm, strict=True)])
+    f1_event = np.array(
+        [event_f1(d, m, f) for d, m, f in zip(detected, missed, false_alarm, strict=True)]
+    )
     f1_frame = f1_from_counts(tp, fp, fn)
     order = np.lexsort((DELAY_GRID_S, -f1_frame, -f1_event))
     best = int(order[0])

@@ -736,6 +736,304 @@ export interface paths {
         patch?: never;
         trace?: never;
     };
+    "/api/labelling/videos": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /** List Videos */
+        get: operations["list_videos_api_labelling_videos_get"];
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/labelling/facets": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /** Facets */
+        get: operations["facets_api_labelling_facets_get"];
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/labelling/videos/{video_id}": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /** Get Video */
+        get: operations["get_video_api_labelling_videos__video_id__get"];
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        /** Patch Video */
+        patch: operations["patch_video_api_labelling_videos__video_id__patch"];
+        trace?: never;
+    };
+    "/api/labelling/videos/{video_id}/segments": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /** List Segments */
+        get: operations["list_segments_api_labelling_videos__video_id__segments_get"];
+        put?: never;
+        /** Create Segment */
+        post: operations["create_segment_api_labelling_videos__video_id__segments_post"];
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/labelling/segments/{segment_id}": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        get?: never;
+        put?: never;
+        post?: never;
+        /** Delete Segment */
+        delete: operations["delete_segment_api_labelling_segments__segment_id__delete"];
+        options?: never;
+        head?: never;
+        /** Update Segment */
+        patch: operations["update_segment_api_labelling_segments__segment_id__patch"];
+        trace?: never;
+    };
+    "/api/labelling/segments/{segment_id}/status": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        get?: never;
+        put?: never;
+        /** Change Status */
+        post: operations["change_status_api_labelling_segments__segment_id__status_post"];
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/labelling/videos/{video_id}/submit": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        get?: never;
+        put?: never;
+        /**
+         * Submit Drafts
+         * @description Submit every draft (and rejected, revised) segment of the caller on this video.
+         */
+        post: operations["submit_drafts_api_labelling_videos__video_id__submit_post"];
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/labelling/segments/{segment_id}/review": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        get?: never;
+        put?: never;
+        /** Review Segment */
+        post: operations["review_segment_api_labelling_segments__segment_id__review_post"];
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/labelling/segments/{segment_id}/history": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /** Segment History */
+        get: operations["segment_history_api_labelling_segments__segment_id__history_get"];
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/labelling/review-queue": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /** Get Review Queue */
+        get: operations["get_review_queue_api_labelling_review_queue_get"];
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/labelling/videos/{video_id}/export": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /** Export Video */
+        get: operations["export_video_api_labelling_videos__video_id__export_get"];
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/labelling/import": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        get?: never;
+        put?: never;
+        /** Import File */
+        post: operations["import_file_api_labelling_import_post"];
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/labelling/videos/{video_id}/annotators": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /** Video Annotators */
+        get: operations["video_annotators_api_labelling_videos__video_id__annotators_get"];
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/labelling/videos/{video_id}/agreement": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /** Video Agreement */
+        get: operations["video_agreement_api_labelling_videos__video_id__agreement_get"];
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/labelling/videos/{video_id}/rgb/{frame}": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /** Rgb Frame */
+        get: operations["rgb_frame_api_labelling_videos__video_id__rgb__frame__get"];
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/labelling/videos/{video_id}/probability": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /** Probability Lane */
+        get: operations["probability_lane_api_labelling_videos__video_id__probability_get"];
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/labelling/videos/{video_id}/view3d": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        get?: never;
+        put?: never;
+        /**
+         * View 3D
+         * @description Show the frame (and up to 30 nearby frames with depth) in 3D in the viser viewer.
+         */
+        post: operations["view_3d_api_labelling_videos__video_id__view3d_post"];
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
     "/metrics": {
         parameters: {
             query?: never;
@@ -761,6 +1059,23 @@ export interface components {
         AcknowledgeIn: {
             /** Comment */
             comment?: string | null;
+        };
+        /** AgreementOut */
+        AgreementOut: {
+            /** Video Id */
+            video_id: number;
+            /** Annotator A */
+            annotator_a: string;
+            /** Annotator B */
+            annotator_b: string;
+            /** Frames Compared */
+            frames_compared: number;
+            /** Overall Kappa */
+            overall_kappa: number | null;
+            /** Labels */
+            labels: components["schemas"]["LabelAgreementOut"][];
+            /** Stages */
+            stages: components["schemas"]["StageTimingOut"][];
         };
         /** AlarmEventOut */
         AlarmEventOut: {
@@ -877,6 +1192,16 @@ export interface components {
          * @enum {string}
          */
         AlarmState: "open" | "acknowledged" | "resolved";
+        /** AnnotatorsOut */
+        AnnotatorsOut: {
+            /** Annotators */
+            annotators: string[];
+        };
+        /** Body_import_file_api_labelling_import_post */
+        Body_import_file_api_labelling_import_post: {
+            /** File */
+            file: string;
+        };
         /** Comparison */
         Comparison: {
             a: components["schemas"]["ModelDetail"];
@@ -956,6 +1281,17 @@ export interface components {
          * @enum {string}
          */
         DeploymentStatus: "pending_approval" | "canary" | "active" | "rolled_back" | "superseded";
+        /** Facets */
+        Facets: {
+            /** Persons */
+            persons: string[];
+            /** Locations */
+            locations: string[];
+            /** Cameras */
+            cameras: string[];
+            /** Sources */
+            sources: string[];
+        };
         /**
          * FalseAlarmReason
          * @enum {string}
@@ -1032,6 +1368,13 @@ export interface components {
         HTTPValidationError: {
             /** Detail */
             detail?: components["schemas"]["ValidationError"][];
+        };
+        /** ImportOut */
+        ImportOut: {
+            /** Videos */
+            videos: string[];
+            /** Segments */
+            segments: number;
         };
         /** JobDetail */
         JobDetail: {
@@ -1129,6 +1472,61 @@ export interface components {
          * @enum {string}
          */
         JobStatus: "queued" | "running" | "succeeded" | "failed" | "cancelled";
+        /** LabelAgreementOut */
+        LabelAgreementOut: {
+            /** Label Key */
+            label_key: string;
+            /** Kappa */
+            kappa: number | null;
+            /** Frames A */
+            frames_a: number;
+            /** Frames B */
+            frames_b: number;
+        };
+        /** LabellingVideoOut */
+        LabellingVideoOut: {
+            /** Id */
+            id: number;
+            /** Name */
+            name: string;
+            /** Source */
+            source: string;
+            /** Generated */
+            generated: boolean;
+            mode: components["schemas"]["TransportMode"];
+            /** Camera */
+            camera: string | null;
+            /** Location */
+            location: string | null;
+            /** Person */
+            person: string | null;
+            split: components["schemas"]["Split"];
+            /** Fps */
+            fps: number;
+            /** Frame Count */
+            frame_count: number;
+            /** Image Width */
+            image_width: number | null;
+            /** Image Height */
+            image_height: number | null;
+            /** Has Rgb */
+            has_rgb: boolean;
+            /** Has Depth */
+            has_depth: boolean;
+            /** Labelled Frames */
+            labelled_frames: number;
+            /** Segment Counts */
+            segment_counts: {
+                [key: string]: number;
+            };
+            /** Unreviewed */
+            unreviewed: number;
+            /**
+             * Status
+             * @enum {string}
+             */
+            status: "unlabelled" | "in_progress" | "in_review" | "done";
+        };
         /** LoginIn */
         LoginIn: {
             /** Username */
@@ -1246,6 +1644,26 @@ export interface components {
              */
             robots_assigned: number;
         };
+        /** ProbabilityOut */
+        ProbabilityOut: {
+            /** Video Id */
+            video_id: number;
+            /**
+             * Source
+             * @enum {string}
+             */
+            source: "stored" | "model" | "none";
+            /** Model Version */
+            model_version: string | null;
+            /** Threshold */
+            threshold: number | null;
+            /** Probability */
+            probability: (number | null)[];
+            /** Suggestions */
+            suggestions: components["schemas"]["SuggestionOut"][];
+            /** Error */
+            error?: string | null;
+        };
         /** PromoteIn */
         PromoteIn: {
             scope: components["schemas"]["DeploymentScope"];
@@ -1258,6 +1676,16 @@ export interface components {
             canary_robot_id?: string | null;
             /** Comment */
             comment?: string | null;
+        };
+        /** QueueItemOut */
+        QueueItemOut: {
+            segment: components["schemas"]["SegmentOut"];
+            /** Video Name */
+            video_name: string;
+            /** Rank */
+            rank: number;
+            /** Reason */
+            reason: string;
         };
         /** ReplayFrameOut */
         ReplayFrameOut: {
@@ -1285,6 +1713,16 @@ export interface components {
             verdict: components["schemas"]["Verdict"];
             /** @description required when the verdict is false_alarm */
             reason?: components["schemas"]["FalseAlarmReason"] | null;
+            /** Comment */
+            comment?: string | null;
+        };
+        /** ReviewIn */
+        ReviewIn: {
+            /**
+             * Decision
+             * @enum {string}
+             */
+            decision: "accept" | "reject";
             /** Comment */
             comment?: string | null;
         };
@@ -1383,6 +1821,106 @@ export interface components {
              */
             reason: string;
         };
+        /** SegmentEventOut */
+        SegmentEventOut: {
+            /**
+             * At
+             * Format: date-time
+             */
+            at: string;
+            /** Actor */
+            actor: string | null;
+            /** Action */
+            action: string;
+            /** Snapshot */
+            snapshot: {
+                [key: string]: unknown;
+            };
+            /** Comment */
+            comment: string | null;
+        };
+        /** SegmentIn */
+        SegmentIn: {
+            /**
+             * First Frame
+             * @description exact frame number (inclusive)
+             */
+            first_frame: number;
+            /**
+             * Last Frame
+             * @description exact frame number (inclusive)
+             */
+            last_frame: number;
+            /** Label Key */
+            label_key: string;
+            /**
+             * Source
+             * @default annotator
+             * @enum {string}
+             */
+            source: "annotator" | "model_suggestion";
+        };
+        /** SegmentOut */
+        SegmentOut: {
+            /** Id */
+            id: number;
+            /** Video Id */
+            video_id: number;
+            /** First Frame */
+            first_frame: number;
+            /** Last Frame */
+            last_frame: number;
+            /** Label Key */
+            label_key: string;
+            /** Label Name */
+            label_name?: string | null;
+            decision?: components["schemas"]["Decision"] | null;
+            /** Taxonomy Version */
+            taxonomy_version: number;
+            status: components["schemas"]["SegmentStatus"];
+            source: components["schemas"]["SegmentSource"];
+            /** Priority */
+            priority: number;
+            /** Annotator */
+            annotator?: string | null;
+            /** Reviewer */
+            reviewer?: string | null;
+            /** Review Comment */
+            review_comment: string | null;
+            /** Alarm Id */
+            alarm_id: number | null;
+            /** Model Version */
+            model_version: string | null;
+            /**
+             * Created At
+             * Format: date-time
+             */
+            created_at: string;
+            /**
+             * Updated At
+             * Format: date-time
+             */
+            updated_at: string;
+        };
+        /** SegmentPatch */
+        SegmentPatch: {
+            /** First Frame */
+            first_frame?: number | null;
+            /** Last Frame */
+            last_frame?: number | null;
+            /** Label Key */
+            label_key?: string | null;
+        };
+        /**
+         * SegmentSource
+         * @enum {string}
+         */
+        SegmentSource: "annotator" | "nurse_verdict" | "model_suggestion" | "shadow_disagreement" | "import";
+        /**
+         * SegmentStatus
+         * @enum {string}
+         */
+        SegmentStatus: "draft" | "pending" | "submitted" | "accepted" | "rejected" | "deleted";
         /** ShadowIn */
         ShadowIn: {
             scope: components["schemas"]["DeploymentScope"];
@@ -1421,6 +1959,47 @@ export interface components {
          * @enum {string}
          */
         Split: "train" | "test" | "unassigned";
+        /** StageTimingOut */
+        StageTimingOut: {
+            /** Label Key */
+            label_key: string;
+            /** Onset A Ms */
+            onset_a_ms: number | null;
+            /** Onset B Ms */
+            onset_b_ms: number | null;
+            /** Onset Diff Ms */
+            onset_diff_ms: number | null;
+            /** Offset A Ms */
+            offset_a_ms: number | null;
+            /** Offset B Ms */
+            offset_b_ms: number | null;
+            /** Offset Diff Ms */
+            offset_diff_ms: number | null;
+        };
+        /** StatusAction */
+        StatusAction: {
+            /**
+             * Action
+             * @enum {string}
+             */
+            action: "submit" | "withdraw" | "reopen";
+            /** Comment */
+            comment?: string | null;
+        };
+        /** SubmitAllOut */
+        SubmitAllOut: {
+            /** Submitted */
+            submitted: number[];
+        };
+        /** SuggestionOut */
+        SuggestionOut: {
+            /** First Frame */
+            first_frame: number;
+            /** Last Frame */
+            last_frame: number;
+            /** Label Key */
+            label_key: string;
+        };
         /** TaxonomyLabelOut */
         TaxonomyLabelOut: {
             /** Key */
@@ -1556,6 +2135,28 @@ export interface components {
              * Format: date-time
              */
             created_at: string;
+        };
+        /** VideoPatch */
+        VideoPatch: {
+            split?: components["schemas"]["Split"] | null;
+            /** Person */
+            person?: string | null;
+            /** Location */
+            location?: string | null;
+            /** Camera */
+            camera?: string | null;
+        };
+        /** View3DOut */
+        View3DOut: {
+            /** Url */
+            url: string;
+            /** Frames Shown */
+            frames_shown: number[];
+            /**
+             * Centre Frame
+             * @description the frame with depth nearest to the requested one
+             */
+            centre_frame: number;
         };
     };
     responses: never;
@@ -2932,6 +3533,661 @@ export interface operations {
                 };
                 content: {
                     "application/json": components["schemas"]["JobOut"];
+                };
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+        };
+    };
+    list_videos_api_labelling_videos_get: {
+        parameters: {
+            query?: {
+                mode?: components["schemas"]["TransportMode"] | null;
+                split?: components["schemas"]["Split"] | null;
+                person?: string | null;
+                source?: string | null;
+                /** @description has segments awaiting review */
+                unreviewed?: boolean | null;
+            };
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["LabellingVideoOut"][];
+                };
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+        };
+    };
+    facets_api_labelling_facets_get: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["Facets"];
+                };
+            };
+        };
+    };
+    get_video_api_labelling_videos__video_id__get: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path: {
+                video_id: number;
+            };
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["LabellingVideoOut"];
+                };
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+        };
+    };
+    patch_video_api_labelling_videos__video_id__patch: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path: {
+                video_id: number;
+            };
+            cookie?: never;
+        };
+        requestBody: {
+            content: {
+                "application/json": components["schemas"]["VideoPatch"];
+            };
+        };
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["LabellingVideoOut"];
+                };
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+        };
+    };
+    list_segments_api_labelling_videos__video_id__segments_get: {
+        parameters: {
+            query?: {
+                annotator?: string | null;
+                status?: components["schemas"]["SegmentStatus"][] | null;
+            };
+            header?: never;
+            path: {
+                video_id: number;
+            };
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["SegmentOut"][];
+                };
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+        };
+    };
+    create_segment_api_labelling_videos__video_id__segments_post: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path: {
+                video_id: number;
+            };
+            cookie?: never;
+        };
+        requestBody: {
+            content: {
+                "application/json": components["schemas"]["SegmentIn"];
+            };
+        };
+        responses: {
+            /** @description Successful Response */
+            201: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["SegmentOut"];
+                };
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+        };
+    };
+    delete_segment_api_labelling_segments__segment_id__delete: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path: {
+                segment_id: number;
+            };
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            204: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+        };
+    };
+    update_segment_api_labelling_segments__segment_id__patch: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path: {
+                segment_id: number;
+            };
+            cookie?: never;
+        };
+        requestBody: {
+            content: {
+                "application/json": components["schemas"]["SegmentPatch"];
+            };
+        };
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["SegmentOut"];
+                };
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+        };
+    };
+    change_status_api_labelling_segments__segment_id__status_post: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path: {
+                segment_id: number;
+            };
+            cookie?: never;
+        };
+        requestBody: {
+            content: {
+                "application/json": components["schemas"]["StatusAction"];
+            };
+        };
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["SegmentOut"];
+                };
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+        };
+    };
+    submit_drafts_api_labelling_videos__video_id__submit_post: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path: {
+                video_id: number;
+            };
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["SubmitAllOut"];
+                };
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+        };
+    };
+    review_segment_api_labelling_segments__segment_id__review_post: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path: {
+                segment_id: number;
+            };
+            cookie?: never;
+        };
+        requestBody: {
+            content: {
+                "application/json": components["schemas"]["ReviewIn"];
+            };
+        };
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["SegmentOut"];
+                };
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+        };
+    };
+    segment_history_api_labelling_segments__segment_id__history_get: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path: {
+                segment_id: number;
+            };
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["SegmentEventOut"][];
+                };
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+        };
+    };
+    get_review_queue_api_labelling_review_queue_get: {
+        parameters: {
+            query?: {
+                limit?: number;
+            };
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["QueueItemOut"][];
+                };
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+        };
+    };
+    export_video_api_labelling_videos__video_id__export_get: {
+        parameters: {
+            query?: {
+                format?: "csv" | "json" | "coco";
+                status?: components["schemas"]["SegmentStatus"][] | null;
+            };
+            header?: never;
+            path: {
+                video_id: number;
+            };
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": unknown;
+                };
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+        };
+    };
+    import_file_api_labelling_import_post: {
+        parameters: {
+            query: {
+                /** @description what the file holds */
+                format: "csv" | "json" | "coco";
+                /** @description new video name */
+                name?: string | null;
+            };
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        requestBody: {
+            content: {
+                "multipart/form-data": components["schemas"]["Body_import_file_api_labelling_import_post"];
+            };
+        };
+        responses: {
+            /** @description Successful Response */
+            201: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ImportOut"];
+                };
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+        };
+    };
+    video_annotators_api_labelling_videos__video_id__annotators_get: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path: {
+                video_id: number;
+            };
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["AnnotatorsOut"];
+                };
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+        };
+    };
+    video_agreement_api_labelling_videos__video_id__agreement_get: {
+        parameters: {
+            query: {
+                a: string;
+                b: string;
+            };
+            header?: never;
+            path: {
+                video_id: number;
+            };
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["AgreementOut"];
+                };
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+        };
+    };
+    rgb_frame_api_labelling_videos__video_id__rgb__frame__get: {
+        parameters: {
+            query?: {
+                /** @description blur the head; only annotators may turn off */
+                blur?: boolean;
+            };
+            header?: never;
+            path: {
+                video_id: number;
+                frame: number;
+            };
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "image/jpeg": unknown;
+                };
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+        };
+    };
+    probability_lane_api_labelling_videos__video_id__probability_get: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path: {
+                video_id: number;
+            };
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ProbabilityOut"];
+                };
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+        };
+    };
+    view_3d_api_labelling_videos__video_id__view3d_post: {
+        parameters: {
+            query: {
+                /** @description frame to show; the nearest frames with depth are used */
+                frame: number;
+            };
+            header?: never;
+            path: {
+                video_id: number;
+            };
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["View3DOut"];
                 };
             };
             /** @description Validation Error */
