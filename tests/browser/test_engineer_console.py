@@ -75,7 +75,7 @@ def test_engineer_registry_gate_promote_what_if_and_rollback(system, page):
     page.get_by_role("link", name="Model registry").click()
     page.get_by_role("link", name="rf-test-1").click()
     expect(page.get_by_role("table", name="Table 3")).to_be_visible()
-    expect(page.get_by_role("img", name="plot roc")).to_be_visible()
+    expect(page.get_by_role("img", name="plot roc_pr")).to_be_visible()
     expect(page.get_by_label("Gate")).to_contain_text("passed")
     SCREENSHOTS.mkdir(parents=True, exist_ok=True)
     page.screenshot(path=SCREENSHOTS / "engineer-model.png", full_page=True)

@@ -56,7 +56,11 @@ def test_retrain_on_urfd_registers_a_model_with_lineage_metrics_and_plots(
         assert 0 < model.metrics["latency"]["p95_ms"] < 1000
         assert len(model.metrics["training"]["grid"]) == 2
         directory = Path(model.file_path).parent
-        assert {p.name for p in (directory / "plots").glob("*.png")} >= {"roc.png", "pr.png"}
+        assert {p.name for p in (directory / "plots").glob("*.png")} >= {
+            "roc_pr.png",
+            "delay.png",
+            "time_to_alarm.png",
+        }
         # The registered file is what the manifest says (sha256 verified on load).
         assert load_classifier(directory).manifest.sha256 == model.sha256
         json.dumps(model.metrics)  # stored metrics are plain JSON

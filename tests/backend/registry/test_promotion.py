@@ -98,8 +98,8 @@ def test_staged_rollout_canary_then_ward_then_rollback_restores_each_robot(
     rows = {r["metric"]: r for r in comparison["rows"]}
     assert rows["threshold"]["b"] == 0.55 and len(comparison["events"]) == 4
     detail = client.get(f"/api/models/{v1}", headers=engineer.headers).json()
-    assert "roc" in detail["plots"]
-    png = client.get(f"/api/models/{v1}/plots/roc", headers=engineer.headers)
+    assert "roc_pr" in detail["plots"]
+    png = client.get(f"/api/models/{v1}/plots/roc_pr", headers=engineer.headers)
     assert png.status_code == 200 and png.content.startswith(b"\x89PNG")
 
 
