@@ -157,6 +157,9 @@ def test_automatic_rollback_when_nurses_reject_too_many_alarms(
     automatic_rollback(factory, settings)
     with session_factory() as session:
         assert session.get(Deployment, new["id"]).status == "active"
+    listed = client.get("/api/deployments", headers=engineer.headers).json()
+    shown = next(d for d in listed if d["id"] == new["id"])
+    assert (shown["alarms_rejected"], shown["alarms_judged"]) == (2, 3)
     alarms(["false_alarm"])  # 3 of 4 rejected = 75 % > 50 %
     automatic_rollback(factory, settings)
     with session_factory() as session:
