@@ -588,8 +588,9 @@ class CameraNoise:
     depth_dropout: float = 0.03
 
 
-_EXTREMITIES = np.array([INDEX[k] for k in ("r_wrist", "l_wrist", "l_big_toe", "l_small_toe",
-                         "l_heel", "r_big_toe", "r_small_toe", "r_heel", "r_ear", "l_ear")])  # fmt: skip
+_EXTREMITY_NAMES = ("r_wrist", "l_wrist", "l_big_toe", "l_small_toe", "l_heel", "r_big_toe",
+                    "r_small_toe", "r_heel", "r_ear", "l_ear")  # fmt: skip
+_EXTREMITIES = np.array([INDEX[k] for k in _EXTREMITY_NAMES])
 
 
 def _render(
