@@ -1,0 +1,90 @@
+import numpy as np
+import pytest
+
+from vigil.datasets import urfd
+from vigil.features import (
+    FEATURE_NAMES,
+    FEATURE_SETS,
+    FeatureExtractor,
+    extract_sequence,
+    window_index,
+)
+from vigil.skeleton import N_KEYPOINTS, SkeletonFrame
+
+
+@pytest.fixture(scope="module")
+def sequences():
+    return urfd.load(names=["fall-19", "adl-21", "adl-40"])  # falls, dropouts, lying on purpose
+
+
+def test_streaming_equals_batch_exactly_on_real_sequences(sequences):
+    for seq in sequences:
+        frames = seq.frames()
+        for feature_set in FEATURE_SETS:
+            batch = extract_sequence(frames, feature_set)
+            extractor = FeatureExtractor(feature_set)
+            streamed = np.stack([extractor.push(f) for f in frames])
+            assert np.array_equal(batch, streamed), (seq.name, feature_set)
+            assert np.isfinite(batch).all()
+    assert batch.shape[1] == len(FEATURE_SETS["pose"])
+
+
+def test_streaming_equals_batch_with_irregular_timestamps_and_depth(sequences):
+    rng = np.random.default_rng(1)
+    seq = sequences[0]
+    t = np.cumsum(rng.uniform(0.01, 0.2, len(seq)))
+    depth = rng.uniform(1, 4, (len(seq), N_KEYPOINTS)).astype(np.float32)
+    depth[rng.random(depth.shape) < 0.3] = np.nan
+    frames = [
+        SkeletonFrame(k, d, float(ts)) for k, d, ts in zip(seq.keypoints, depth, t, strict=True)
+    ]
+    extractor = FeatureExtractor()
+    streamed = np.stack([extractor.push(f) for f in frames])
+    assert np.array_equal(extract_sequence(frames), streamed)
+    assert streamed[:, FEATURE_NAMES.index("has_depth")].max() == 1.0
+
+
+def test_missing_keypoints_are_not_zero_positions():
+    kp = np.zeros((N_KEYPOINTS, 3), np.float32)
+    kp[[0, 1, 2, 5, 8, 9, 12], :] = [
+        [50, 10, 1],
+        [50, 30, 1],
+        [40, 30, 1],
+        [60, 30, 1],
+        [50, 80, 1],
+        [45, 80, 1],
+        [55, 80, 1],
+    ]
+    moved = kp.copy()
+    moved[:, :2] += 1000  # translation of present keypoints only
+    moved[kp[:, 2] == 0] = 0
+    a = extract_sequence([SkeletonFrame(kp)])
+    b = extract_sequence([SkeletonFrame(moved)])
+    np.testing.assert_allclose(a, b, atol=1e-5)  # body-centred: the zeros did not leak in
+    scaled = kp.copy()
+    scaled[:, :2] *= 3
+    np.testing.assert_allclose(a, extract_sequence([SkeletonFrame(scaled)]), atol=1e-5)
+
+
+def test_frames_without_pose_hold_the_last_pose(sequences):
+    seq = sequences[1]  # adl-21 has frames where nobody was detected
+    features = extract_sequence(seq.frames())
+    held = features[:, FEATURE_NAMES.index("held")] == 1
+    assert held.any()
+    first = np.flatnonzero(
+        held & (np.arange(len(held)) > 0) & seq.detected[np.maximum(np.arange(len(held)) - 1, 0)]
+    )[0]
+    pose = slice(0, FEATURE_NAMES.index("held"))
+    assert np.array_equal(features[first, pose], features[first - 1, pose])
+
+
+def test_time_must_not_go_backwards():
+    extractor = FeatureExtractor()
+    extractor.push(SkeletonFrame(np.zeros((25, 3)), timestamp=1.0))
+    with pytest.raises(ValueError, match="timestamps"):
+        extractor.push(SkeletonFrame(np.zeros((25, 3)), timestamp=0.5))
+
+
+def test_window_index_stays_inside_each_stream():
+    index = window_index(np.array([0, 0, 0, 1, 1]), 3)
+    assert index.tolist() == [[0, 0, 0], [0, 0, 1], [0, 1, 2], [3, 3, 3], [3, 3, 4]]

@@ -1,0 +1,1 @@
+"""Real datasets loaded into canonical per-sequence arrays."""

@@ -1,0 +1,316 @@
+"""Per-frame feature vectors from canonical skeletons, streaming and batch with identical results.
+
+Pose part (single frame): keypoints centred on the hips and divided by the skeleton's bounding-box
+diagonal (scale invariant), the keypoint confidences (a missing keypoint is an explicit 0 there,
+its coordinates are 0 and never mistaken for a real position), uprightness of the torso, bounding
+box aspect, head height, and depth in metres with a has-depth flag (0 where unknown).
+
+Temporal part: how fast the body got where it is. For horizons of 0.2-1.6 s, the change of body
+centre height, horizontal position, size, aspect, uprightness, head height and depth since the
+latest frame at least that long ago (by timestamp), in units of the body size back then; plus
+decaying peaks (time constants 1.5 s and 4 s) of the downward speeds, so that a fast drop is
+remembered while the person lies still afterwards. That is what separates a fall from lying down
+on purpose, which looks the same in a single frame. `above_floor` is the body centre's height
+above the lowest keypoint of the earlier frame (the floor line under a standing person): a fall
+ends on the floor, a deliberate lie-down usually on a bed.
+
+Frames with too few keypoints (fewer than MIN_KEYPOINTS; e.g. the pose estimator found nobody)
+repeat the last usable pose with zero motion and set the `held` flag: the decision holds.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from vigil.skeleton import INDEX, N_KEYPOINTS, SkeletonFrame
+
+FEATURE_VERSION = 1
+MIN_KEYPOINTS = 4
+HORIZONS_S: tuple[float, ...] = (0.2, 0.4, 0.8, 1.6, 3.2)
+DELTA_LIMIT = 5.0  # body sizes (or log units): beyond this a change is a tracking glitch
+PEAK_TAUS_S: tuple[float, ...] = (1.5, 4.0)
+_HIPS = [INDEX["mid_hip"], INDEX["r_hip"], INDEX["l_hip"]]
+_NECK, _MID_HIP = INDEX["neck"], INDEX["mid_hip"]
+_SHOULDERS, _HIP_PAIR = [INDEX["r_shoulder"], INDEX["l_shoulder"]], [INDEX["r_hip"], INDEX["l_hip"]]
+
+# Per-frame scalar quantities tracked over time (columns of the "state" array).
+_STATE = (
+    "cx",
+    "cy",
+    "scale",
+    "aspect",
+    "upright",
+    "top",
+    "depth",
+    "has_depth",
+    "seen",
+    "bottom",
+    "seen_at",
+)
+_S = {name: i for i, name in enumerate(_STATE)}
+_DELTAS = (
+    "d_down", "d_side", "d_logscale", "d_aspect", "d_upright", "d_top", "d_depth", "above_floor"
+)  # fmt: skip
+# Downward speeds whose decaying peaks are kept: centre drop, head drop, loss of uprightness.
+_PEAKED = ("d_down", "d_top", "d_upright")
+
+
+def _names() -> tuple[str, ...]:
+    pose = [f"{axis}_{i}" for i in range(N_KEYPOINTS) for axis in ("x", "y")]
+    pose += [f"conf_{i}" for i in range(N_KEYPOINTS)]
+    pose += ["aspect", "upright", "top", "depth", "has_depth", "held"]
+    temporal = [f"{d}@{h}" for h in HORIZONS_S for d in _DELTAS]
+    temporal += [f"peak_{p}@{tau}" for tau in PEAK_TAUS_S for p in _PEAKED]
+    return tuple(pose + temporal)
+
+
+FEATURE_NAMES: tuple[str, ...] = _names()
+N_POSE = N_KEYPOINTS * 3 + 6
+FEATURE_SETS: dict[str, np.ndarray] = {
+    "full": np.arange(len(FEATURE_NAMES)),
+    "pose": np.arange(N_POSE),  # single-frame features only, as in the paper
+}
+_MAX_HORIZON = max(HORIZONS_S)
+_PEAK_SOURCE = [HORIZONS_S.index(0.4) * len(_DELTAS) + _DELTAS.index(p) for p in _PEAKED]
+
+
+def _pose_and_state(
+    keypoints: np.ndarray, depth: np.ndarray, timestamps: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(n, 25, 3), (n, 25) -> pose features (n, N_POSE - 1) without `held`, state (n, len(_STATE)),
+    and a usable-frame mask."""
+    n = keypoints.shape[0]
+    conf = keypoints[:, :, 2].astype(np.float64)
+    present = conf > 0
+    xy = keypoints[:, :, :2].astype(np.float64)
+    count = present.sum(axis=1)
+    usable = count >= MIN_KEYPOINTS
+
+    hips_present = present[:, _HIPS]
+    n_hips = hips_present.sum(axis=1)
+    hip_centre = (xy[:, _HIPS] * hips_present[..., None]).sum(axis=1) / np.maximum(n_hips, 1)[
+        :, None
+    ]
+    all_centre = (xy * present[..., None]).sum(axis=1) / np.maximum(count, 1)[:, None]
+    centre = np.where((n_hips > 0)[:, None], hip_centre, all_centre)
+
+    big = np.where(present[..., None], xy, np.inf)
+    small = np.where(present[..., None], xy, -np.inf)
+    lo, hi = big.min(axis=1), small.max(axis=1)
+    extent = np.where(usable[:, None], hi - lo, 1.0)
+    width, height = np.maximum(extent[:, 0], 1e-6), np.maximum(extent[:, 1], 1e-6)
+    scale = np.sqrt(width**2 + height**2)
+    aspect = np.log(height / width)
+    top = np.where(usable, (centre[:, 1] - lo[:, 1]) / scale, 0.0)
+
+    neck, neck_ok = _point(xy, present, _NECK, _SHOULDERS)
+    hip, hip_ok = _point(xy, present, _MID_HIP, _HIP_PAIR)
+    torso = hip - neck
+    torso_len = np.maximum(np.sqrt((torso**2).sum(axis=1)), 1e-6)
+    upright = np.where(neck_ok & hip_ok, torso[:, 1] / torso_len, 0.0)
+
+    finite_depth = present & np.isfinite(depth)
+    n_depth = finite_depth.sum(axis=1)
+    depth_m = np.where(finite_depth, depth, 0.0).sum(axis=1) / np.maximum(n_depth, 1)
+    has_depth = (n_depth > 0).astype(np.float64)
+
+    rel = np.where(present[..., None], (xy - centre[:, None, :]) / scale[:, None, None], 0.0)
+    pose = np.concatenate(
+        [rel.reshape(n, -1), conf, np.stack([aspect, upright, top, depth_m, has_depth], axis=1)],
+        axis=1,
+    )
+    seen = usable.astype(np.float64)
+    bottom = np.where(usable, hi[:, 1], 0.0)
+    state = np.stack(
+        [
+            *(centre[:, 0], centre[:, 1], scale, aspect, upright, top, depth_m, has_depth, seen),
+            *(bottom, timestamps),
+        ],
+        axis=1,
+    )
+    return pose, state, usable
+
+
+def _point(xy, present, index, pair) -> tuple[np.ndarray, np.ndarray]:
+    """A keypoint, or the midpoint of its pair when it is missing (as OpenPose derives it)."""
+    own = present[:, index]
+    pair_ok = present[:, pair[0]] & present[:, pair[1]]
+    mid = (xy[:, pair[0]] + xy[:, pair[1]]) / 2
+    return np.where(own[:, None], xy[:, index], mid), own | pair_ok
+
+
+def _hold(pose: np.ndarray, state: np.ndarray, usable: np.ndarray, last: tuple | None):
+    """Forward-fill unusable frames from the last usable one (or `last` carried in from before)."""
+    n = len(usable)
+    source = np.where(usable, np.arange(n), -1)
+    source = np.maximum.accumulate(source) if n else source
+    pose_out, state_out = pose.copy(), state.copy()
+    filled = source >= 0
+    pose_out[filled] = pose[source[filled]]
+    state_out[filled] = state[source[filled]]
+    if last is not None:
+        pose_out[~filled], state_out[~filled] = last[0], last[1]
+    else:
+        pose_out[~filled], state_out[~filled] = 0.0, 0.0
+        state_out[~filled, _S["scale"]] = 1.0
+    return pose_out, state_out
+
+
+def _deltas(state_now: np.ndarray, state_then: np.ndarray, horizon: float) -> np.ndarray:
+    """(m, len(_STATE)) pairs -> (m, len(_DELTAS)) in body sizes (the larger of then and now, so
+    one frame with a few clustered keypoints cannot blow a change up); 0 if no pose was seen then.
+    When the earlier pose is older than the horizon (the person was not detected in between), the
+    change is scaled down to the horizon, so reappearing elsewhere does not look like a fast drop.
+    """
+    elapsed = state_now[:, _S["seen_at"]] - state_then[:, _S["seen_at"]]
+    pace = np.minimum(1.0, 1.5 * horizon / np.maximum(elapsed, 1e-9))[:, None]
+    ref = np.maximum(state_then[:, _S["scale"]], state_now[:, _S["scale"]])
+    both_seen = (state_then[:, _S["seen"]] * state_now[:, _S["seen"]])[:, None]
+    deltas = np.stack(
+        [
+            (state_now[:, _S["cy"]] - state_then[:, _S["cy"]]) / ref,
+            np.abs(state_now[:, _S["cx"]] - state_then[:, _S["cx"]]) / ref,
+            np.log(state_now[:, _S["scale"]] / state_then[:, _S["scale"]]),
+            state_now[:, _S["aspect"]] - state_then[:, _S["aspect"]],
+            state_then[:, _S["upright"]] - state_now[:, _S["upright"]],
+            state_then[:, _S["top"]] - state_now[:, _S["top"]],
+            (state_now[:, _S["depth"]] - state_then[:, _S["depth"]])
+            * state_now[:, _S["has_depth"]]
+            * state_then[:, _S["has_depth"]],
+            # body centre above the lowest keypoint back then (the floor under a standing person)
+            (state_then[:, _S["bottom"]] - state_now[:, _S["cy"]]) / ref,
+        ],
+        axis=1,
+    )
+    return np.clip(deltas * pace, -DELTA_LIMIT, DELTA_LIMIT) * both_seen
+
+
+def _lag_index(timestamps: np.ndarray, now: np.ndarray, horizon: float) -> np.ndarray:
+    """Index of the latest frame at least `horizon` seconds before each `now` (else the first)."""
+    return np.maximum(np.searchsorted(timestamps, now - horizon, side="right") - 1, 0)
+
+
+def _peak_step(peaks: np.ndarray, speeds: np.ndarray, dt: float) -> np.ndarray:
+    decay = np.exp(-dt / np.asarray(PEAK_TAUS_S))[:, None]
+    return np.maximum(speeds[None, :], peaks * decay)
+
+
+def _as_arrays(frames: Sequence[SkeletonFrame]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    keypoints = np.stack([f.keypoints for f in frames]).astype(np.float32)
+    depth = np.stack([f.depth for f in frames]).astype(np.float32)
+    timestamps = np.array([f.timestamp for f in frames], np.float64)
+    return keypoints, depth, timestamps
+
+
+def _check_time(timestamps: np.ndarray, previous: float | None) -> None:
+    if (len(timestamps) > 1 and np.any(np.diff(timestamps) < 0)) or (
+        previous is not None and len(timestamps) and timestamps[0] < previous
+    ):
+        raise ValueError("frame timestamps must not decrease; call reset() for a new stream")
+
+
+def extract_arrays(
+    keypoints: np.ndarray,
+    depth: np.ndarray | None,
+    timestamps: np.ndarray,
+    feature_set: str = "full",
+) -> np.ndarray:
+    """Vectorised features of one stream: (n, 25, 3), (n, 25) or None, (n,) -> (n, d)."""
+    keypoints = np.asarray(keypoints, np.float32)
+    n = keypoints.shape[0]
+    if depth is None:
+        depth = np.full((n, N_KEYPOINTS), np.nan, np.float32)
+    timestamps = np.asarray(timestamps, np.float64)
+    _check_time(timestamps, None)
+    if n == 0:
+        return np.zeros((0, len(FEATURE_SETS[feature_set])), np.float32)
+    pose, state, usable = _pose_and_state(keypoints, np.asarray(depth, np.float32), timestamps)
+    pose, state = _hold(pose, state, usable, None)
+    held = (~usable).astype(np.float64)[:, None]
+    temporal = []
+    for horizon in HORIZONS_S:
+        then = _lag_index(timestamps, timestamps, horizon)
+        delta = _deltas(state, state[then], horizon)
+        temporal.append(np.where(usable[:, None], delta, 0.0))
+    temporal = np.concatenate(temporal, axis=1)
+    peaks = np.zeros((n, len(PEAK_TAUS_S), len(_PEAKED)))
+    speeds = temporal[:, _PEAK_SOURCE]
+    current = np.zeros((len(PEAK_TAUS_S), len(_PEAKED)))
+    for i in range(n):
+        dt = timestamps[i] - timestamps[i - 1] if i else 0.0
+        current = _peak_step(current, speeds[i], dt)
+        peaks[i] = current
+    features = np.concatenate([pose, held, temporal, peaks.reshape(n, -1)], axis=1)
+    return features[:, FEATURE_SETS[feature_set]].astype(np.float32)
+
+
+def extract_sequence(frames: Sequence[SkeletonFrame], feature_set: str = "full") -> np.ndarray:
+    """Features of a whole stream at once; identical to pushing the frames one by one."""
+    if not frames:
+        return np.zeros((0, len(FEATURE_SETS[feature_set])), np.float32)
+    keypoints, depth, timestamps = _as_arrays(frames)
+    return extract_arrays(keypoints, depth, timestamps, feature_set)
+
+
+class FeatureExtractor:
+    """Streaming features of one person: push frames in time order, reset between streams."""
+
+    def __init__(self, feature_set: str = "full") -> None:
+        if feature_set not in FEATURE_SETS:
+            raise ValueError(f"unknown feature_set {feature_set!r}; known: {sorted(FEATURE_SETS)}")
+        self.feature_set = feature_set
+        self.columns_ = FEATURE_SETS[feature_set]
+        self.reset()
+
+    @property
+    def n_features(self) -> int:
+        return len(self.columns_)
+
+    def reset(self) -> None:
+        self._times: list[float] = []
+        self._states: list[np.ndarray] = []
+        self._last: tuple[np.ndarray, np.ndarray] | None = None
+        self._peaks = np.zeros((len(PEAK_TAUS_S), len(_PEAKED)))
+
+    def push(self, frame: SkeletonFrame) -> np.ndarray:
+        t = float(frame.timestamp)
+        _check_time(np.array([t]), self._times[-1] if self._times else None)
+        pose, state, usable = _pose_and_state(
+            frame.keypoints[None].astype(np.float32),
+            frame.depth[None].astype(np.float32),
+            np.array([t]),
+        )
+        pose, state = _hold(pose, state, usable, self._last)
+        self._last = (pose[0], state[0])
+        dt = t - self._times[-1] if self._times else 0.0
+        self._times.append(t)
+        self._states.append(state[0])
+        while len(self._times) > 1 and self._times[1] <= t - _MAX_HORIZON:
+            self._times.pop(0)
+            self._states.pop(0)
+        times = np.array(self._times)
+        now = np.array([t])
+        temporal = []
+        for horizon in HORIZONS_S:
+            then = self._states[int(_lag_index(times, now, horizon)[0])]
+            delta = _deltas(state, then[None], horizon)
+            temporal.append(np.where(usable[:, None], delta, 0.0))
+        temporal = np.concatenate(temporal, axis=1)
+        self._peaks = _peak_step(self._peaks, temporal[0, _PEAK_SOURCE], dt)
+        held = (~usable).astype(np.float64)[:, None]
+        features = np.concatenate([pose, held, temporal, self._peaks.reshape(1, -1)], axis=1)
+        return features[0, self.columns_].astype(np.float32)
+
+
+def window_index(group: np.ndarray, window: int) -> np.ndarray:
+    """(n, window) row indices of each frame's last `window` frames within its own stream,
+    padded at a stream's start with its first frame (as vigil.runtime pads a new stream)."""
+    group = np.asarray(group)
+    n = len(group)
+    change = np.ones(n, bool)
+    change[1:] = group[1:] != group[:-1]
+    stream_start = np.maximum.accumulate(np.where(change, np.arange(n), 0)) if n else change
+    offsets = np.arange(-window + 1, 1)
+    return np.maximum(np.arange(n)[:, None] + offsets[None, :], stream_start[:, None])

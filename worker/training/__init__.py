@@ -1,0 +1,1 @@
+"""Training and evaluation of detection models (classical grids, a torch temporal model)."""

@@ -1,0 +1,120 @@
+"""vigil-train: train, evaluate and export detection models.
+
+  python -m worker.training.cli train-default --out DIR   # the default walking model, < 1 min
+  python -m worker.training.cli train --out DIR [--models svm-paper,svm,mlp,rf,tcn]
+      [--mode walking|wheelchair|combined]   # wheelchair/combined train on GENERATED data
+
+Writes DIR/<mode>/report.json, report.md, plots/*.png and models/<name>/{model.onnx,manifest.json}.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from worker.training.cross_validation import select
+from worker.training.data import from_urfd
+from worker.training.estimators import ModelSpec
+from worker.training.publish import publish
+from worker.training.trainers import SklearnTrainer
+
+DEFAULT_SPEC = ModelSpec(
+    name="rf-default",
+    family="rf",
+    grid={
+        "n_estimators": [100],
+        "max_depth": [16],
+        "min_samples_leaf": [5],
+        "max_features": [0.3],
+    },
+    description="Default walking model: random forest on pose + temporal features",
+)
+
+
+def train_default(out: Path, urfd_dir: Path | None) -> None:
+    start = time.perf_counter()
+    data = from_urfd(urfd_dir)
+    trainer = SklearnTrainer(DEFAULT_SPEC)
+    selected = select(trainer, data, np.arange(len(data.names)), n_inner=5, stride=2)
+    manifest = publish(
+        trainer,
+        selected,
+        data,
+        out,
+        metrics={"dataset": "urfd", "note": "threshold and delay chosen on 5-fold OOF scores"},
+    )
+    print(
+        f"wrote {out} ({manifest.name}, threshold {manifest.threshold:.3f}, "
+        f"delay {manifest.delay_ms} ms) in {time.perf_counter() - start:.1f} s"
+    )
+
+
+def make_trainers(names: list[str]):
+    from worker.training.estimators import SPECS
+    from worker.training.temporal import TemporalTrainer
+
+    trainers = []
+    for name in names:
+        if name in SPECS:
+            trainers.append(SklearnTrainer(SPECS[name]))
+        elif name == "tcn":
+            trainers.append(TemporalTrainer())
+        else:
+            known = ", ".join([*SPECS, "tcn"])
+            raise ValueError(f"--models: unknown model {name!r} (known: {known})")
+    return trainers
+
+
+ALL_MODELS = "svm-paper,svm,mlp,rf,tcn"
+
+
+def train(out: Path, models: str, mode: str, urfd_dir: Path | None, folds: int) -> dict:
+    from worker.training.run import table_row, train_all
+
+    trainers = make_trainers([m.strip() for m in models.split(",") if m.strip()])
+    if mode == "walking":
+        data = from_urfd(urfd_dir)
+    else:
+        from worker.training.generated import generated_frames
+
+        data = generated_frames(mode)
+    report = train_all(data, trainers, out / mode, n_folds=folds)
+    for row in report["models"]:
+        print(" | ".join(table_row(row)))
+    print(f"best: {report['best']}; report: {out / mode / 'report.md'}")
+    return report
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="vigil-train", description=__doc__.splitlines()[0])
+    parser.add_argument("--urfd-dir", type=Path, default=None, help="default: $VIGIL_URFD_DIR")
+    sub = parser.add_subparsers(dest="command", required=True)
+    default = sub.add_parser("train-default", help="train the default walking model (fast)")
+    default.add_argument("--out", type=Path, required=True, help="model directory to write")
+    full = sub.add_parser("train", help="evaluate, retrain and export all models with reports")
+    full.add_argument("--out", type=Path, required=True, help="output directory")
+    full.add_argument(
+        "--models", default=ALL_MODELS, help=f"comma separated (default {ALL_MODELS})"
+    )
+    full.add_argument("--mode", default="walking", choices=["walking", "wheelchair", "combined"])
+    full.add_argument("--folds", type=int, default=5)
+    args = parser.parse_args(argv)
+    try:
+        if args.command == "train-default":
+            train_default(args.out, args.urfd_dir)
+        elif args.command == "train":
+            if args.folds < 2:
+                raise ValueError("--folds must be at least 2")
+            train(args.out, args.models, args.mode, args.urfd_dir, args.folds)
+    except (FileNotFoundError, ValueError) as error:
+        print(f"vigil-train: {error}", file=sys.stderr)
+        return 2
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,72 @@
+"""Frames of whole sequences as arrays for training: features, targets, timestamps, groups."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from vigil.classes import MODE_CLASSES, TransportMode
+from vigil.datasets import urfd
+from vigil.features import extract_arrays
+
+
+@dataclass(frozen=True)
+class FrameData:
+    """Frames of several sequences concatenated in order; `group` is the sequence index."""
+
+    names: list[str]
+    is_positive_sequence: np.ndarray  # (s,) e.g. fall sequences
+    features: np.ndarray  # (n, d) float32
+    target: np.ndarray  # (n,) class index, -1 = unlabelled
+    group: np.ndarray  # (n,) sequence index
+    timestamps: np.ndarray  # (n,)
+    usable: np.ndarray  # (n,) bool: a pose was seen (train only on these)
+    mode: TransportMode
+    data_sha256: str
+    generated: bool = False
+
+    @property
+    def classes(self):
+        return MODE_CLASSES[self.mode]
+
+    @property
+    def trainable(self) -> np.ndarray:
+        return (self.target >= 0) & self.usable
+
+    @property
+    def scored(self) -> np.ndarray:
+        return self.target >= 0
+
+    def frames_of(self, sequence_indices: np.ndarray) -> np.ndarray:
+        return np.isin(self.group, sequence_indices)
+
+    def sequence_slices(self) -> list[slice]:
+        bounds = np.flatnonzero(np.diff(self.group)) + 1
+        starts = np.concatenate([[0], bounds])
+        ends = np.concatenate([bounds, [len(self.group)]])
+        return [slice(int(a), int(b)) for a, b in zip(starts, ends, strict=True)]
+
+
+def from_urfd(
+    directory=None, names: list[str] | None = None, feature_set: str = "full"
+) -> FrameData:
+    sequences = urfd.load(directory, names)
+    feats, targets, groups, times, usable = [], [], [], [], []
+    for i, seq in enumerate(sequences):
+        feats.append(extract_arrays(seq.keypoints, None, seq.timestamps, feature_set))
+        targets.append(seq.target)
+        groups.append(np.full(len(seq), i))
+        times.append(seq.timestamps)
+        usable.append(seq.detected)
+    return FrameData(
+        names=[s.name for s in sequences],
+        is_positive_sequence=np.array([s.is_fall for s in sequences]),
+        features=np.concatenate(feats),
+        target=np.concatenate(targets),
+        group=np.concatenate(groups),
+        timestamps=np.concatenate(times),
+        usable=np.concatenate(usable),
+        mode=TransportMode.WALKING,
+        data_sha256=urfd.data_sha256(directory),
+    )

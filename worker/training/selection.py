@@ -1,0 +1,199 @@
+"""Choose the operating point on training predictions only: threshold, then delay by F1."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from vigil.classes import Decision
+from vigil.events import (
+    DELAY_GRID_S,
+    SequenceEvent,
+    alarm_times_over_delays,
+    event_f1,
+    summarise,
+)
+from vigil.policy import alarm_mask, apply_delay, raw_decisions
+from vigil.thresholds import f1_from_counts, override_threshold, youden_threshold
+from worker.training.data import FrameData
+
+
+def choose_threshold(scores: np.ndarray, target: np.ndarray, classes) -> float:
+    """Binary: Youden's J; multiclass: micro-F1 of Emergency under the override rule."""
+    e = list(classes).index(Decision.EMERGENCY)
+    positive = target == e
+    if len(classes) == 2:
+        return youden_threshold(scores[:, e], positive)
+    return override_threshold(scores, positive, e)
+
+
+@dataclass(frozen=True)
+class StreamScores:
+    """Scores of every frame of some sequences (frames in data order)."""
+
+    data: FrameData
+    sequences: np.ndarray  # sequence indices
+    scores: np.ndarray  # (n_frames_of_those_sequences, k)
+
+    def per_sequence(self):
+        mask = self.data.frames_of(self.sequences)
+        group = self.data.group[mask]
+        times, target = self.data.timestamps[mask], self.data.target[mask]
+        for s in self.sequences:
+            rows = group == s
+            yield int(s), times[rows], target[rows], self.scores[rows]
+
+
+def _first_emergency(times, target, e):
+    hits = np.flatnonzero(target == e)
+    return float(times[hits[0]]) if hits.size else None
+
+
+def events_for(stream: StreamScores, threshold: float, delay_s: float) -> tuple[list, np.ndarray]:
+    """Per-sequence events and the delay-filtered decisions of all frames."""
+    classes = stream.data.classes
+    e, normal = classes.index(Decision.EMERGENCY), classes.index(Decision.NORMAL)
+    events, filtered_all = [], []
+    for s, times, target, scores in stream.per_sequence():
+        filtered = apply_delay(raw_decisions(scores, classes, threshold), times, delay_s, normal)
+        filtered_all.append(filtered)
+        events.append(
+            SequenceEvent(
+                name=stream.data.names[s],
+                positive=bool(stream.data.is_positive_sequence[s]),
+                first_emergency_s=_first_emergency(times, target, e),
+                alarm_times_s=tuple(float(t) for t in times[alarm_mask(filtered, e)]),
+            )
+        )
+    return events, (np.concatenate(filtered_all) if filtered_all else np.zeros(0, int))
+
+
+def choose_delay(stream: StreamScores, threshold: float) -> tuple[float, dict]:
+    """Delay (0-1.5 s, 10 ms steps) maximising event F1 (falls detected vs sequences with a false
+    alarm) on training predictions; ties go to the higher frame F1 after the filter, then the
+    shorter delay."""
+    classes = stream.data.classes
+    e = classes.index(Decision.EMERGENCY)
+    n = len(DELAY_GRID_S)
+    detected, missed, false_alarm = np.zeros(n), np.zeros(n), np.zeros(n)
+    tp, fp, fn = np.zeros(n), np.zeros(n), np.zeros(n)
+    binary = len(classes) == 2
+    for s, times, target, scores in stream.per_sequence():
+        raw = raw_decisions(scores, classes, threshold)
+        positive = bool(stream.data.is_positive_sequence[s])
+        first_e = _first_emergency(times, target, e)
+        scored = target >= 0
+        if binary:
+            alarms = alarm_times_over_delays(raw == e, times)
+        for k, delay in enumerate(DELAY_GRID_S):
+            if binary:
+                alarm_times = alarms[k]
+            else:
+                filtered_k = apply_delay(raw, times, delay, classes.index(Decision.NORMAL))
+                alarm_times = list(times[alarm_mask(filtered_k, e)])
+            event = SequenceEvent("", positive, first_e, tuple(alarm_times))
+            if positive and first_e is not None:
+                detected[k] += event.detected
+                missed[k] += not event.detected
+            false_alarm[k] += event.false_alarm
+        # Frame counts after the filter (a full filter run per delay is cheap per sequence).
+        for k, delay in enumerate(DELAY_GRID_S):
+            filtered = apply_delay(raw, times, delay, classes.index(Decision.NORMAL))
+            pred, true = filtered[scored] == e, target[scored] == e
+            tp[k] += np.sum(pred & true)
+            fp[k] += np.sum(pred & ~true)
+            fn[k] += np.sum(~pred & true)
+    f1_event = np.array(
+        [event_f1(d, m, f) for d, m, f in zip(detected, missed, false_alarm, strict=True)]
+    )
+    f1_frame = f1_from_counts(tp, fp, fn)
+    order = np.lexsort((DELAY_GRID_S, -f1_frame, -f1_event))
+    best = int(order[0])
+    sweep = {
+        "delay_s": DELAY_GRID_S.tolist(),
+        "event_f1": f1_event.tolist(),
+        "frame_f1_filtered": f1_frame.tolist(),
+        "falls_detected": detected.tolist(),
+        "false_alarm_sequences": false_alarm.tolist(),
+    }
+    return float(DELAY_GRID_S[best]), sweep
+
+
+def evaluate(stream: StreamScores, threshold: float, delay_s: float) -> dict:
+    return evaluate_folds([(stream, threshold, delay_s)])
+
+
+def evaluate_folds(folds: list[tuple[StreamScores, float, float]]) -> dict:
+    """Table 3 columns plus per-event results over held-out folds, each fold with the threshold
+    and delay chosen on its own training sequences."""
+    tp = fp = fn = fp_d = fn_d = 0
+    events, stable = [], []
+    for stream, threshold, delay_s in folds:
+        classes = stream.data.classes
+        e = classes.index(Decision.EMERGENCY)
+        target = stream.data.target[stream.data.frames_of(stream.sequences)]
+        scored = target >= 0
+        raw = raw_decisions(stream.scores, classes, threshold)
+        fold_events, filtered = events_for(stream, threshold, delay_s)
+        true = target[scored] == e
+        pred, pred_d = raw[scored] == e, filtered[scored] == e
+        tp += int(np.sum(pred & true))
+        fp += int(np.sum(pred & ~true))
+        fn += int(np.sum(~pred & true))
+        fp_d += int(np.sum(pred_d & ~true))
+        fn_d += int(np.sum(~pred_d & true))
+        events += fold_events
+        stable += _time_to_stable(stream, filtered, e)
+    return {
+        "frame_recall": tp / max(tp + fn, 1),
+        "frame_precision": tp / max(tp + fp, 1),
+        "frame_f1": float(f1_from_counts(tp, fp, fn)),
+        "fp": fp,
+        "fp_d": fp_d,
+        "fp_d_over_fp": fp_d / fp if fp else None,
+        "fn": fn,
+        "fn_d": fn_d,
+        "fn_d_over_fn": fn_d / fn if fn else None,
+        **summarise(events),
+        "time_to_stable_s": {
+            "max": max(stable) if stable else None,
+            "mean": float(np.mean(stable)) if stable else None,
+            "std": float(np.std(stable)) if stable else None,
+        },
+        "fold_operating_points": [
+            {"threshold": t, "delay_ms": int(round(d * 1000))} for _, t, d in folds
+        ],
+        "events": [
+            {
+                "sequence": ev.name,
+                "kind": "fall" if ev.positive else "adl",
+                "alarms": len(ev.alarm_times_s),
+                "detected": ev.detected if ev.positive else None,
+                "false_alarm": ev.false_alarm,
+                "time_to_alarm_s": ev.time_to_alarm_s,
+            }
+            for ev in events
+        ],
+    }
+
+
+def _time_to_stable(stream: StreamScores, filtered: np.ndarray, e: int) -> list[float]:
+    """Per fall: time from the first Emergency label until the filtered decision stops changing."""
+    times_all = stream.data.timestamps[stream.data.frames_of(stream.sequences)]
+    group = stream.data.group[stream.data.frames_of(stream.sequences)]
+    target = stream.data.target[stream.data.frames_of(stream.sequences)]
+    values = []
+    for s in stream.sequences:
+        if not stream.data.is_positive_sequence[s]:
+            continue
+        rows = group == s
+        times, dec, tgt = times_all[rows], filtered[rows], target[rows]
+        first = np.flatnonzero(tgt == e)
+        if not first.size:
+            continue
+        after = dec[first[0] :]
+        changes = np.flatnonzero(after[1:] != after[:-1])
+        last_change = times[first[0] + changes[-1] + 1] if changes.size else times[first[0]]
+        values.append(float(last_change - times[first[0]]))
+    return values

@@ -1,0 +1,61 @@
+"""Fit / score / export for one model family, on whole sequences of a FrameData."""
+
+from __future__ import annotations
+
+from typing import Any, Protocol
+
+import numpy as np
+
+from vigil.features import FEATURE_SETS
+from worker.training.data import FrameData
+from worker.training.estimators import ModelSpec, positive_scores
+from worker.training.export import sklearn_to_onnx
+
+
+class Trainer(Protocol):
+    name: str
+    feature_set: str
+    window: int
+
+    def configurations(self) -> list[dict[str, Any]]: ...
+    def fit(self, data: FrameData, sequences: np.ndarray, params: dict, stride: int = 1) -> Any: ...
+    def score(self, fitted: Any, data: FrameData, sequences: np.ndarray) -> np.ndarray: ...
+    def to_onnx(self, fitted: Any, data: FrameData) -> bytes: ...
+    def reference(self, fitted: Any, data: FrameData, n: int) -> tuple[np.ndarray, np.ndarray]: ...
+
+
+def training_rows(data: FrameData, sequences: np.ndarray, stride: int) -> np.ndarray:
+    """Trainable frames of the sequences, every `stride`-th (30 frames/s are very redundant)."""
+    rows = np.flatnonzero(data.frames_of(sequences) & data.trainable)
+    return rows[::stride]
+
+
+class SklearnTrainer:
+    window = 1
+
+    def __init__(self, spec: ModelSpec, seed: int = 0) -> None:
+        self.spec, self.seed = spec, seed
+        self.name, self.feature_set = spec.name, spec.feature_set
+        self.columns_ = FEATURE_SETS[spec.feature_set]
+
+    def configurations(self) -> list[dict[str, Any]]:
+        return self.spec.configurations()
+
+    def fit(self, data: FrameData, sequences: np.ndarray, params: dict, stride: int = 1):
+        rows = training_rows(data, sequences, stride)
+        features = data.features[rows][:, self.columns_]
+        model = self.spec.build(params, features.shape[1], self.seed)
+        return model.fit(features, data.target[rows])
+
+    def score(self, fitted, data: FrameData, sequences: np.ndarray) -> np.ndarray:
+        features = data.features[data.frames_of(sequences)][:, self.columns_]
+        return positive_scores(fitted, features)
+
+    def to_onnx(self, fitted, data: FrameData) -> bytes:
+        return sklearn_to_onnx(fitted, data.features[data.trainable][:, self.columns_])
+
+    def reference(self, fitted, data: FrameData, n: int = 256):
+        rows = np.flatnonzero(data.trainable)
+        rows = rows[np.linspace(0, len(rows) - 1, min(n, len(rows))).astype(int)]
+        features = data.features[rows][:, self.columns_]
+        return features, positive_scores(fitted, features)
