@@ -118,19 +118,19 @@ class Outbox:
         if seq is None:
             return 0
         with self._lock:
-            row = self._db.execute(
-                "SELECT max(id) FROM items WHERE seq IS NOT NULL AND seq <= ?", (seq,)
-            ).fetchone()
-            if row[0] is None:
-                return 0
             self._db.execute("BEGIN IMMEDIATE")
-            frames = self._db.execute(
-                "SELECT count(*) FROM items WHERE seq IS NOT NULL AND id <= ?", (row[0],)
-            ).fetchone()[0]
-            self._db.execute("DELETE FROM items WHERE id <= ?", (row[0],))
             # Never hand out a sequence number the backend already holds (e.g. a new outbox file).
             if self._meta("next_seq") <= seq:
                 self._db.execute("UPDATE meta SET value = ? WHERE key = 'next_seq'", (seq + 1,))
+            row = self._db.execute(
+                "SELECT max(id) FROM items WHERE seq IS NOT NULL AND seq <= ?", (seq,)
+            ).fetchone()
+            frames = 0
+            if row[0] is not None:
+                frames = self._db.execute(
+                    "SELECT count(*) FROM items WHERE seq IS NOT NULL AND id <= ?", (row[0],)
+                ).fetchone()[0]
+                self._db.execute("DELETE FROM items WHERE id <= ?", (row[0],))
             self._db.execute("COMMIT")
             self._frames -= frames
             return frames
