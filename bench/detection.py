@@ -56,12 +56,37 @@ def frame_latency_ms(model_dir: Path, sequences) -> dict:
     }
 
 
+def markdown_table(result: dict) -> str:
+    """The results table of docs/detection.md, generated from detection_urfd.json."""
+    header = (
+        "| model | frame recall | frame F1 | falls detected | ADL sequences with a false alarm "
+        "| median time to alarm (s) | threshold | delay (ms) |"
+    )
+    lines = [header, "|---|---|---|---|---|---|---|---|"]
+    for m in result["models"]:
+        tta = m["median_time_to_alarm_s"]
+        best = " (best)" if m["name"] == result["best"] else ""
+        lines.append(
+            f"| {m['name']}{best} | {m['frame_recall']:.3f} | {m['frame_f1']:.3f} "
+            f"| {m['falls_detected']}/{m['falls_total']} "
+            f"| {m['adl_false_alarms']}/{m['adl_total']} "
+            f"| {'-' if tta is None else f'{tta:.2f}'} | {m['threshold']:.3f} | {m['delay_ms']} |"
+        )
+    return "\n".join(lines) + "\n"
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--models", default=ALL_MODELS)
     parser.add_argument("--out", type=Path, default=RESULTS / "detection_urfd.json")
     parser.add_argument("--urfd-dir", type=Path, default=None)
+    parser.add_argument(
+        "--table", action="store_true", help="only print the Markdown table of an existing --out"
+    )
     args = parser.parse_args(argv)
+    if args.table:
+        print(markdown_table(json.loads(args.out.read_text())), end="")
+        return 0
 
     data = from_urfd(args.urfd_dir)
     report_dir = args.out.with_suffix("")  # bench/results/detection_urfd/

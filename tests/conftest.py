@@ -72,3 +72,20 @@ def database_url(migrated_database_url: str) -> Iterator[str]:
             if table.name not in KEEP_TABLES:
                 connection.execute(table.delete())
     engine.dispose()
+
+
+DATABASE_FIXTURES = {"migrated_database_url", "database_url"}
+
+
+def pytest_collection_modifyitems(config, items):
+    """On the PostgreSQL run, keep only the tests that touch a database: the others (domain
+    package, training, robot perception) do not depend on it and ran on the SQLite run."""
+    if test_database_kind() != "postgresql":
+        return
+    keep, drop = [], []
+    for item in items:
+        uses_database = DATABASE_FIXTURES & set(getattr(item, "fixturenames", ()))
+        (keep if uses_database else drop).append(item)
+    if drop:
+        config.hook.pytest_deselected(items=drop)
+        items[:] = keep

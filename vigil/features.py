@@ -83,8 +83,10 @@ def _pose_and_state(
     and a usable-frame mask."""
     n = keypoints.shape[0]
     conf = keypoints[:, :, 2].astype(np.float64)
-    present = conf > 0
     xy = keypoints[:, :, :2].astype(np.float64)
+    present = (conf > 0) & np.isfinite(xy).all(axis=2)  # a NaN coordinate counts as missing
+    xy = np.where(present[..., None], xy, 0.0)
+    conf = np.where(present, conf, 0.0)
     count = present.sum(axis=1)
     usable = count >= MIN_KEYPOINTS
 

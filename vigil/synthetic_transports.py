@@ -37,8 +37,6 @@ _STANDING = {
 }  # fmt: skip
 _UPPER = [INDEX[k] for k in ("nose", "neck", "r_shoulder", "r_elbow", "r_wrist", "l_shoulder",
                              "l_elbow", "l_wrist", "r_eye", "l_eye", "r_ear", "l_ear")]  # fmt: skip
-_LEGS = [INDEX[k] for k in ("r_knee", "r_ankle", "l_knee", "l_ankle", "l_big_toe",
-                            "l_small_toe", "l_heel", "r_big_toe", "r_small_toe", "r_heel")]  # fmt: skip
 
 
 def _standing() -> np.ndarray:
@@ -124,24 +122,74 @@ def _template(name: str, rng: np.random.Generator) -> np.ndarray:
 Segment = tuple[str, str, float, tuple[float, float], float]
 _WHEELCHAIR: dict[str, list[Segment]] = {
     "ride": [("sitting_wheelchair", "sitting", 0.0, (6, 10), 0.0)],
-    "gesture": [("sitting_wheelchair", "sitting", 0.0, (2, 4), 0.0), ("gesturing", "arm_out", 0.5, (0.3, 0.6), 0.0), ("sitting_wheelchair", "sitting", 0.5, (2, 4), 0.0)],
-    "slump": [("sitting_wheelchair", "sitting", 0.0, (2, 5), 0.0), ("slumped_unconscious_wheelchair", "slumped", 1.5, (3, 5), 0.0)],
-    "fall_out": [("sitting_wheelchair", "sitting", 0.0, (2, 5), 0.0), ("falling_out_of_wheelchair", "lying", 0.8, (0.8, 0.8), 0.0), ("lying_on_floor", "lying", 0.0, (2, 4), 0.0)],
-    "stand_up": [("sitting_wheelchair", "sitting", 0.0, (2, 4), 0.0), ("standing_up_from_wheelchair", "standing", 1.5, (2, 3), 0.0), ("sitting_down", "sitting", 1.5, (2, 3), 0.0)],
-    "arm_out": [("sitting_wheelchair", "sitting", 0.0, (2, 4), 0.0), ("crushing_hazard", "arm_out", 0.6, (1.5, 3), 0.0), ("sitting_wheelchair", "sitting", 0.6, (2, 3), 0.0)],
-    "leg_out": [("sitting_wheelchair", "sitting", 0.0, (2, 4), 0.0), ("crushing_hazard", "leg_out", 0.6, (1.5, 3), 0.0), ("sitting_wheelchair", "sitting", 0.6, (2, 3), 0.0)],
-    "too_far": [("sitting_wheelchair", "sitting", 0.0, (2, 3), 0.0), ("too_far_away", "sitting", 2.0, (3, 5), 3.5)],
-}  # fmt: skip
+    "gesture": [
+        ("sitting_wheelchair", "sitting", 0.0, (2, 4), 0.0),
+        ("gesturing", "arm_out", 0.5, (0.3, 0.6), 0.0),
+        ("sitting_wheelchair", "sitting", 0.5, (2, 4), 0.0),
+    ],
+    "slump": [
+        ("sitting_wheelchair", "sitting", 0.0, (2, 5), 0.0),
+        ("slumped_unconscious_wheelchair", "slumped", 1.5, (3, 5), 0.0),
+    ],
+    "fall_out": [
+        ("sitting_wheelchair", "sitting", 0.0, (2, 5), 0.0),
+        ("falling_out_of_wheelchair", "lying", 0.8, (0.8, 0.8), 0.0),
+        ("lying_on_floor", "lying", 0.0, (2, 4), 0.0),
+    ],
+    "stand_up": [
+        ("sitting_wheelchair", "sitting", 0.0, (2, 4), 0.0),
+        ("standing_up_from_wheelchair", "standing", 1.5, (2, 3), 0.0),
+        ("sitting_down", "sitting", 1.5, (2, 3), 0.0),
+    ],
+    "arm_out": [
+        ("sitting_wheelchair", "sitting", 0.0, (2, 4), 0.0),
+        ("crushing_hazard", "arm_out", 0.6, (1.5, 3), 0.0),
+        ("sitting_wheelchair", "sitting", 0.6, (2, 3), 0.0),
+    ],
+    "leg_out": [
+        ("sitting_wheelchair", "sitting", 0.0, (2, 4), 0.0),
+        ("crushing_hazard", "leg_out", 0.6, (1.5, 3), 0.0),
+        ("sitting_wheelchair", "sitting", 0.6, (2, 3), 0.0),
+    ],
+    "too_far": [
+        ("sitting_wheelchair", "sitting", 0.0, (2, 3), 0.0),
+        ("too_far_away", "sitting", 2.0, (3, 5), 3.5),
+    ],
+}
 _WALKING: dict[str, list[Segment]] = {
     "walk": [("walking", "standing", 0.0, (6, 10), 0.0)],
     "rollator": [("walking_rollator", "standing", 0.0, (6, 10), 0.0)],
-    "turn_bend": [("walking", "standing", 0.0, (2, 4), 0.0), ("bending", "bending", 1.0, (1, 2), 0.0), ("standing", "standing", 1.0, (2, 3), 0.0)],
-    "kneel": [("walking", "standing", 0.0, (2, 4), 0.0), ("kneeling", "kneeling", 1.2, (2, 3), 0.0), ("standing", "standing", 1.2, (2, 3), 0.0)],
-    "lie_down": [("standing", "standing", 0.0, (2, 4), 0.0), ("lying_down_deliberately", "lying_bed", 3.0, (5, 7), 0.0)],
-    "fall": [("walking", "standing", 0.0, (2, 5), 0.0), ("falling", "lying", 0.7, (0.7, 0.7), 0.0), ("lying_on_floor", "lying", 0.0, (2, 4), 0.0)],
-    "stumble": [("walking", "standing", 0.0, (2, 4), 0.0), ("stumbling", "stumble", 0.3, (0.6, 1.0), 0.0), ("walking", "standing", 0.5, (2, 3), 0.0)],
-    "fall_sit": [("walking_rollator", "standing", 0.0, (2, 4), 0.0), ("stumbling_rollator", "stumble", 0.3, (0.5, 0.5), 0.0), ("sitting_on_floor_after_fall", "sitting_floor", 0.6, (2, 3), 0.0), ("trying_to_get_up", "half_up", 1.5, (2, 3), 0.0)],
-}  # fmt: skip
+    "turn_bend": [
+        ("walking", "standing", 0.0, (2, 4), 0.0),
+        ("bending", "bending", 1.0, (1, 2), 0.0),
+        ("standing", "standing", 1.0, (2, 3), 0.0),
+    ],
+    "kneel": [
+        ("walking", "standing", 0.0, (2, 4), 0.0),
+        ("kneeling", "kneeling", 1.2, (2, 3), 0.0),
+        ("standing", "standing", 1.2, (2, 3), 0.0),
+    ],
+    "lie_down": [
+        ("standing", "standing", 0.0, (2, 4), 0.0),
+        ("lying_down_deliberately", "lying_bed", 3.0, (5, 7), 0.0),
+    ],
+    "fall": [
+        ("walking", "standing", 0.0, (2, 5), 0.0),
+        ("falling", "lying", 0.7, (0.7, 0.7), 0.0),
+        ("lying_on_floor", "lying", 0.0, (2, 4), 0.0),
+    ],
+    "stumble": [
+        ("walking", "standing", 0.0, (2, 4), 0.0),
+        ("stumbling", "stumble", 0.3, (0.6, 1.0), 0.0),
+        ("walking", "standing", 0.5, (2, 3), 0.0),
+    ],
+    "fall_sit": [
+        ("walking_rollator", "standing", 0.0, (2, 4), 0.0),
+        ("stumbling_rollator", "stumble", 0.3, (0.5, 0.5), 0.0),
+        ("sitting_on_floor_after_fall", "sitting_floor", 0.6, (2, 3), 0.0),
+        ("trying_to_get_up", "half_up", 1.5, (2, 3), 0.0),
+    ],
+}
 
 
 @dataclass(frozen=True, slots=True)

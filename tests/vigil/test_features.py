@@ -88,3 +88,16 @@ def test_time_must_not_go_backwards():
 def test_window_index_stays_inside_each_stream():
     index = window_index(np.array([0, 0, 0, 1, 1]), 3)
     assert index.tolist() == [[0, 0, 0], [0, 0, 1], [0, 1, 2], [3, 3, 3], [3, 3, 4]]
+
+
+def test_non_finite_coordinates_count_as_missing():
+    kp = np.zeros((N_KEYPOINTS, 3), np.float32)
+    kp[[0, 1, 2, 5, 8, 9, 12], :] = [
+        [50, 10, 1], [50, 30, 1], [40, 30, 1], [60, 30, 1], [50, 80, 1], [45, 80, 1], [55, 80, 1]
+    ]  # fmt: skip
+    broken = kp.copy()
+    broken[3] = (np.nan, 5, 0.9)
+    broken[4] = (np.inf, np.nan, 0.8)
+    a, b = extract_sequence([SkeletonFrame(kp)]), extract_sequence([SkeletonFrame(broken)])
+    assert np.isfinite(b).all()
+    np.testing.assert_array_equal(a, b)

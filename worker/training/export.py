@@ -65,7 +65,7 @@ def sklearn_to_onnx(pipeline: Pipeline, sample: np.ndarray) -> bytes:
 
 
 def verify_export(onnx_bytes: bytes, manifest: ModelManifest, sample, expected) -> float:
-    """Largest difference between ONNX Runtime and the Python model on a sample; raises if > 1e-3."""
+    """Largest difference between ONNX Runtime and the Python model; raises if above 1e-3."""
     classifier = Classifier(manifest, onnx_bytes)
     got = classifier.predict_proba(np.asarray(sample, np.float32))
     worst = float(np.abs(got - np.asarray(expected)).max())

@@ -9,6 +9,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+from threadpoolctl import threadpool_limits
 from tqdm import tqdm
 
 from vigil.classes import Decision
@@ -38,7 +39,14 @@ def rank_key(row: dict) -> tuple:
     return (row["falls_detected"] - row["adl_false_alarms"], row["frame_f1"])
 
 
-def train_all(
+def train_all(*args, blas_threads: int = 1, **kwargs) -> dict:
+    """See _train_all. BLAS runs single-threaded: on a shared 2-core machine, threaded matrix
+    products in many small fits oversubscribe the cores and run many times slower."""
+    with threadpool_limits(limits=blas_threads):
+        return _train_all(*args, **kwargs)
+
+
+def _train_all(
     data: FrameData,
     trainers: list[Trainer],
     out_dir: Path,
@@ -162,9 +170,10 @@ def markdown(report: dict) -> str:
             else "URFD (real falls)"
         ),
         "",
-        f"{report['folds']}-fold cross-validation grouped by sequence; threshold and delay chosen on "
-        "the training folds only. Recall and F1 are frame-level before the delay filter; the event "
-        "columns use the delay-filtered alarms. Threshold and delay shown are those of the model "
+        f"{report['folds']}-fold cross-validation grouped by sequence; threshold and delay chosen "
+        "on the training folds only. Recall and F1 are frame-level before the delay filter; the "
+        "event columns use the delay-filtered alarms. Threshold and delay shown are those of the "
+        "model "
         f"retrained on all data. Best: **{report['best']}**. Retrain of all models: "
         f"{report['retrain_s']:.0f} s; cross-validation: {report['evaluation_s']:.0f} s.",
         "",
