@@ -263,12 +263,6 @@ class RobotClient:
                 assignment.version,
             )
             return
-        if assignment.shadow:
-            log.info(
-                "shadow model %s assigned: shadow decisions are not run on this agent",
-                assignment.version,
-            )
-            return
         with contextlib.suppress(ModelRefused):
             await asyncio.to_thread(
                 self.models.install, assignment, DownloadAuth(self.robot_id, self.token)

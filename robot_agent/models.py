@@ -38,7 +38,9 @@ class ModelManager:
     def __init__(self, models_dir: Path | str, classifier: FrameClassifier | None = None) -> None:
         self.models_dir = Path(models_dir)
         self.classifier = classifier
+        self.shadow: FrameClassifier | None = None  # a candidate run beside, never alarmed
         self._ready: FrameClassifier | None = None
+        self._ready_shadow: FrameClassifier | None = None
         self._lock = threading.Lock()
         self.last_refusal: str | None = None
 
@@ -46,10 +48,21 @@ class ModelManager:
     def running_version(self) -> str | None:
         return self.classifier.manifest.version if self.classifier else None
 
+    @property
+    def shadow_version(self) -> str | None:
+        return self.shadow.manifest.version if self.shadow else None
+
     def swap_if_ready(self) -> bool:
-        """Called by the frame loop between two frames."""
+        """Called by the frame loop between two frames; True if the production model changed."""
         with self._lock:
             ready, self._ready = self._ready, None
+            shadow, self._ready_shadow = self._ready_shadow, None
+        if shadow is not None:
+            shadow.reset()
+            self.shadow = shadow
+            log.info(
+                "shadow model %s runs beside %s", shadow.manifest.version, self.running_version
+            )
         if ready is None:
             return False
         old = self.running_version
@@ -60,8 +73,10 @@ class ModelManager:
     def install(self, assignment: ModelAssignment, auth: DownloadAuth) -> FrameClassifier:
         """Download and verify; on success the model is swapped in before the next frame.
         Raises ModelRefused (the running model stays) when anything does not match."""
-        if assignment.version == self.running_version:
-            return self.classifier  # type: ignore[return-value]
+        if assignment.version == (
+            self.shadow_version if assignment.shadow else self.running_version
+        ):
+            return self.shadow if assignment.shadow else self.classifier  # type: ignore[return-value]
         try:
             manifest = ModelManifest.model_validate(assignment.manifest)
         except ValueError as error:
@@ -101,8 +116,12 @@ class ModelManager:
         shutil.rmtree(target, ignore_errors=True)
         staging.rename(target)
         with self._lock:
-            self._ready = classifier
-        log.info("model %s downloaded and verified; swapping it in", assignment.version)
+            if assignment.shadow:
+                self._ready_shadow = classifier
+            else:
+                self._ready = classifier
+        log.info("%smodel %s downloaded and verified; swapping it in",
+                 "shadow " if assignment.shadow else "", assignment.version)  # fmt: skip
         return classifier
 
     def _refuse(self, assignment: ModelAssignment, reason: str) -> ModelRefused:

@@ -89,6 +89,8 @@ class FramePipeline:
         self.tracker.reset()
         if self.models and self.models.classifier:
             self.models.classifier.reset()
+        if self.models and self.models.shadow:
+            self.models.shadow.reset()
         self.last_decision = None
         self._wall_offset = start
         log.info("transport %s started (%s)", self.transport_id, self.mode.value)
@@ -139,6 +141,13 @@ class FramePipeline:
                 threshold=result.threshold,
                 delay_ms=result.delay_ms,
             )
+            if self.models.shadow is not None:  # stored beside, never alarmed
+                shadow = self.models.shadow.classify(patient)
+                record["shadow"] = {
+                    "decision": shadow.decision,
+                    "scores": {str(k): round(v, 4) for k, v in shadow.scores.items()},
+                    "model_version": shadow.model_version,
+                }
         if decision != self.last_decision and decision is not None:
             log.info("decision now %s", decision.value)
         self.last_decision = decision

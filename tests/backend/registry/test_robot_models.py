@@ -166,3 +166,53 @@ def test_a_shadow_assignment_reaches_the_robot_on_connect(
     assert assignment["type"] == "assign_model" and assignment["shadow"] is True
     assert assignment["version"] == "rf-test-1"
     assert assignment["url"].endswith("/api/robot/models/rf-test-1/file")
+
+
+def test_robot_agent_runs_a_shadow_model_that_never_alarms(
+    live_server, make_account, fleet, urfd_db, register, trained_model_dir, tmp_path,
+    session_factory, factory, worker_settings,
+):  # fmt: skip
+    """Production: a model that cannot alarm within the short transport (10 s delay). Shadow: the
+    same graph at threshold 0, which calls every frame Emergency. Only the shadow disagrees."""
+    engineer = make_account(Role.ENGINEER)
+    quiet = derive_model(trained_model_dir, tmp_path / "quiet", "quiet-1", delay_ms=10_000)
+    eager = derive_model(trained_model_dir, tmp_path / "eager", "eager-1", threshold=0.0,
+                         delay_ms=0)  # fmt: skip
+    production, candidate = register(quiet), register(eager)
+    with transaction(session_factory) as session:  # what the robot already runs
+        session.get(Robot, "robot-a").assigned_model_id = production
+    api = httpx.Client(base_url=f"http://{live_server}", headers=engineer.headers, timeout=10)
+    shadow = api.post(f"/api/models/{candidate}/shadow",
+                      json={"scope": "robot", "target": "robot-a"})  # fmt: skip
+    assert shadow.status_code == 201, shadow.text
+    tokens = tmp_path / "tokens.json"
+    tokens.write_text(json.dumps({"robot-a": ROBOT_TOKEN}))
+    agent = subprocess.run(
+        [sys.executable, "-m", "robot_agent.cli", "simulate", "--backend",
+         f"ws://{live_server}/ws/robot", "--robots", "1", "--tokens-file", str(tokens),
+         "--model-dir", str(quiet), "--state-dir", str(tmp_path / "state"),
+         "--transports", "1", "--duration", "6", "--speed", "2"],
+        cwd=REPO, capture_output=True, text=True, timeout=120,
+    )  # fmt: skip
+    assert agent.returncode == 0, agent.stderr
+    with session_factory() as session:
+        frames = session.scalars(
+            select(Frame).where(Frame.robot_id == "robot-a").order_by(Frame.seq)
+        ).all()
+        shadowed = [f for f in frames if f.shadow_model_version == "eager-1"]
+        assert len(shadowed) > 30, agent.stderr
+        assert {f.shadow_decision for f in shadowed} == {"emergency"}
+        assert {f.model_version for f in frames} == {"quiet-1"}
+        assert "emergency" not in {f.decision for f in frames}
+        assert session.scalar(select(func.count()).select_from(Alarm)) == 0
+    shadow_disagreements(factory, worker_settings)
+    with session_factory() as session:
+        segments = session.scalars(
+            select(AnnotationSegment).where(
+                AnnotationSegment.source == SegmentSource.SHADOW_DISAGREEMENT
+            )
+        ).all()
+        assert segments
+        assert {(s.status, s.model_version, s.label_key) for s in segments} == {
+            (SegmentStatus.PENDING, "eager-1", "falling")
+        }
