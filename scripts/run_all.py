@@ -66,6 +66,10 @@ def main() -> int:
             "training the default walking model on URFD (first run only)",
             "-m", "worker.training.cli", "train-default", "--out", str(MODEL_DIR),
         )  # fmt: skip
+    step(
+        "model registry: URFD training and gold recordings, default model (idempotent)",
+        "-m", "worker.cli", "bootstrap", "--default-model", str(MODEL_DIR),
+    )  # fmt: skip
     children: list[subprocess.Popen] = []
     try:
         children.append(

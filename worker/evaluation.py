@@ -88,50 +88,46 @@ def measure_latency(model_dir: Path, data: FrameData | None = None, n: int = LAT
     }
 
 
-def write_plots(classifier: Classifier, data: FrameData, result: dict, out_dir: Path) -> list[str]:
-    """ROC and precision-recall of Emergency frames, and time to alarm per fall; returns names."""
+def write_plots(
+    classifier: Classifier, data: FrameData, result: dict, out_dir: Path, sweep: dict | None = None
+) -> list[str]:
+    """The detection code's ROC / precision-recall (default and chosen threshold) and delay-sweep
+    plots, plus time to alarm per gold fall; returns the plot names written."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    from sklearn.metrics import precision_recall_curve, roc_curve
+
+    from worker.training import plots
 
     out_dir.mkdir(parents=True, exist_ok=True)
     stream = score_stream(classifier, data)
     e = data.classes.index(Decision.EMERGENCY)
     labelled = data.target >= 0
     truth = data.target[labelled] == e
+    manifest = classifier.manifest
     written = []
     if truth.any() and (~truth).any():
-        score = stream.scores[labelled, e]
-        fpr, tpr, _ = roc_curve(truth, score)
-        fig, ax = plt.subplots(figsize=(4, 4), dpi=90)
-        ax.plot(fpr, tpr)
-        ax.plot([0, 1], [0, 1], ls=":", c="grey")
-        ax.set(xlabel="false positive rate", ylabel="true positive rate",
-               title="ROC, Emergency frames")  # fmt: skip
-        fig.tight_layout()
-        fig.savefig(out_dir / "roc.png")
-        plt.close(fig)
-        precision, recall, _ = precision_recall_curve(truth, score)
-        fig, ax = plt.subplots(figsize=(4, 4), dpi=90)
-        ax.plot(recall, precision)
-        ax.set(xlabel="recall", ylabel="precision", title="Precision-recall, Emergency frames")
-        fig.tight_layout()
-        fig.savefig(out_dir / "pr.png")
-        plt.close(fig)
-        written += ["roc", "pr"]
+        plots.roc_pr(stream.scores[labelled, e], truth, manifest.threshold,
+                     f"{manifest.version}: Emergency frames of the gold set",
+                     out_dir / "roc_pr.png")  # fmt: skip
+        written.append("roc_pr")
+    if sweep is not None:
+        plots.delay_metrics(sweep, manifest.delay_ms / 1000,
+                            f"{manifest.version}: delay chosen on training predictions",
+                            out_dir / "delay.png")  # fmt: skip
+        written.append("delay")
     falls = [ev for ev in result.get("events", []) if ev["kind"] == "fall"]
     if falls:
         fig, ax = plt.subplots(figsize=(6, max(2.5, 0.22 * len(falls))), dpi=90)
         names = [ev["sequence"] for ev in falls]
-        values = [ev["time_to_alarm_s"] if ev["detected"] else np.nan for ev in falls]
+        values = [ev["time_to_alarm_s"] if ev["detected"] else 0.0 for ev in falls]
         colors = ["tab:blue" if ev["detected"] else "tab:red" for ev in falls]
-        ax.barh(names, [0 if np.isnan(v) else v for v in values], color=colors)
+        ax.barh(names, values, color=colors)
         for i, ev in enumerate(falls):
             if not ev["detected"]:
                 ax.text(0, i, " missed", va="center", color="tab:red")
-        ax.set(xlabel="time to alarm (s)", title="Falls of the evaluation set")
+        ax.set(xlabel="time to alarm (s)", title="Falls of the gold set")
         fig.tight_layout()
         fig.savefig(out_dir / "time_to_alarm.png")
         plt.close(fig)

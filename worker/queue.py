@@ -85,6 +85,16 @@ def _claimable(now: datetime, stale_after_s: float):
     )
 
 
+def claim_query(dialect: str, now: datetime, stale_after_s: float, kinds=None):
+    """The oldest claimable job; row-locked with SKIP LOCKED where the database has it."""
+    query = select(Job).where(_claimable(now, stale_after_s)).order_by(Job.created_at, Job.id)
+    if kinds:
+        query = query.where(Job.kind.in_(kinds))
+    if dialect == "postgresql":
+        query = query.with_for_update(skip_locked=True)
+    return query.limit(1)
+
+
 @dataclass(frozen=True)
 class Claim:
     id: int
@@ -105,12 +115,8 @@ def claim(
     for _ in range(5):  # a lost compare-and-set (another worker won) just tries the next job
         with transaction(factory) as session:
             now = utcnow()
-            query = select(Job).where(_claimable(now, stale_after_s)).order_by(Job.created_at)
-            if kinds:
-                query = query.where(Job.kind.in_(kinds))
-            if session.get_bind().dialect.name == "postgresql":
-                query = query.with_for_update(skip_locked=True)
-            job = session.scalars(query.limit(1)).first()
+            query = claim_query(session.get_bind().dialect.name, now, stale_after_s, kinds)
+            job = session.scalars(query).first()
             if job is None:
                 return None
             if job.attempts >= max_attempts:

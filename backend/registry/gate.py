@@ -82,8 +82,12 @@ def _warnings(model: ModelVersion, gold: dict | None) -> list[str]:
     if overlap:
         warnings.append(f"gold recordings were also training data: {', '.join(overlap)}")
     elif not trained_on:
-        warnings.append("training recordings unknown (model registered from a directory): the "
-                        "gold set may overlap its training data")  # fmt: skip
+        urfd_gold = any(name.startswith("urfd/") for name in gold.get("sequences") or [])
+        warnings.append(
+            "training recordings unknown (model registered from a directory): the gold set may "
+            "overlap its training data"
+            + ("; e.g. train-default trains on every URFD recording" if urfd_gold else "")
+        )
     if gold.get("generated_data"):
         warnings.append("the gold set includes GENERATED recordings")
     return warnings

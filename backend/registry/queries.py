@@ -10,6 +10,7 @@ from sqlalchemy.orm import Session
 from backend.models.jobs import Job, JobStatus
 from backend.models.registry import Deployment, ModelVersion
 from backend.models.robots import Robot
+from backend.registry.autorollback import rejection_share
 from backend.registry.schemas import DeploymentOut, FleetRobot, ModelDetail, ModelSummary
 
 GOLD_HEADLINE = ("falls_detected", "falls_total", "adl_false_alarms", "adl_total",
@@ -62,6 +63,8 @@ def model_by_version(session: Session, version: str) -> ModelVersion | None:
 def deployment_out(session: Session, deployment: Deployment) -> DeploymentOut:
     out = DeploymentOut.model_validate(deployment)
     out.model_version = session.get(ModelVersion, deployment.model_version_id).version
+    if not deployment.shadow:
+        out.alarms_rejected, out.alarms_judged = rejection_share(session, deployment)
     return out
 
 

@@ -76,6 +76,8 @@ class DeploymentOut(BaseModel):
     created_at: datetime
     rolled_back_at: datetime | None
     rollback_reason: str | None
+    alarms_judged: int = Field(default=0, description="alarms of this version with a verdict")
+    alarms_rejected: int = Field(default=0, description="... of which nurses said false_alarm")
 
 
 class FleetRobot(BaseModel):

@@ -12,6 +12,7 @@ from backend.db import transaction
 from backend.models.jobs import Job, JobKind, JobStatus
 from backend.models.registry import ModelStatus, ModelVersion
 from backend.models.users import Role, User
+from backend.registry.gate import gate_report
 from tests.registry_fixtures import GOLD, SMALL_GRID, TRAIN
 from vigil.model_file import load_classifier
 from worker import queue
@@ -55,10 +56,17 @@ def test_retrain_on_urfd_registers_a_model_with_lineage_metrics_and_plots(
         assert 0 < model.metrics["latency"]["p95_ms"] < 1000
         assert len(model.metrics["training"]["grid"]) == 2
         directory = Path(model.file_path).parent
-        assert {p.name for p in (directory / "plots").glob("*.png")} >= {"roc.png", "pr.png"}
+        assert {p.name for p in (directory / "plots").glob("*.png")} >= {
+            "roc_pr.png",
+            "delay.png",
+            "time_to_alarm.png",
+        }
         # The registered file is what the manifest says (sha256 verified on load).
         assert load_classifier(directory).manifest.sha256 == model.sha256
         json.dumps(model.metrics)  # stored metrics are plain JSON
+        gate = gate_report(model, false_alarm_budget=0.5, latency_ms=1000)
+        assert gate["warnings"] == []  # training and gold recordings are known to be disjoint
+        assert [c["passed"] for c in gate["checks"]][0] == (gold["falls_detected"] == 2)
 
 
 def test_retrain_without_enough_labelled_recordings_fails_with_a_clear_message(

@@ -137,3 +137,12 @@ def test_two_concurrent_workers_never_claim_the_same_job(database_url):
         assert {j.worker_id for j in jobs} <= {"a", "b"}
     for engine in engines:
         engine.dispose()
+
+
+def test_the_claim_query_skips_locked_rows_on_postgresql():
+    from sqlalchemy.dialects import postgresql, sqlite
+
+    query = queue.claim_query("postgresql", utcnow(), 30)
+    assert "FOR UPDATE SKIP LOCKED" in str(query.compile(dialect=postgresql.dialect()))
+    assert "FOR UPDATE" not in str(queue.claim_query("sqlite", utcnow(), 30).compile(
+        dialect=sqlite.dialect()))  # fmt: skip

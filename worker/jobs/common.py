@@ -35,7 +35,11 @@ def model_dir(model: ModelVersion) -> Path:
 
 
 def gold_evaluation(
-    session: Session, classifier: Classifier, directory: Path, mode: TransportMode
+    session: Session,
+    classifier: Classifier,
+    directory: Path,
+    mode: TransportMode,
+    sweep: dict | None = None,
 ) -> dict:
     """Gold-set evaluation (videos with split 'test'), latency and plots written to directory."""
     metrics: dict = {"latency": evaluation.measure_latency(directory)}
@@ -49,7 +53,7 @@ def gold_evaluation(
     plots_dir = directory / "plots"
     shutil.rmtree(plots_dir, ignore_errors=True)
     metrics["gold"] = result
-    metrics["plots"] = evaluation.write_plots(classifier, data, result, plots_dir)
+    metrics["plots"] = evaluation.write_plots(classifier, data, result, plots_dir, sweep)
     return metrics
 
 

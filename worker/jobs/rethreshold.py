@@ -56,7 +56,7 @@ def run(context: JobContext) -> dict:
         classifier = reload(directory)
         context.progress(0.6, "evaluating on the gold set")
         with transaction(context.factory) as session:
-            metrics = gold_evaluation(session, classifier, directory, mode)
+            metrics = gold_evaluation(session, classifier, directory, mode, sweep)
         metrics["rethreshold"] = {"delay_sweep": sweep, "data_sha256": data.data_sha256,
                                   "videos": data.names}  # fmt: skip
         with transaction(context.factory) as session:

@@ -80,7 +80,9 @@ def run(context: JobContext) -> dict:
         classifier = reload(directory)
         context.progress(0.8, "evaluating on the gold set")
         with transaction(context.factory) as session:
-            metrics = gold_evaluation(session, classifier, directory, params.mode)
+            metrics = gold_evaluation(
+                session, classifier, directory, params.mode, selected.delay_sweep
+            )
         metrics["training"] = {
             "note": "inner out-of-fold scores of the training recordings; threshold and delay "
             "were chosen on these same scores, so they are optimistic",

@@ -1270,6 +1270,18 @@ export interface components {
             rolled_back_at: string | null;
             /** Rollback Reason */
             rollback_reason: string | null;
+            /**
+             * Alarms Judged
+             * @description alarms of this version with a verdict
+             * @default 0
+             */
+            alarms_judged: number;
+            /**
+             * Alarms Rejected
+             * @description ... of which nurses said false_alarm
+             * @default 0
+             */
+            alarms_rejected: number;
         };
         /**
          * DeploymentScope

@@ -26,6 +26,7 @@ def test_the_gate_blocks_a_model_that_misses_a_fall(
     fall_check = next(c for c in gate["checks"] if c["name"] == "misses no fall of the gold set")
     assert fall_check["passed"] is False and fall_check["detail"].startswith("0 of 2 falls")
     assert "urfd/fall-07" in fall_check["detail"]
+    assert any("training recordings unknown" in w for w in gate["warnings"])
 
     response = client.post(f"/api/models/{blind}/promote", headers=engineer.headers,
                            json={"scope": "fleet"})  # fmt: skip
@@ -97,8 +98,8 @@ def test_staged_rollout_canary_then_ward_then_rollback_restores_each_robot(
     rows = {r["metric"]: r for r in comparison["rows"]}
     assert rows["threshold"]["b"] == 0.55 and len(comparison["events"]) == 4
     detail = client.get(f"/api/models/{v1}", headers=engineer.headers).json()
-    assert "roc" in detail["plots"]
-    png = client.get(f"/api/models/{v1}/plots/roc", headers=engineer.headers)
+    assert "roc_pr" in detail["plots"]
+    png = client.get(f"/api/models/{v1}/plots/roc_pr", headers=engineer.headers)
     assert png.status_code == 200 and png.content.startswith(b"\x89PNG")
 
 
@@ -156,6 +157,9 @@ def test_automatic_rollback_when_nurses_reject_too_many_alarms(
     automatic_rollback(factory, settings)
     with session_factory() as session:
         assert session.get(Deployment, new["id"]).status == "active"
+    listed = client.get("/api/deployments", headers=engineer.headers).json()
+    shown = next(d for d in listed if d["id"] == new["id"])
+    assert (shown["alarms_rejected"], shown["alarms_judged"]) == (2, 3)
     alarms(["false_alarm"])  # 3 of 4 rejected = 75 % > 50 %
     automatic_rollback(factory, settings)
     with session_factory() as session:

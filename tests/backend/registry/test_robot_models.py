@@ -16,6 +16,7 @@ import pytest
 import uvicorn
 from sqlalchemy import func, select
 
+from backend.db import transaction
 from backend.main import create_app
 from backend.models import (
     Alarm,
@@ -61,40 +62,53 @@ def _wait_running(session_factory, robot_id: str, version: str, timeout: float =
     raise AssertionError(f"{robot_id} did not report running {version}")
 
 
-def test_robot_process_switches_to_the_promoted_version_and_back_on_rollback(
+def test_robot_agent_process_switches_to_the_promoted_version_and_back_on_rollback(
     live_server, make_account, fleet, urfd_db, register, trained_model_dir, tmp_path,
     session_factory,
 ):  # fmt: skip
+    """The real `vigil-robot simulate` agent (GENERATED transports, classified on the robot by
+    the model it runs) against the real backend."""
     engineer = make_account(Role.ENGINEER)
     v1 = register(trained_model_dir)
     v2 = register(derive_model(trained_model_dir, tmp_path / "v2", "rf-test-2", threshold=0.5))
     api = httpx.Client(base_url=f"http://{live_server}", headers=engineer.headers, timeout=10)
-    # Assigned before the robot connects: it gets the model right after welcome.
-    assert api.post(f"/api/models/{v1}/promote",
-                    json={"scope": "robot", "target": "robot-a"}).status_code == 201  # fmt: skip
-    robot = subprocess.Popen(
-        [sys.executable, "-m", "tests.backend.registry.model_robot", "--url",
-         f"ws://{live_server}/ws/robot", "--robot-id", "robot-a", "--token", ROBOT_TOKEN,
-         "--dir", str(tmp_path / "robot-models")],
-        cwd=REPO, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+    first = api.post(f"/api/models/{v1}/promote", json={"scope": "robot", "target": "robot-a"})
+    assert first.status_code == 201, first.text
+    tokens = tmp_path / "tokens.json"
+    tokens.write_text(json.dumps({"robot-a": ROBOT_TOKEN}))
+    state = tmp_path / "robot-state"
+    agent = subprocess.Popen(
+        [sys.executable, "-m", "robot_agent.cli", "simulate", "--backend",
+         f"ws://{live_server}/ws/robot", "--robots", "1", "--tokens-file", str(tokens),
+         "--model-dir", str(trained_model_dir), "--state-dir", str(state),
+         "--transports", "1", "--duration", "600"],
+        cwd=REPO, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
     )  # fmt: skip
     try:
-        _wait_running(session_factory, "robot-a", "rf-test-1")
-        # Promoted while connected: pushed at once.
+        _wait_running(session_factory, "robot-a", "rf-test-1")  # it starts with v1
+        # Promoted while connected: pushed at once, downloaded with the robot token, verified.
         second = api.post(f"/api/models/{v2}/promote",
                           json={"scope": "robot", "target": "robot-a"}).json()  # fmt: skip
         _wait_running(session_factory, "robot-a", "rf-test-2")
+        assert (state / "robot-a" / "models" / "rf-test-2" / "model.onnx").is_file()
         row = {r["id"]: r for r in api.get("/api/fleet").json()}["robot-a"]
         assert (row["connected"], row["target_version"], row["running_version"], row["in_sync"]) \
             == (True, "rf-test-2", "rf-test-2", True)  # fmt: skip
         # One click back.
         assert api.post(f"/api/deployments/{second['id']}/rollback", json={}).status_code == 200
         _wait_running(session_factory, "robot-a", "rf-test-1")
-        assert (tmp_path / "robot-models" / "rf-test-2" / "model.onnx").is_file()
+        # A change made outside this backend (the worker's automatic rollback writes only the
+        # database) reaches the robot through the backend's reconcile loop.
+        with transaction(session_factory) as session:
+            session.get(Robot, "robot-a").assigned_model_id = v2
+        _wait_running(session_factory, "robot-a", "rf-test-2")
+        with session_factory() as session:  # it streamed frames classified by its models
+            versions = set(session.scalars(select(Frame.model_version).distinct()))
+        assert "rf-test-1" in versions
     finally:
-        robot.terminate()
-        out, err = robot.communicate(timeout=10)
-    assert out.splitlines() == ["RUNNING rf-test-1", "RUNNING rf-test-2", "RUNNING rf-test-1"], err
+        agent.terminate()
+        _, err = agent.communicate(timeout=20)
+    assert "REFUSED" not in err, err
 
 
 def _frame(seq: int, decision: str, shadow: str) -> FrameRecord:
@@ -152,3 +166,53 @@ def test_a_shadow_assignment_reaches_the_robot_on_connect(
     assert assignment["type"] == "assign_model" and assignment["shadow"] is True
     assert assignment["version"] == "rf-test-1"
     assert assignment["url"].endswith("/api/robot/models/rf-test-1/file")
+
+
+def test_robot_agent_runs_a_shadow_model_that_never_alarms(
+    live_server, make_account, fleet, urfd_db, register, trained_model_dir, tmp_path,
+    session_factory, factory, worker_settings,
+):  # fmt: skip
+    """Production: a model that cannot alarm within the short transport (10 s delay). Shadow: the
+    same graph at threshold 0, which calls every frame Emergency. Only the shadow disagrees."""
+    engineer = make_account(Role.ENGINEER)
+    quiet = derive_model(trained_model_dir, tmp_path / "quiet", "quiet-1", delay_ms=10_000)
+    eager = derive_model(trained_model_dir, tmp_path / "eager", "eager-1", threshold=0.0,
+                         delay_ms=0)  # fmt: skip
+    production, candidate = register(quiet), register(eager)
+    with transaction(session_factory) as session:  # what the robot already runs
+        session.get(Robot, "robot-a").assigned_model_id = production
+    api = httpx.Client(base_url=f"http://{live_server}", headers=engineer.headers, timeout=10)
+    shadow = api.post(f"/api/models/{candidate}/shadow",
+                      json={"scope": "robot", "target": "robot-a"})  # fmt: skip
+    assert shadow.status_code == 201, shadow.text
+    tokens = tmp_path / "tokens.json"
+    tokens.write_text(json.dumps({"robot-a": ROBOT_TOKEN}))
+    agent = subprocess.run(
+        [sys.executable, "-m", "robot_agent.cli", "simulate", "--backend",
+         f"ws://{live_server}/ws/robot", "--robots", "1", "--tokens-file", str(tokens),
+         "--model-dir", str(quiet), "--state-dir", str(tmp_path / "state"),
+         "--transports", "1", "--duration", "6", "--speed", "2"],
+        cwd=REPO, capture_output=True, text=True, timeout=120,
+    )  # fmt: skip
+    assert agent.returncode == 0, agent.stderr
+    with session_factory() as session:
+        frames = session.scalars(
+            select(Frame).where(Frame.robot_id == "robot-a").order_by(Frame.seq)
+        ).all()
+        shadowed = [f for f in frames if f.shadow_model_version == "eager-1"]
+        assert len(shadowed) > 30, agent.stderr
+        assert {f.shadow_decision for f in shadowed} == {"emergency"}
+        assert {f.model_version for f in frames} == {"quiet-1"}
+        assert "emergency" not in {f.decision for f in frames}
+        assert session.scalar(select(func.count()).select_from(Alarm)) == 0
+    shadow_disagreements(factory, worker_settings)
+    with session_factory() as session:
+        segments = session.scalars(
+            select(AnnotationSegment).where(
+                AnnotationSegment.source == SegmentSource.SHADOW_DISAGREEMENT
+            )
+        ).all()
+        assert segments
+        assert {(s.status, s.model_version, s.label_key) for s in segments} == {
+            (SegmentStatus.PENDING, "eager-1", "falling")
+        }

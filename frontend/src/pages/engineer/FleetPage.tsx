@@ -40,13 +40,13 @@ export function FleetPage() {
             <tr key={r.id} className={r.in_sync ? "" : "out-of-sync"}>
               <td>{r.id}</td><td>{r.ward}</td><td>{r.connected ? "yes" : "no"}</td>
               <td>{r.target_version ?? "–"}</td><td>{r.running_version ?? "–"}</td><td>{r.shadow_version ?? "–"}</td>
-              <td>{r.in_sync ? "in sync" : "switching…"}</td>
+              <td>{r.in_sync ? "in sync" : r.connected ? "switching…" : "pending: robot offline"}</td>
             </tr>))}</tbody>
         </table>
       )}
       <h2>Deployments</h2>
       <table className="table" aria-label="Deployments">
-        <thead><tr><th>#</th><th>Model</th><th>Scope</th><th>Status</th><th>Robots</th><th>Note</th><th>Actions</th></tr></thead>
+        <thead><tr><th>#</th><th>Model</th><th>Scope</th><th>Status</th><th>Robots</th><th>Nurse-rejected alarms</th><th>Note</th><th>Actions</th></tr></thead>
         <tbody>{deployments.map((d) => {
           const live = d.status === "canary" || d.status === "active";
           return (
@@ -55,6 +55,7 @@ export function FleetPage() {
               <td>{d.scope}{d.target ? ` ${d.target}` : ""}</td>
               <td><span className={`pill deploy-${d.status}`}>{d.status}</span></td>
               <td>{((d.rollout?.assigned as string[] | undefined) ?? []).join(", ")}{d.status === "canary" ? ` (canary ${String(d.rollout?.canary)})` : ""}</td>
+              <td>{d.shadow ? "–" : `${d.alarms_rejected ?? 0} of ${d.alarms_judged ?? 0}`}</td>
               <td>{d.rollback_reason ?? d.comment ?? ""}</td>
               <td>
                 {d.status === "pending_approval" && <button type="button" onClick={() => act(d.id, "approve")}>Approve</button>}
