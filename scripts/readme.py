@@ -72,8 +72,10 @@ def _detection() -> str | None:
     data = _load("detection_urfd.json")
     if data is None:
         return None
-    keys = ["name", "frame_recall", "frame_f1", "falls_detected", "falls_total",
-            "adl_false_alarms", "adl_total", "median_time_to_alarm_s", "threshold", "delay_ms"]  # fmt: skip
+    keys = [
+        "name", "frame_recall", "frame_f1", "falls_detected", "falls_total",
+        "adl_false_alarms", "adl_total", "median_time_to_alarm_s", "threshold", "delay_ms",
+    ]  # fmt: skip
     rows = [[m.get(k) for k in keys] for m in data["models"]]
     text = (
         f"**Detection on URFD (real data)**: `make bench-detection` → "
@@ -82,8 +84,18 @@ def _detection() -> str | None:
         f"**{data['best']}**.\n\n"
     )
     text += _table(
-        ["model", "frame recall", "frame F1", "falls detected", "of", "ADL false alarms", "of",
-         "median time to alarm (s)", "threshold", "delay (ms)"],  # fmt: skip
+        [
+            "model",
+            "frame recall",
+            "frame F1",
+            "falls detected",
+            "of",
+            "ADL false alarms",
+            "of",
+            "median time to alarm (s)",
+            "threshold",
+            "delay (ms)",
+        ],  # fmt: skip
         rows,
     )
     extras = [
