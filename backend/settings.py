@@ -1,8 +1,9 @@
 """Backend settings: one pydantic-settings class, read from VIGIL_* environment variables."""
 
+import secrets
 from pathlib import Path
 
-from pydantic import Field
+from pydantic import Field, model_validator
 from pydantic_settings import BaseSettings, SettingsConfigDict
 
 REPO_ROOT = Path(__file__).resolve().parent.parent
@@ -16,8 +17,13 @@ class Settings(BaseSettings):
         description="SQLAlchemy URL; postgresql+psycopg://... selects PostgreSQL",
     )
     secret_key: str = Field(
-        default="dev-only-change-me",
-        description="HMAC key signing browser access tokens; set a long random value in production",
+        default="",
+        description="HMAC key signing browser sessions; empty: a random key kept in "
+        "VIGIL_SECRET_KEY_FILE (every replica must share one key)",
+    )
+    secret_key_file: Path = Field(
+        default=REPO_ROOT / "var" / "secret_key",
+        description="where the generated session key is kept (mode 600) when none is set",
     )
     access_token_minutes: int = Field(default=12 * 60, description="browser session lifetime")
     cookie_secure: bool = Field(default=False, description="mark the session cookie Secure")
@@ -90,6 +96,23 @@ class Settings(BaseSettings):
 
     def escalation_seconds_for(self, ward: str) -> float:
         return self.escalation_seconds_by_ward.get(ward, self.escalation_seconds)
+
+    @model_validator(mode="after")
+    def _session_key(self) -> "Settings":
+        if not self.secret_key:
+            self.secret_key = load_or_create_secret(self.secret_key_file)
+        return self
+
+
+def load_or_create_secret(path: Path) -> str:
+    """A random key generated once per installation, readable only by its owner."""
+    if path.exists():
+        return path.read_text().strip()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    key = secrets.token_urlsafe(48)
+    path.touch(mode=0o600)
+    path.write_text(key)
+    return key
 
 
 def get_settings() -> Settings:
