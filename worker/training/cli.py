@@ -15,6 +15,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+from threadpoolctl import threadpool_limits
 
 from worker.training.cross_validation import select
 from worker.training.data import from_urfd
@@ -22,16 +23,17 @@ from worker.training.estimators import ModelSpec
 from worker.training.publish import publish
 from worker.training.trainers import SklearnTrainer
 
+# The MLP configuration the URFD benchmark selected (bench/results/detection_urfd/report.json).
 DEFAULT_SPEC = ModelSpec(
-    name="rf-default",
-    family="rf",
+    name="mlp-default",
+    family="mlp",
     grid={
-        "n_estimators": [100],
-        "max_depth": [16],
-        "min_samples_leaf": [5],
-        "max_features": [0.3],
+        "hidden_layer_sizes": [(64,)],
+        "alpha": [1e-4],
+        "learning_rate_init": [1e-3],
+        "activation": ["tanh"],
     },
-    description="Default walking model: random forest on pose + temporal features",
+    description="Default walking model: MLP on pose + temporal features",
 )
 
 
@@ -39,7 +41,8 @@ def train_default(out: Path, urfd_dir: Path | None) -> None:
     start = time.perf_counter()
     data = from_urfd(urfd_dir)
     trainer = SklearnTrainer(DEFAULT_SPEC)
-    selected = select(trainer, data, np.arange(len(data.names)), n_inner=5, stride=2)
+    with threadpool_limits(limits=1):
+        selected = select(trainer, data, np.arange(len(data.names)), n_inner=5, stride=2)
     manifest = publish(
         trainer,
         selected,
