@@ -46,6 +46,9 @@ class RobotSettings(BaseSettings):
     alarm_hook: str | None = Field(None, description="command run on a local alarm")
     alarm_grace_s: float = Field(2.0, ge=0)
     transports: int | None = Field(None, ge=1, description="stop after this many (simulator)")
+    drain_timeout_s: float = Field(
+        60.0, ge=0, description="after the source ends, wait this long for the last acks"
+    )
     log_level: str = "INFO"
 
     @field_validator("backend_url")

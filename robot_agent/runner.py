@@ -139,7 +139,16 @@ async def run_robot(settings: RobotSettings, stop: asyncio.Event | None = None) 
             frames,
             len(outbox),
         )
+        deadline = asyncio.get_running_loop().time() + settings.drain_timeout_s
         while len(outbox) and not stop.is_set() and not client_task.done():
+            if asyncio.get_running_loop().time() > deadline:
+                log.warning(
+                    "%d frames are still unacknowledged; they stay in %s and are sent "
+                    "at the next start",
+                    len(outbox),
+                    settings.outbox_path,
+                )
+                break
             await asyncio.sleep(0.1)
         return frames
     finally:
