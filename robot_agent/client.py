@@ -194,7 +194,7 @@ class RobotClient:
             )
             if not isinstance(welcome, protocol.Welcome):
                 raise FatalConnectionError(f"expected welcome, got {welcome.type}")
-            self.outbox.ack(welcome.last_seq)
+            self.outbox.welcome(welcome.last_seq)
             self.acked_seq = welcome.last_seq
             self.connections += 1
             self.backoff.reset()

@@ -48,7 +48,9 @@ class Outbox:
         self._db.execute("PRAGMA journal_mode=WAL")
         self._db.execute("PRAGMA synchronous=NORMAL")
         self._db.executescript(_SCHEMA)
-        self._db.execute("INSERT OR IGNORE INTO meta VALUES ('next_seq', 0), ('dropped', 0)")
+        self._db.execute(
+            "INSERT OR IGNORE INTO meta VALUES ('next_seq', 0), ('dropped', 0), ('synced', 0)"
+        )
         self._frames = self._db.execute("SELECT count(*) FROM items WHERE seq IS NOT NULL")
         self._frames = self._frames.fetchone()[0]
 
@@ -111,6 +113,38 @@ class Outbox:
         self._db.execute(
             "UPDATE meta SET value = value + ? WHERE key = 'dropped'", (cursor.rowcount,)
         )
+
+    def welcome(self, last_seq: int | None) -> int:
+        """The backend's welcome: it holds this robot's frames up to ``last_seq``.
+
+        An outbox that never talked to the backend (first start, or a replaced disk) numbered
+        its frames from 0: they are renumbered to follow ``last_seq`` so the backend does not
+        take them for frames it already has. Then acts as an ack."""
+        with self._lock:
+            synced = self._meta("synced")
+            if not synced and last_seq is not None:
+                self._db.execute("BEGIN IMMEDIATE")
+                low = self._db.execute("SELECT min(seq) FROM items").fetchone()[0]
+                shift = 0 if low is None else max(0, last_seq + 1 - low)
+                if shift:
+                    rows = self._db.execute(
+                        "SELECT id, seq, body FROM items WHERE seq IS NOT NULL ORDER BY seq DESC"
+                    ).fetchall()
+                    for item_id, seq, body in rows:
+                        data = json.loads(body)
+                        data["seq"] = seq + shift
+                        self._db.execute(
+                            "UPDATE items SET seq = ?, body = ? WHERE id = ?",
+                            (seq + shift, json.dumps(data, separators=(",", ":")), item_id),
+                        )
+                    self._db.execute(
+                        "UPDATE meta SET value = value + ? WHERE key = 'next_seq'", (shift,)
+                    )
+                self._db.execute("UPDATE meta SET value = 1 WHERE key = 'synced'")
+                self._db.execute("COMMIT")
+            elif not synced:
+                self._db.execute("UPDATE meta SET value = 1 WHERE key = 'synced'")
+        return self.ack(last_seq)
 
     def ack(self, seq: int | None) -> int:
         """The backend committed every frame up to ``seq``: delete them (and the control

@@ -50,3 +50,14 @@ def test_disk_bound_drops_oldest_normal_frames_never_emergency(tmp_path):
     assert box.dropped == 4
     box.put_frame(frame(9), emergency=False)  # only emergencies left: the newest normal goes
     assert box.emergency_count() == 5
+
+
+def test_fresh_outbox_renumbers_frames_after_what_the_backend_holds(tmp_path):
+    box = Outbox(tmp_path / "new-disk.sqlite")
+    box.put_frame(frame(0), emergency=False)
+    box.put_frame(frame(1), emergency=True)
+    box.welcome(41)  # the backend already holds 0..41 from this robot's previous disk
+    assert [(i.seq, i.body["seq"]) for i in box.pending()] == [(42, 42), (43, 43)]
+    assert box.put_frame(frame(2), emergency=False) == 44
+    box.welcome(43)  # a later reconnect: a plain ack, no renumbering
+    assert [i.seq for i in box.pending()] == [44]
