@@ -42,7 +42,8 @@ def test_console_script_module_runs_and_reports_unreachable_backend_then_stops(t
     tokens.write_text(json.dumps({"robot-1": "x"}))
     result = subprocess.run(
         [sys.executable, "-m", "robot_agent.cli", "--token", "x", "--ground-truth",
-         "--backend-url", "ws://127.0.0.1:9/ws/robot", "--transports", "1", "--speed", "50", "--drain-timeout-s", "1",
+         "--backend-url", "ws://127.0.0.1:9/ws/robot", "--transports", "1",
+         "--speed", "50", "--drain-timeout-s", "1",
          "--outbox-path", str(tmp_path / "o.sqlite")],
         capture_output=True, text=True, timeout=60,
     )  # fmt: skip
