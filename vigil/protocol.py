@@ -10,10 +10,9 @@ reason naming the bad field; frames stored before it are unaffected.
 
 from __future__ import annotations
 
-import math
 from typing import Annotated, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, TypeAdapter, field_validator
+from pydantic import BaseModel, ConfigDict, Field, TypeAdapter
 
 from vigil.classes import Decision, TransportMode
 from vigil.skeleton import N_KEYPOINTS
@@ -29,16 +28,15 @@ CLOSE_PROTOCOL_VERSION = 4406  # protocol version the server does not speak
 CLOSE_HELLO_TIMEOUT = 4408  # no hello in time
 CLOSE_TOO_LARGE = 4413  # message larger than MAX_MESSAGE_BYTES
 CLOSE_REPLACED = 4409  # the same robot connected again; the older connection is closed
+CLOSE_INTERNAL_ERROR = 1011  # the server could not store the message; reconnect and resend
+
+
+FiniteFloat = Annotated[float, Field(allow_inf_nan=False)]
+Point = Annotated[list[FiniteFloat], Field(min_length=3, max_length=3)]
 
 
 class _Message(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True)
-
-
-def _finite(value: float, name: str) -> float:
-    if not math.isfinite(value):
-        raise ValueError(f"{name} must be a finite number")
-    return value
 
 
 class Hello(_Message):
@@ -56,61 +54,44 @@ class TransportStart(_Message):
     mode: TransportMode
     patient: str | None = Field(default=None, max_length=64, description="patient pseudonym")
     location: str | None = Field(default=None, max_length=128)
-    ts: float
+    ts: FiniteFloat
 
 
 class TransportEnd(_Message):
     type: Literal["transport_end"] = "transport_end"
     transport_id: str = Field(min_length=1, max_length=64)
-    ts: float
+    ts: FiniteFloat
+
+
+class ShadowDecision(_Message):
+    decision: Decision
+    scores: dict[Decision, FiniteFloat] = Field(default_factory=dict)
+    model_version: str = Field(max_length=64)
 
 
 class FrameRecord(_Message):
-    """One classified frame. keypoints: 25 x [x, y, confidence]; depth: 25 metres or null."""
+    """One classified frame. keypoints: 25 x [x, y, confidence]; depth: 25 metres or null.
+
+    Lengths and finiteness are checked by pydantic-core constraints (not Python validators):
+    this is the ingest hot path.
+    """
 
     seq: int = Field(ge=0)
-    ts: float
+    ts: FiniteFloat
     transport_id: str | None = Field(default=None, max_length=64)
-    keypoints: list[list[float]]
-    depth: list[float | None] | None = None
+    keypoints: list[Point] = Field(min_length=N_KEYPOINTS, max_length=N_KEYPOINTS)
+    # JSON has no NaN: unknown depth travels as null.
+    depth: list[FiniteFloat | None] | None = Field(
+        default=None, min_length=N_KEYPOINTS, max_length=N_KEYPOINTS
+    )
     decision: Decision | None = None
-    scores: dict[Decision, float] = Field(default_factory=dict)
+    scores: dict[Decision, FiniteFloat] = Field(default_factory=dict)
     model_version: str | None = Field(default=None, max_length=64)
-    threshold: float | None = None
+    threshold: FiniteFloat | None = None
     delay_ms: int | None = Field(default=None, ge=0)
-    shadow: bool = False
-
-    @field_validator("ts", "threshold")
-    @classmethod
-    def _check_finite(cls, value: float | None, info) -> float | None:
-        return None if value is None else _finite(value, info.field_name)
-
-    @field_validator("keypoints")
-    @classmethod
-    def _check_keypoints(cls, value: list[list[float]]) -> list[list[float]]:
-        if len(value) != N_KEYPOINTS:
-            raise ValueError(f"keypoints must hold {N_KEYPOINTS} points, got {len(value)}")
-        for i, point in enumerate(value):
-            if len(point) != 3:
-                raise ValueError(f"keypoints[{i}] must be [x, y, confidence]")
-            for v in point:
-                _finite(v, f"keypoints[{i}]")
-        return value
-
-    @field_validator("depth")
-    @classmethod
-    def _check_depth(cls, value: list[float | None] | None) -> list[float | None] | None:
-        if value is not None and len(value) != N_KEYPOINTS:
-            raise ValueError(f"depth must hold {N_KEYPOINTS} values, got {len(value)}")
-        # JSON has no NaN: unknown depth travels as null.
-        return value
-
-    @field_validator("scores")
-    @classmethod
-    def _check_scores(cls, value: dict[Decision, float]) -> dict[Decision, float]:
-        for key, v in value.items():
-            _finite(v, f"scores.{key}")
-        return value
+    shadow: ShadowDecision | None = Field(
+        default=None, description="a candidate model's decision, stored but never alarmed"
+    )
 
 
 class FrameBatch(_Message):
@@ -120,7 +101,7 @@ class FrameBatch(_Message):
 
 class Heartbeat(_Message):
     type: Literal["heartbeat"] = "heartbeat"
-    ts: float
+    ts: FiniteFloat
     running_model: str | None = None
 
 
@@ -128,6 +109,7 @@ RobotMessage = Annotated[
     Hello | TransportStart | TransportEnd | FrameBatch | Heartbeat, Field(discriminator="type")
 ]
 robot_message_adapter: TypeAdapter[RobotMessage] = TypeAdapter(RobotMessage)
+MESSAGE_TYPES = frozenset({"hello", "transport_start", "transport_end", "frames", "heartbeat"})
 
 
 class ModelAssignment(_Message):

@@ -1,0 +1,62 @@
+# Vigil: `make run` sets everything up and starts the system; `make test` sets up and tests.
+SHELL := /bin/bash
+PYTHON ?= python3
+VENV := .venv
+PY := $(VENV)/bin/python
+PIP := $(VENV)/bin/pip
+STAMP := $(VENV)/.installed
+FRONTEND_STAMP := frontend/node_modules/.installed
+PYTEST_ARGS ?=
+
+.PHONY: run test test-python test-sqlite test-postgresql test-frontend test-browser setup \
+	frontend chromium lint format bench-detection bench-ingest bench-robot clean
+
+setup: $(STAMP) frontend
+
+$(STAMP): pyproject.toml
+	test -d $(VENV) || $(PYTHON) -m venv $(VENV)
+	$(PIP) install --quiet --upgrade pip
+	# torch is pinned to 2.13.0 in pyproject: pip takes the CPU wheel on this machine's disk.
+	$(PIP) install --quiet -e '.[robot,train,server,dev,mediapipe]'
+	touch $@
+
+$(FRONTEND_STAMP): frontend/package.json frontend/package-lock.json
+	cd frontend && npm ci --no-audit --no-fund
+	touch $@
+
+frontend: $(FRONTEND_STAMP)
+	cd frontend && npm run build
+
+chromium:
+	@command -v chromium >/dev/null || (apt-get update -qq && apt-get install -y -qq chromium)
+
+run: setup
+	$(PY) -m scripts.run_all
+
+test: $(STAMP) frontend chromium
+	@echo "== Python tests on SQLite (with browser tests) =="
+	VIGIL_TEST_DATABASE=sqlite $(PY) -m pytest -q $(PYTEST_ARGS)
+	@echo "== Python tests on PostgreSQL (throwaway database) =="
+	VIGIL_TEST_DATABASE=postgresql $(PY) -m pytest -q -m "not browser" $(PYTEST_ARGS)
+	@echo "== Frontend unit tests =="
+	cd frontend && npm test
+
+lint: $(STAMP)
+	$(VENV)/bin/ruff check vigil backend worker robot_agent tests bench migrations scripts
+	$(VENV)/bin/ruff format --check vigil backend worker robot_agent tests bench migrations scripts
+
+format: $(STAMP)
+	$(VENV)/bin/ruff check --fix vigil backend worker robot_agent tests bench migrations scripts
+	$(VENV)/bin/ruff format vigil backend worker robot_agent tests bench migrations scripts
+
+bench-detection: $(STAMP)
+	$(PY) -m bench.detection
+
+bench-ingest: $(STAMP)
+	$(PY) -m bench.ingest
+
+bench-robot: $(STAMP)
+	$(PY) -m bench.robot
+
+clean:
+	rm -rf var frontend/dist

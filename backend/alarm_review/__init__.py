@@ -1,0 +1,1 @@
+"""Alarm review for nurses: replay, history, alarm-fatigue statistics and verdict feedback."""

@@ -1,0 +1,100 @@
+"""Alarm-fatigue statistics: load per shift and ward, false-alarm share, time to acknowledge."""
+
+from __future__ import annotations
+
+from collections import defaultdict
+from collections.abc import Iterable
+from dataclasses import dataclass
+from datetime import datetime, timedelta
+from statistics import median
+from typing import Literal, Protocol
+
+from backend.models.alarms import AlarmKind, Verdict
+
+ShiftName = Literal["early", "late", "night"]
+
+#: Shift start hours (UTC): early 06-14, late 14-22, night 22-06 (the night belongs to its start).
+SHIFT_STARTS: tuple[tuple[int, ShiftName], ...] = ((6, "early"), (14, "late"), (22, "night"))
+TECHNICAL_KINDS = frozenset({AlarmKind.ROBOT_OFFLINE, AlarmKind.STREAM_STALLED})
+
+
+class AlarmFacts(Protocol):
+    kind: str
+    ward: str
+    raised_at: datetime
+    acknowledged_at: datetime | None
+    resolved_at: datetime | None
+    verdict: str | None
+    model_version: str | None
+
+
+def shift_of(moment: datetime) -> tuple[datetime, ShiftName]:
+    """The shift a moment falls in: (shift start, shift name)."""
+    day = moment.replace(hour=0, minute=0, second=0, microsecond=0)
+    if moment.hour < SHIFT_STARTS[0][0]:
+        return day - timedelta(days=1) + timedelta(hours=SHIFT_STARTS[-1][0]), SHIFT_STARTS[-1][1]
+    start_hour, name = max((s for s in SHIFT_STARTS if s[0] <= moment.hour), key=lambda s: s[0])
+    return day + timedelta(hours=start_hour), name
+
+
+@dataclass
+class _Tally:
+    alarms: int = 0
+    emergencies: int = 0
+    resolved: int = 0
+    false_alarms: int = 0
+    ack_seconds: list[float] | None = None
+
+    def add(self, alarm: AlarmFacts) -> None:
+        self.alarms += 1
+        self.emergencies += alarm.kind == AlarmKind.EMERGENCY
+        if alarm.verdict is not None:
+            self.resolved += 1
+            self.false_alarms += alarm.verdict == Verdict.FALSE_ALARM
+        if alarm.acknowledged_at is not None:
+            self.ack_seconds = self.ack_seconds or []
+            self.ack_seconds.append((alarm.acknowledged_at - alarm.raised_at).total_seconds())
+
+    @property
+    def median_ack_s(self) -> float | None:
+        return round(median(self.ack_seconds), 3) if self.ack_seconds else None
+
+    @property
+    def false_share(self) -> float | None:
+        return round(self.false_alarms / self.resolved, 4) if self.resolved else None
+
+
+def fatigue_stats(alarms: Iterable[AlarmFacts]) -> dict:
+    """Per (shift, ward) and per model version; technical alarms count for load only by shift."""
+    by_shift: dict[tuple[datetime, ShiftName, str], _Tally] = defaultdict(_Tally)
+    by_model: dict[str | None, _Tally] = defaultdict(_Tally)
+    for alarm in alarms:
+        start, name = shift_of(alarm.raised_at)
+        by_shift[(start, name, alarm.ward)].add(alarm)
+        if alarm.kind not in TECHNICAL_KINDS:
+            by_model[alarm.model_version].add(alarm)
+    shifts = [
+        {
+            "shift_start": start,
+            "shift": name,
+            "ward": ward,
+            "alarms": t.alarms,
+            "emergencies": t.emergencies,
+            "resolved": t.resolved,
+            "false_alarms": t.false_alarms,
+            "median_ack_s": t.median_ack_s,
+        }
+        for (start, name, ward), t in sorted(by_shift.items(), key=lambda kv: (kv[0][0], kv[0][2]))
+    ]
+    models = [
+        {
+            "model_version": version,
+            "alarms": t.alarms,
+            "resolved": t.resolved,
+            "false_alarms": t.false_alarms,
+            "false_share": t.false_share,
+            "median_ack_s": t.median_ack_s,
+        }
+        for version, t in sorted(by_model.items(), key=lambda kv: (kv[0] is None, kv[0] or ""))
+    ]
+    return {"shifts": shifts, "by_model": models}

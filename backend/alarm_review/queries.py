@@ -1,0 +1,72 @@
+"""Queries for alarm review: history with filters, frames around an alarm, alarms in a period."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from datetime import datetime
+
+from sqlalchemy import Select, func, select
+from sqlalchemy.orm import Session
+
+from backend.models import Alarm, Frame
+
+MAX_REPLAY_FRAMES = 3000
+
+
+@dataclass(frozen=True, slots=True)
+class HistoryFilter:
+    ward: str | None = None
+    robot_id: str | None = None
+    kind: str | None = None
+    verdict: str | None = None
+    model_version: str | None = None
+    since: datetime | None = None
+    until: datetime | None = None
+
+    def apply(self, query: Select) -> Select:
+        conditions = [
+            Alarm.ward == self.ward if self.ward else None,
+            Alarm.robot_id == self.robot_id if self.robot_id else None,
+            Alarm.kind == self.kind if self.kind else None,
+            Alarm.verdict == self.verdict if self.verdict else None,
+            Alarm.model_version == self.model_version if self.model_version else None,
+            Alarm.raised_at >= self.since if self.since else None,
+            Alarm.raised_at < self.until if self.until else None,
+        ]
+        return query.where(*(c for c in conditions if c is not None))
+
+
+def alarm_history(
+    session: Session, filters: HistoryFilter, limit: int, offset: int
+) -> tuple[int, list[Alarm]]:
+    total = session.scalar(filters.apply(select(func.count(Alarm.id))))
+    rows = session.scalars(
+        filters.apply(select(Alarm))
+        .order_by(Alarm.raised_at.desc(), Alarm.id.desc())
+        .limit(limit)
+        .offset(offset)
+    )
+    return total or 0, list(rows)
+
+
+def frames_around(session: Session, alarm: Alarm, before_s: float, after_s: float) -> list[Frame]:
+    """The alarm's stored frames plus before_s seconds before and after_s after, in order."""
+    if alarm.first_frame_ts is None:
+        return []
+    start = alarm.first_frame_ts - before_s
+    end = (alarm.last_frame_ts or alarm.first_frame_ts) + after_s
+    query = select(Frame).where(Frame.ts >= start, Frame.ts <= end)
+    if alarm.video_id is not None:
+        query = query.where(Frame.video_id == alarm.video_id)
+    else:
+        query = query.where(Frame.robot_id == alarm.robot_id)
+    return list(session.scalars(query.order_by(Frame.ts, Frame.id).limit(MAX_REPLAY_FRAMES)))
+
+
+def alarms_between(
+    session: Session, since: datetime, until: datetime, ward: str | None
+) -> list[Alarm]:
+    query = select(Alarm).where(Alarm.raised_at >= since, Alarm.raised_at < until)
+    if ward:
+        query = query.where(Alarm.ward == ward)
+    return list(session.scalars(query))

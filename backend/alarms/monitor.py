@@ -1,0 +1,127 @@
+"""The alarm monitor: a task in the backend lifespan that, every `monitor_interval_s`,
+
+- raises technical alarms for transports under way whose robot fell silent (robot offline) or
+  whose frame stream stopped while the robot still talks (stream stalled), one per outage;
+- escalates an open Emergency not acknowledged within the ward's escalation time;
+- re-alarms an acknowledged alarm not resolved within `realarm_minutes`.
+
+Each change is committed, then pushed like any other alarm change.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import logging
+from collections.abc import Awaitable, Callable
+from datetime import datetime, timedelta
+
+from sqlalchemy.orm import Session, sessionmaker
+
+from backend.alarms import queries, service
+from backend.alarms.schemas import AlarmOut
+from backend.db import transaction
+from backend.models._types import utcnow
+from backend.models.alarms import Alarm, AlarmKind, AlarmState
+from backend.settings import Settings
+
+log = logging.getLogger(__name__)
+
+
+class AlarmMonitor:
+    def __init__(
+        self,
+        session_factory: sessionmaker[Session],
+        settings: Settings,
+        publish_alarm: Callable[[dict], Awaitable[None]],
+    ) -> None:
+        self._session_factory = session_factory
+        self._settings = settings
+        self._publish_alarm = publish_alarm
+        self._task: asyncio.Task | None = None
+
+    def start(self) -> None:
+        self._task = asyncio.create_task(self._run(), name="alarm-monitor")
+
+    async def stop(self) -> None:
+        if self._task is not None:
+            self._task.cancel()
+            with contextlib.suppress(asyncio.CancelledError):
+                await self._task
+
+    async def _run(self) -> None:
+        while True:
+            await asyncio.sleep(self._settings.monitor_interval_s)
+            try:
+                await self.tick()
+            except Exception:
+                log.exception("alarm monitor pass failed")
+
+    async def tick(self, now: datetime | None = None) -> list[dict]:
+        changed = await asyncio.to_thread(self.check, now or utcnow())
+        for alarm in changed:
+            await self._publish_alarm(alarm)
+        return changed
+
+    def check(self, now: datetime) -> list[dict]:
+        """One pass in one transaction; returns the changed alarms as pushed to browsers."""
+        with transaction(self._session_factory) as session:
+            changed: dict[int, Alarm] = {}
+            for alarm in self._technical(session, now):
+                changed[alarm.id] = alarm
+            for alarm in self._escalations(session, now):
+                changed[alarm.id] = alarm
+            for alarm in self._realarms(session, now):
+                changed[alarm.id] = alarm
+            session.flush()
+            return [AlarmOut.model_validate(a).model_dump(mode="json") for a in changed.values()]
+
+    def _technical(self, session: Session, now: datetime) -> list[Alarm]:
+        settings = self._settings
+        raised = []
+        for transport, robot in queries.active_transports(session):
+            last_seen = robot.last_seen_at
+            last_frame = transport.last_frame_at or transport.started_at
+            if last_seen is None or now - last_seen > timedelta(
+                seconds=settings.robot_offline_seconds
+            ):
+                kind, silent_since = AlarmKind.ROBOT_OFFLINE, last_seen or transport.started_at
+            elif now - last_frame > timedelta(seconds=settings.stream_stall_seconds):
+                kind, silent_since = AlarmKind.STREAM_STALLED, last_frame
+            else:
+                continue
+            latest = queries.latest_of_kind(session, robot.id, transport.id, kind)
+            if latest is not None and (
+                latest.resolved_at is None or latest.raised_at >= silent_since
+            ):
+                continue  # this outage already has its alarm
+            evidence = service.DecisionEvidence(seq=robot.last_seq, ts=None)
+            alarm, _ = service.raise_or_update(session, robot, transport, kind, evidence)
+            log.warning("%s: robot %s, transport %s", kind.value, robot.id, transport.id)
+            raised.append(alarm)
+        return raised
+
+    def _escalations(self, session: Session, now: datetime) -> list[Alarm]:
+        def due(alarm: Alarm) -> bool:
+            if alarm.state != AlarmState.OPEN:
+                return False
+            if alarm.escalation_level >= self._settings.escalation_max_level:
+                return False
+            wait = timedelta(seconds=self._settings.escalation_seconds_for(alarm.ward))
+            return now - (alarm.escalated_at or alarm.raised_at) >= wait
+
+        candidates = [a.id for a in queries.open_emergencies(session) if due(a)]
+        return [service.escalate(session, a, now) for a in queries.claim(session, candidates)
+                if due(a)]  # fmt: skip
+
+    def _realarms(self, session: Session, now: datetime) -> list[Alarm]:
+        wait = timedelta(minutes=self._settings.realarm_minutes)
+
+        def due(alarm: Alarm) -> bool:
+            if alarm.state != AlarmState.ACKNOWLEDGED:
+                return False
+            return now - (alarm.realarmed_at or alarm.acknowledged_at or alarm.updated_at) >= wait
+
+        candidates = [a.id for a in queries.acknowledged(session) if due(a)]
+        return [service.realarm(session, a, now) for a in queries.claim(session, candidates)
+                if due(a)]  # fmt: skip

@@ -1,0 +1,136 @@
+"""Alarm queries, in one place."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from datetime import datetime
+
+from sqlalchemy import select
+from sqlalchemy.orm import Session
+
+from backend.models.alarms import Alarm, AlarmEvent, AlarmKind, AlarmState
+from backend.models.robots import Robot, Transport
+from backend.models.users import Role, User
+
+
+def visible_to(user: User):
+    """Nurses see their own ward (every ward when they have none); others see all."""
+    if user.role == Role.NURSE and user.ward:
+        return Alarm.ward == user.ward
+    return True
+
+
+def list_alarms(
+    session: Session,
+    user: User,
+    state: AlarmState | None = None,
+    kind: AlarmKind | None = None,
+    ward: str | None = None,
+    robot_id: str | None = None,
+    since: datetime | None = None,
+    until: datetime | None = None,
+    limit: int = 200,
+) -> Sequence[Alarm]:
+    query = select(Alarm).where(visible_to(user))
+    if state is not None:
+        query = query.where(Alarm.state == state)
+    if kind is not None:
+        query = query.where(Alarm.kind == kind)
+    if ward is not None:
+        query = query.where(Alarm.ward == ward)
+    if robot_id is not None:
+        query = query.where(Alarm.robot_id == robot_id)
+    if since is not None:
+        query = query.where(Alarm.raised_at >= since)
+    if until is not None:
+        query = query.where(Alarm.raised_at < until)
+    return session.scalars(query.order_by(Alarm.raised_at.desc()).limit(limit)).unique().all()
+
+
+def unresolved_for(session: Session, user: User) -> Sequence[Alarm]:
+    return (
+        session.scalars(
+            select(Alarm)
+            .where(visible_to(user), Alarm.state != AlarmState.RESOLVED)
+            .order_by(Alarm.raised_at)
+        )
+        .unique()
+        .all()
+    )
+
+
+def get_visible(session: Session, user: User, alarm_id: int) -> Alarm | None:
+    return session.scalars(select(Alarm).where(Alarm.id == alarm_id, visible_to(user))).first()
+
+
+def events_of(session: Session, alarm_id: int) -> Sequence[AlarmEvent]:
+    return session.scalars(
+        select(AlarmEvent).where(AlarmEvent.alarm_id == alarm_id).order_by(AlarmEvent.id)
+    ).all()
+
+
+def active_transports(session: Session) -> Sequence[tuple[Transport, Robot]]:
+    """Transports under way (not ended) with their robot."""
+    return session.execute(
+        select(Transport, Robot)
+        .join(Robot, Robot.id == Transport.robot_id)
+        .where(Transport.ended_at.is_(None))
+    ).all()
+
+
+def latest_of_kind(
+    session: Session, robot_id: str, transport_id: str, kind: AlarmKind
+) -> Alarm | None:
+    return session.scalars(
+        select(Alarm)
+        .where(Alarm.robot_id == robot_id, Alarm.transport_key == transport_id, Alarm.kind == kind)
+        .order_by(Alarm.raised_at.desc())
+        .limit(1)
+    ).first()
+
+
+def open_emergencies(session: Session) -> Sequence[Alarm]:
+    return (
+        session.scalars(
+            select(Alarm).where(Alarm.state == AlarmState.OPEN, Alarm.kind == AlarmKind.EMERGENCY)
+        )
+        .unique()
+        .all()
+    )
+
+
+def acknowledged(session: Session) -> Sequence[Alarm]:
+    return (
+        session.scalars(select(Alarm).where(Alarm.state == AlarmState.ACKNOWLEDGED)).unique().all()
+    )
+
+
+def claim(session: Session, alarm_ids: Sequence[int]) -> Sequence[Alarm]:
+    """Lock these alarms for a change, skipping rows another replica's monitor holds (SQLite,
+    with its single writer, ignores the clause). Only due alarms are claimed, so the ingest
+    writer is never held up by a monitor pass that changes nothing."""
+    if not alarm_ids:
+        return []
+    query = select(Alarm).where(Alarm.id.in_(alarm_ids)).execution_options(populate_existing=True)
+    return session.scalars(query.with_for_update(skip_locked=True, of=Alarm)).unique().all()
+
+
+def audit_events(
+    session: Session,
+    user: User,
+    alarm_id: int | None = None,
+    actor: str | None = None,
+    since: datetime | None = None,
+    until: datetime | None = None,
+    limit: int = 500,
+) -> Sequence[AlarmEvent]:
+    query = select(AlarmEvent).join(Alarm, Alarm.id == AlarmEvent.alarm_id).where(visible_to(user))
+    if alarm_id is not None:
+        query = query.where(AlarmEvent.alarm_id == alarm_id)
+    if actor is not None:
+        query = query.where(AlarmEvent.actor == actor)
+    if since is not None:
+        query = query.where(AlarmEvent.at >= since)
+    if until is not None:
+        query = query.where(AlarmEvent.at < until)
+    return session.scalars(query.order_by(AlarmEvent.id.desc()).limit(limit)).all()

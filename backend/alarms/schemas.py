@@ -1,0 +1,76 @@
+from datetime import datetime
+
+from pydantic import BaseModel, ConfigDict, Field, model_validator
+
+from backend.models.alarms import (
+    AlarmKind,
+    AlarmPriority,
+    AlarmState,
+    FalseAlarmReason,
+    Verdict,
+)
+
+
+class AlarmOut(BaseModel):
+    model_config = ConfigDict(from_attributes=True)
+
+    id: int
+    kind: AlarmKind
+    priority: AlarmPriority
+    state: AlarmState
+    robot_id: str
+    ward: str
+    transport_id: str | None
+    patient: str | None
+    location: str | None
+    raised_at: datetime
+    updated_at: datetime
+    acknowledged_at: datetime | None
+    acknowledged_by: str | None = None
+    resolved_at: datetime | None
+    resolved_by: str | None = None
+    verdict: Verdict | None
+    reason: FalseAlarmReason | None
+    comment: str | None
+    escalation_level: int
+    realarmed_at: datetime | None
+    video_id: int | None
+    first_seq: int | None
+    last_seq: int | None
+    decision_count: int
+    model_version: str | None
+    threshold: float | None
+    delay_ms: int | None
+
+
+class AlarmEventOut(BaseModel):
+    model_config = ConfigDict(from_attributes=True)
+
+    id: int
+    alarm_id: int
+    at: datetime
+    actor: str
+    action: str
+    from_state: AlarmState | None
+    to_state: AlarmState
+    comment: str | None
+
+
+class AcknowledgeIn(BaseModel):
+    comment: str | None = Field(default=None, max_length=2000)
+
+
+class ResolveIn(BaseModel):
+    verdict: Verdict
+    reason: FalseAlarmReason | None = Field(
+        default=None, description="required when the verdict is false_alarm"
+    )
+    comment: str | None = Field(default=None, max_length=2000)
+
+    @model_validator(mode="after")
+    def _reason_matches_verdict(self) -> "ResolveIn":
+        if self.verdict == Verdict.FALSE_ALARM and self.reason is None:
+            raise ValueError("reason is required for a false_alarm verdict")
+        if self.verdict != Verdict.FALSE_ALARM and self.reason is not None:
+            raise ValueError("reason is only given for a false_alarm verdict")
+        return self

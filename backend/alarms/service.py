@@ -1,0 +1,183 @@
+"""Alarm lifecycle. Functions change rows and write the audit trail; the caller commits."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from datetime import datetime
+
+from sqlalchemy import select
+from sqlalchemy.orm import Session
+
+from backend.alarms.state import AlarmAction, next_state
+from backend.models._types import utcnow
+from backend.models.alarms import (
+    PRIORITY_OF_KIND,
+    Alarm,
+    AlarmEvent,
+    AlarmKind,
+    AlarmState,
+    FalseAlarmReason,
+    Verdict,
+)
+from backend.models.robots import Robot, Transport
+from backend.models.users import User
+
+TECHNICAL_KINDS = frozenset({AlarmKind.ROBOT_OFFLINE, AlarmKind.STREAM_STALLED})
+
+
+@dataclass(slots=True)
+class DecisionEvidence:
+    """What a robot's decision contributes to an alarm."""
+
+    seq: int | None
+    ts: float | None
+    model_version: str | None = None
+    threshold: float | None = None
+    delay_ms: int | None = None
+    video_id: int | None = None
+
+
+def _record(
+    session: Session,
+    alarm: Alarm,
+    action: AlarmAction,
+    from_state: AlarmState | None,
+    actor: str,
+    user: User | None = None,
+    comment: str | None = None,
+) -> None:
+    session.add(
+        AlarmEvent(
+            alarm_id=alarm.id,
+            at=alarm.updated_at,
+            actor_user_id=user.id if user else None,
+            actor=actor,
+            action=action.value,
+            from_state=from_state,
+            to_state=alarm.state,
+            comment=comment,
+        )
+    )
+
+
+def find_unresolved(
+    session: Session, robot_id: str, transport_id: str | None, kind: AlarmKind
+) -> Alarm | None:
+    return session.scalars(
+        select(Alarm).where(
+            Alarm.robot_id == robot_id,
+            Alarm.transport_key == (transport_id or ""),
+            Alarm.kind == kind,
+            Alarm.state != AlarmState.RESOLVED,
+        )
+    ).first()
+
+
+def fold_evidence(alarm: Alarm, evidence: DecisionEvidence, now: datetime) -> Alarm:
+    """A repeated decision updates the unresolved alarm instead of opening another."""
+    next_state(alarm.state, AlarmAction.UPDATE)
+    alarm.updated_at = now
+    alarm.decision_count += 1
+    if evidence.seq is not None:
+        alarm.last_seq = max(alarm.last_seq or evidence.seq, evidence.seq)
+        alarm.last_frame_ts = evidence.ts
+    return alarm
+
+
+def raise_or_update(
+    session: Session,
+    robot: Robot,
+    transport: Transport | None,
+    kind: AlarmKind,
+    evidence: DecisionEvidence,
+) -> tuple[Alarm, bool]:
+    """Open an alarm for (transport, kind) or fold the evidence into the unresolved one.
+
+    Returns the alarm and whether it is new.
+    """
+    now = utcnow()
+    transport_id = transport.id if transport else None
+    alarm = find_unresolved(session, robot.id, transport_id, kind)
+    if alarm is not None:
+        return fold_evidence(alarm, evidence, now), False
+    alarm = Alarm(
+        kind=kind,
+        priority=PRIORITY_OF_KIND[kind],
+        state=AlarmState.OPEN,
+        robot_id=robot.id,
+        transport_id=transport_id,
+        transport_key=transport_id or "",
+        ward=robot.ward,
+        patient=transport.patient if transport else None,
+        location=transport.location if transport else None,
+        raised_at=now,
+        updated_at=now,
+        video_id=evidence.video_id,
+        first_seq=evidence.seq,
+        last_seq=evidence.seq,
+        first_frame_ts=evidence.ts,
+        last_frame_ts=evidence.ts,
+        decision_count=1,
+        model_version=evidence.model_version,
+        threshold=evidence.threshold,
+        delay_ms=evidence.delay_ms,
+    )
+    session.add(alarm)
+    session.flush()
+    actor = "system" if kind in TECHNICAL_KINDS else f"robot:{robot.id}"
+    _record(session, alarm, AlarmAction.RAISE, None, actor)
+    return alarm, True
+
+
+def acknowledge(session: Session, alarm: Alarm, user: User, comment: str | None = None) -> Alarm:
+    before = alarm.state
+    alarm.state = next_state(before, AlarmAction.ACKNOWLEDGE)
+    alarm.updated_at = alarm.acknowledged_at = utcnow()
+    alarm.acknowledged_by_id = user.id
+    alarm.acknowledged_by_user = user
+    _record(session, alarm, AlarmAction.ACKNOWLEDGE, before, f"{user.role}:{user.username}", user,
+            comment)  # fmt: skip
+    return alarm
+
+
+def resolve(
+    session: Session,
+    alarm: Alarm,
+    user: User,
+    verdict: Verdict,
+    reason: FalseAlarmReason | None,
+    comment: str | None,
+) -> Alarm:
+    before = alarm.state
+    alarm.state = next_state(before, AlarmAction.RESOLVE)
+    alarm.updated_at = alarm.resolved_at = utcnow()
+    alarm.resolved_by_id = user.id
+    alarm.resolved_by_user = user
+    alarm.verdict = verdict
+    alarm.reason = reason
+    alarm.comment = comment
+    note = verdict.value + (f" ({reason.value})" if reason else "")
+    if comment:
+        note += f": {comment}"
+    _record(session, alarm, AlarmAction.RESOLVE, before, f"{user.role}:{user.username}", user,
+            note)  # fmt: skip
+    return alarm
+
+
+def escalate(session: Session, alarm: Alarm, now: datetime) -> Alarm:
+    before = alarm.state
+    alarm.state = next_state(before, AlarmAction.ESCALATE)
+    alarm.escalation_level += 1
+    alarm.escalated_at = alarm.updated_at = now
+    _record(session, alarm, AlarmAction.ESCALATE, before, "system",
+            comment=f"not acknowledged: escalated to level {alarm.escalation_level}")  # fmt: skip
+    return alarm
+
+
+def realarm(session: Session, alarm: Alarm, now: datetime) -> Alarm:
+    before = alarm.state
+    alarm.state = next_state(before, AlarmAction.REALARM)
+    alarm.realarmed_at = alarm.updated_at = now
+    _record(session, alarm, AlarmAction.REALARM, before, "system",
+            comment="acknowledged but not resolved in time")  # fmt: skip
+    return alarm

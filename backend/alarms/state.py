@@ -1,0 +1,47 @@
+"""The alarm state machine, written down once.
+
+    open ──acknowledge──▶ acknowledged ──resolve──▶ resolved
+      └──────────────────resolve──────────────────────▲
+
+Escalation and re-alarm do not change the state: they raise `escalation_level` or
+`realarmed_at` on an open or acknowledged alarm and push it again.
+"""
+
+from enum import StrEnum
+
+from backend.models.alarms import AlarmState
+
+
+class AlarmAction(StrEnum):
+    RAISE = "raise"
+    UPDATE = "update"
+    ACKNOWLEDGE = "acknowledge"
+    RESOLVE = "resolve"
+    ESCALATE = "escalate"
+    REALARM = "realarm"
+
+
+TRANSITIONS: dict[tuple[AlarmState, AlarmAction], AlarmState] = {
+    (AlarmState.OPEN, AlarmAction.UPDATE): AlarmState.OPEN,
+    (AlarmState.ACKNOWLEDGED, AlarmAction.UPDATE): AlarmState.ACKNOWLEDGED,
+    (AlarmState.OPEN, AlarmAction.ACKNOWLEDGE): AlarmState.ACKNOWLEDGED,
+    (AlarmState.OPEN, AlarmAction.RESOLVE): AlarmState.RESOLVED,
+    (AlarmState.ACKNOWLEDGED, AlarmAction.RESOLVE): AlarmState.RESOLVED,
+    (AlarmState.OPEN, AlarmAction.ESCALATE): AlarmState.OPEN,
+    (AlarmState.ACKNOWLEDGED, AlarmAction.REALARM): AlarmState.ACKNOWLEDGED,
+}
+
+
+class IllegalTransition(Exception):
+    def __init__(self, state: AlarmState, action: AlarmAction) -> None:
+        super().__init__(f"cannot {action.value} an alarm that is {state.value}")
+        self.state = state
+        self.action = action
+
+
+def next_state(state: AlarmState | str, action: AlarmAction) -> AlarmState:
+    state = AlarmState(state)
+    try:
+        return TRANSITIONS[(state, action)]
+    except KeyError:
+        raise IllegalTransition(state, action) from None

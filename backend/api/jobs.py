@@ -1,0 +1,55 @@
+"""Worker jobs: queue, list with live progress, detail with log, cancel. The queue's state
+rules live in worker.queue (a light module: no training code is imported here)."""
+
+from fastapi import APIRouter, HTTPException, status
+
+from backend.deps import CurrentUser, SessionDep
+from backend.models.jobs import Job, JobStatus
+from backend.registry import queries
+from backend.registry.schemas import JobDetail, JobIn, JobOut
+from worker import job_params, queue
+
+router = APIRouter(prefix="/api", tags=["jobs"])
+
+
+def _job(session, job_id: int) -> Job:
+    job = session.get(Job, job_id)
+    if job is None:
+        raise HTTPException(status.HTTP_404_NOT_FOUND, f"job {job_id} not found")
+    return job
+
+
+@router.get("/jobs")
+def list_jobs(
+    session: SessionDep, user: CurrentUser, status: JobStatus | None = None, limit: int = 100
+) -> list[JobOut]:
+    return [JobOut.model_validate(j) for j in queries.list_jobs(session, status, limit)]
+
+
+@router.post("/jobs", status_code=status.HTTP_201_CREATED)
+def create_job(body: JobIn, session: SessionDep, user: CurrentUser) -> JobOut:
+    """Queue a job; parameters are checked here (422 naming the field) and again by the worker."""
+    try:
+        params = job_params.validate(body.kind, body.params)
+    except ValueError as error:
+        raise HTTPException(status.HTTP_422_UNPROCESSABLE_CONTENT, str(error)) from None
+    job = queue.enqueue(session, body.kind, params, user.id)
+    session.flush()
+    session.refresh(job)
+    return JobOut.model_validate(job)
+
+
+@router.get("/jobs/{job_id}")
+def get_job(job_id: int, session: SessionDep, user: CurrentUser) -> JobDetail:
+    return JobDetail.model_validate(_job(session, job_id))
+
+
+@router.post("/jobs/{job_id}/cancel")
+def cancel_job(job_id: int, session: SessionDep, user: CurrentUser) -> JobOut:
+    job = _job(session, job_id)
+    try:
+        queue.request_cancel(session, job)
+    except queue.JobStateError as error:
+        raise HTTPException(status.HTTP_409_CONFLICT, str(error)) from None
+    session.flush()
+    return JobOut.model_validate(job)

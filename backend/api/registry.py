@@ -1,0 +1,254 @@
+"""Model registry, promotion and fleet routes for engineers, and the robots' model download."""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Callable
+from pathlib import Path
+from typing import Annotated, Any
+
+from fastapi import APIRouter, Header, HTTPException, Query, Request, status
+from fastapi.responses import FileResponse
+from starlette.concurrency import run_in_threadpool
+
+from backend.db import transaction
+from backend.deps import CurrentUser, SessionDep, SettingsDep
+from backend.models.registry import Deployment, ModelVersion
+from backend.models.robots import Robot
+from backend.models.users import User
+from backend.registry import queries, rollout
+from backend.registry.gate import gate_report
+from backend.registry.push import push_to_robots
+from backend.registry.schemas import (
+    Comparison,
+    DeploymentOut,
+    FleetRobot,
+    ModelDetail,
+    ModelSummary,
+    PromoteIn,
+    RollbackIn,
+    ShadowIn,
+)
+from backend.security import robot_token_matches
+from vigil.model_file import MANIFEST_NAME
+
+router = APIRouter(prefix="/api", tags=["registry"])
+
+
+def _model(session, model_id: int) -> ModelVersion:
+    model = session.get(ModelVersion, model_id)
+    if model is None:
+        raise HTTPException(status.HTTP_404_NOT_FOUND, f"model {model_id} not found")
+    return model
+
+
+def _deployment(session, deployment_id: int) -> Deployment:
+    deployment = session.get(Deployment, deployment_id)
+    if deployment is None:
+        raise HTTPException(status.HTTP_404_NOT_FOUND, f"deployment {deployment_id} not found")
+    return deployment
+
+
+async def _change(request: Request, change: Callable[[Any], tuple[Any, list[str]]]):
+    """Run a rollout change in its own transaction; once committed, notify the robots."""
+
+    def _run():
+        with transaction(request.app.state.session_factory) as session:
+            try:
+                result, robots = change(session)
+            except rollout.RolloutError as error:
+                raise HTTPException(status.HTTP_409_CONFLICT, str(error)) from None
+            except ValueError as error:
+                raise HTTPException(status.HTTP_422_UNPROCESSABLE_CONTENT, str(error)) from None
+            session.flush()
+            return result, robots
+
+    result, robots = await run_in_threadpool(_run)
+    await push_to_robots(request.app, robots)
+    return result
+
+
+@router.get("/models")
+def list_models(session: SessionDep, user: CurrentUser) -> list[ModelSummary]:
+    return queries.list_models(session)
+
+
+@router.get("/models/compare")
+def compare_models(
+    session: SessionDep, user: CurrentUser, a: Annotated[int, Query()], b: Annotated[int, Query()]
+) -> Comparison:
+    model_a, model_b = _model(session, a), _model(session, b)
+    rows, events = queries.compare(model_a, model_b)
+    return Comparison(a=queries.detail(session, model_a), b=queries.detail(session, model_b),
+                      rows=rows, events=events)  # fmt: skip
+
+
+@router.get("/models/{model_id}")
+def get_model(model_id: int, session: SessionDep, user: CurrentUser) -> ModelDetail:
+    return queries.detail(session, _model(session, model_id))
+
+
+@router.get("/models/{model_id}/plots/{name}", response_class=FileResponse)
+def get_plot(model_id: int, name: str, session: SessionDep, user: CurrentUser) -> FileResponse:
+    directory = queries.plots_dir(_model(session, model_id))
+    if not name.isidentifier():
+        raise HTTPException(status.HTTP_422_UNPROCESSABLE_CONTENT, "name: not a plot name")
+    path = directory / f"{name}.png"
+    if not path.is_file():
+        raise HTTPException(status.HTTP_404_NOT_FOUND, f"model {model_id} has no plot {name}")
+    return FileResponse(path, media_type="image/png")
+
+
+@router.get("/models/{model_id}/gate")
+def get_gate(model_id: int, session: SessionDep, settings: SettingsDep, user: CurrentUser) -> dict:
+    """The gate decision this model would get now, with its figures."""
+    model = _model(session, model_id)
+    return gate_report(model, settings.gate_false_alarm_budget, settings.gate_latency_ms)
+
+
+def _report(model: ModelVersion, request: Request) -> dict:
+    settings = request.app.state.settings
+    return gate_report(model, settings.gate_false_alarm_budget, settings.gate_latency_ms)
+
+
+@router.post("/models/{model_id}/promote", status_code=status.HTTP_201_CREATED)
+async def promote(
+    model_id: int, body: PromoteIn, request: Request, user: CurrentUser
+) -> DeploymentOut:
+    """Engineer sign-off: passes the gate, then rolls out (canary first for several robots)."""
+    user_id = user.id
+
+    def change(session):
+        model, signer = _model(session, model_id), session.get(User, user_id)
+        deployment, robots = rollout.promote(
+            session, model, signer, body.scope, body.target, _report(model, request),
+            canary_robot_id=body.canary_robot_id, comment=body.comment,
+            require_second_approver=request.app.state.settings.require_second_approver,
+        )  # fmt: skip
+        return queries.deployment_out(session, deployment), robots
+
+    return await _change(request, change)
+
+
+@router.post("/models/{model_id}/shadow", status_code=status.HTTP_201_CREATED)
+async def start_shadow(
+    model_id: int, body: ShadowIn, request: Request, user: CurrentUser
+) -> DeploymentOut:
+    """Run a candidate beside production on robots: decisions stored, never alarmed."""
+    user_id = user.id
+
+    def change(session):
+        model, signer = _model(session, model_id), session.get(User, user_id)
+        deployment, robots = rollout.promote(
+            session, model, signer, body.scope, body.target, _report(model, request),
+            comment=body.comment, shadow=True,
+        )  # fmt: skip
+        return queries.deployment_out(session, deployment), robots
+
+    return await _change(request, change)
+
+
+@router.get("/deployments")
+def list_deployments(session: SessionDep, user: CurrentUser) -> list[DeploymentOut]:
+    return queries.list_deployments(session)
+
+
+@router.post("/deployments/{deployment_id}/approve")
+async def approve_deployment(
+    deployment_id: int, request: Request, user: CurrentUser
+) -> DeploymentOut:
+    user_id = user.id
+
+    def change(session):
+        deployment = _deployment(session, deployment_id)
+        robots = rollout.approve(session, deployment, session.get(User, user_id))
+        return queries.deployment_out(session, deployment), robots
+
+    return await _change(request, change)
+
+
+@router.post("/deployments/{deployment_id}/advance")
+async def advance_deployment(
+    deployment_id: int, request: Request, user: CurrentUser
+) -> DeploymentOut:
+    """Canary is healthy: roll out to the remaining robots of the scope."""
+
+    def change(session):
+        deployment = _deployment(session, deployment_id)
+        robots = rollout.advance(session, deployment)
+        return queries.deployment_out(session, deployment), robots
+
+    return await _change(request, change)
+
+
+@router.post("/deployments/{deployment_id}/rollback")
+async def rollback_deployment(
+    deployment_id: int, body: RollbackIn, request: Request, user: CurrentUser
+) -> DeploymentOut:
+    """One click: every robot of the deployment gets back the model it had before."""
+    username = user.username
+
+    def change(session):
+        deployment = _deployment(session, deployment_id)
+        robots = rollout.rollback(session, deployment, f"{body.reason} ({username})")
+        return queries.deployment_out(session, deployment), robots
+
+    return await _change(request, change)
+
+
+@router.get("/fleet")
+def fleet(session: SessionDep, user: CurrentUser, request: Request) -> list[FleetRobot]:
+    registry = request.app.state.robots
+    connected = {r.id for r in session.query(Robot.id) if registry.socket(r.id) is not None}
+    return queries.fleet(session, connected)
+
+
+# --- robots: model download, authenticated by the robot's own token ------------------------
+
+
+def _robot_model(session, robot_id: str, authorization: str, version: str) -> ModelVersion:
+    scheme, _, token = authorization.partition(" ")
+    robot = session.get(Robot, robot_id)
+    if (
+        scheme.lower() != "bearer"
+        or robot is None
+        or not robot_token_matches(robot.token_hash, token)
+    ):
+        raise HTTPException(status.HTTP_401_UNAUTHORIZED, "unknown robot or wrong robot token")
+    model = queries.model_by_version(session, version)
+    if model is None:
+        raise HTTPException(status.HTTP_404_NOT_FOUND, f"model {version} not found")
+    if model.id not in (robot.assigned_model_id, robot.shadow_model_id):
+        raise HTTPException(
+            status.HTTP_403_FORBIDDEN, f"model {version} is not assigned to {robot_id}"
+        )
+    return model
+
+
+RobotIdHeader = Annotated[str, Header(alias="X-Robot-Id", min_length=1, max_length=64)]
+AuthorizationHeader = Annotated[str, Header()]
+
+
+@router.get("/robot/models/{version}/file", response_class=FileResponse)
+def download_model(
+    version: str, session: SessionDep, robot_id: RobotIdHeader, authorization: AuthorizationHeader
+) -> FileResponse:
+    """The ONNX file of a model assigned to the calling robot; check it against the sha256 of
+    the assignment (also sent as the X-Model-Sha256 header) before loading it."""
+    model = _robot_model(session, robot_id, authorization, version)
+    path = Path(model.file_path)
+    if not path.is_file():
+        raise HTTPException(status.HTTP_404_NOT_FOUND, f"model file of {version} is missing")
+    return FileResponse(path, media_type="application/octet-stream",
+                        headers={"X-Model-Sha256": model.sha256})  # fmt: skip
+
+
+@router.get("/robot/models/{version}/manifest")
+def download_manifest(
+    version: str, session: SessionDep, robot_id: RobotIdHeader, authorization: AuthorizationHeader
+) -> dict:
+    model = _robot_model(session, robot_id, authorization, version)
+    manifest_path = Path(model.file_path).parent / MANIFEST_NAME
+    if not manifest_path.is_file():
+        return model.manifest
+    return json.loads(manifest_path.read_text())

@@ -1,0 +1,142 @@
+from datetime import datetime
+
+from fastapi import APIRouter, HTTPException, Query, Request, status
+from pydantic import BaseModel, ConfigDict, Field
+from sqlalchemy import select
+
+from backend.deps import CurrentUser, SessionDep
+from backend.models._types import utcnow
+from backend.models.robots import Robot, Transport
+from backend.security import hash_robot_token, new_robot_token
+from vigil.classes import TransportMode
+from vigil.protocol import CLOSE_UNAUTHORIZED
+
+router = APIRouter(prefix="/api", tags=["robots"])
+
+
+class RobotOut(BaseModel):
+    model_config = ConfigDict(from_attributes=True)
+
+    id: str
+    name: str
+    ward: str
+    has_token: bool
+    assigned_model_id: int | None
+    shadow_model_id: int | None
+    running_model_version: str | None
+    agent_version: str | None
+    last_seen_at: datetime | None
+    last_seq: int | None
+    connected: bool = False
+
+
+class RobotIn(BaseModel):
+    id: str = Field(min_length=1, max_length=64, pattern=r"^[A-Za-z0-9_.-]+$")
+    name: str = Field(default="", max_length=128)
+    ward: str = Field(min_length=1, max_length=64)
+
+
+class RobotTokenOut(BaseModel):
+    robot_id: str
+    token: str = Field(description="shown once; only its hash is stored")
+
+
+class TransportOut(BaseModel):
+    model_config = ConfigDict(from_attributes=True)
+
+    id: str
+    robot_id: str
+    mode: TransportMode
+    patient: str | None
+    location: str | None
+    started_at: datetime
+    ended_at: datetime | None
+    last_frame_at: datetime | None
+
+
+def _robot_out(request: Request, robot: Robot) -> RobotOut:
+    out = RobotOut.model_validate({**robot.__dict__, "has_token": robot.token_hash is not None})
+    out.connected = request.app.state.robots.socket(robot.id) is not None
+    return out
+
+
+@router.get("/robots")
+def list_robots(session: SessionDep, user: CurrentUser, request: Request) -> list[RobotOut]:
+    robots = session.scalars(select(Robot).order_by(Robot.id)).all()
+    return [_robot_out(request, r) for r in robots]
+
+
+@router.post("/robots", status_code=status.HTTP_201_CREATED)
+def create_robot(body: RobotIn, session: SessionDep, user: CurrentUser) -> RobotTokenOut:
+    if session.get(Robot, body.id) is not None:
+        raise HTTPException(status.HTTP_409_CONFLICT, f"robot {body.id} already exists")
+    token = new_robot_token()
+    session.add(
+        Robot(
+            id=body.id,
+            name=body.name,
+            ward=body.ward,
+            token_hash=hash_robot_token(token),
+            token_created_at=utcnow(),
+        )
+    )
+    return RobotTokenOut(robot_id=body.id, token=token)
+
+
+def _robot(session: SessionDep, robot_id: str) -> Robot:
+    robot = session.get(Robot, robot_id)
+    if robot is None:
+        raise HTTPException(status.HTTP_404_NOT_FOUND, f"robot {robot_id} not found")
+    return robot
+
+
+@router.get("/robots/{robot_id}")
+def get_robot(robot_id: str, session: SessionDep, user: CurrentUser, request: Request) -> RobotOut:
+    return _robot_out(request, _robot(session, robot_id))
+
+
+@router.post("/robots/{robot_id}/token")
+def rotate_token(robot_id: str, session: SessionDep, user: CurrentUser) -> RobotTokenOut:
+    robot = _robot(session, robot_id)
+    token = new_robot_token()
+    robot.token_hash = hash_robot_token(token)
+    robot.token_created_at = utcnow()
+    return RobotTokenOut(robot_id=robot.id, token=token)
+
+
+@router.delete("/robots/{robot_id}/token", status_code=status.HTTP_204_NO_CONTENT)
+async def revoke_token(
+    robot_id: str, session: SessionDep, user: CurrentUser, request: Request
+) -> None:
+    """Revoke the robot's token and close its live connection to this replica."""
+    _robot(session, robot_id).token_hash = None
+    session.commit()
+    connection = request.app.state.robots.socket(robot_id)
+    if connection is not None:
+        await connection.close(CLOSE_UNAUTHORIZED, "robot token revoked")
+
+
+@router.get("/transports")
+def list_transports(
+    session: SessionDep,
+    user: CurrentUser,
+    robot_id: str | None = None,
+    active: bool | None = Query(default=None, description="only transports under way (true)"),
+    limit: int = Query(default=100, ge=1, le=1000),
+) -> list[TransportOut]:
+    query = select(Transport).order_by(Transport.started_at.desc()).limit(limit)
+    if robot_id:
+        query = query.where(Transport.robot_id == robot_id)
+    if active is not None:
+        query = query.where(
+            Transport.ended_at.is_(None) if active else Transport.ended_at.is_not(None)
+        )
+    return [TransportOut.model_validate(t) for t in session.scalars(query)]
+
+
+@router.get("/transports/{transport_id}")
+def get_transport(transport_id: str, session: SessionDep, user: CurrentUser) -> TransportOut:
+    transport = session.get(Transport, transport_id)
+    if transport is None:
+        raise HTTPException(status.HTTP_404_NOT_FOUND, f"transport {transport_id} not found")
+    return TransportOut.model_validate(transport)

@@ -1,0 +1,133 @@
+import math
+from datetime import datetime
+
+from fastapi import APIRouter, HTTPException, Query, status
+from pydantic import BaseModel, ConfigDict
+from sqlalchemy import select
+
+from backend.deps import MAX_DB_INT, CurrentUser, DbId, SessionDep
+from backend.models.videos import Frame, Split, Video
+from vigil.classes import Decision, TransportMode
+from vigil.skeleton import decode_depth, decode_keypoints
+
+router = APIRouter(prefix="/api/videos", tags=["videos"])
+
+MAX_FRAMES_PER_REQUEST = 2000
+
+
+class VideoOut(BaseModel):
+    model_config = ConfigDict(from_attributes=True)
+
+    id: int
+    name: str
+    source: str
+    generated: bool
+    mode: TransportMode
+    camera: str | None
+    location: str | None
+    fps: float
+    person: str | None
+    split: Split
+    transport_id: str | None
+    robot_id: str | None
+    frame_count: int
+    has_rgb: bool = False
+    created_at: datetime
+
+
+class FrameOut(BaseModel):
+    index: int
+    ts: float
+    seq: int | None
+    keypoints: list[list[float]]
+    depth: list[float | None] | None
+    decision: Decision | None
+    scores: dict[str, float] | None
+    model_version: str | None
+    threshold: float | None
+    delay_ms: int | None
+    shadow_decision: Decision | None
+    shadow_model_version: str | None
+
+
+def _video_out(video: Video) -> VideoOut:
+    out = VideoOut.model_validate(video)
+    out.has_rgb = video.rgb_path is not None
+    return out
+
+
+@router.get("")
+def list_videos(
+    session: SessionDep,
+    user: CurrentUser,
+    mode: TransportMode | None = None,
+    split: Split | None = None,
+    source: str | None = None,
+) -> list[VideoOut]:
+    query = select(Video).order_by(Video.name)
+    if mode is not None:
+        query = query.where(Video.mode == mode)
+    if split is not None:
+        query = query.where(Video.split == split)
+    if source is not None:
+        query = query.where(Video.source == source)
+    return [_video_out(v) for v in session.scalars(query)]
+
+
+def _video(session: SessionDep, video_id: int) -> Video:
+    video = session.get(Video, video_id)
+    if video is None:
+        raise HTTPException(status.HTTP_404_NOT_FOUND, f"video {video_id} not found")
+    return video
+
+
+@router.get("/{video_id}")
+def get_video(video_id: DbId, session: SessionDep, user: CurrentUser) -> VideoOut:
+    return _video_out(_video(session, video_id))
+
+
+def _frame_out(frame: Frame) -> FrameOut:
+    depth = None
+    if frame.depth is not None:
+        depth = [None if math.isnan(v) else float(v) for v in decode_depth(frame.depth)]
+    return FrameOut(
+        index=frame.index,
+        ts=frame.ts,
+        seq=frame.seq,
+        keypoints=decode_keypoints(frame.keypoints).tolist(),
+        depth=depth,
+        decision=frame.decision,
+        scores=frame.scores,
+        model_version=frame.model_version,
+        threshold=frame.threshold,
+        delay_ms=frame.delay_ms,
+        shadow_decision=frame.shadow_decision,
+        shadow_model_version=frame.shadow_model_version,
+    )
+
+
+@router.get("/{video_id}/frames")
+def get_frames(
+    video_id: DbId,
+    session: SessionDep,
+    user: CurrentUser,
+    start: int = Query(default=0, ge=0, le=MAX_DB_INT, description="first frame index (inclusive)"),
+    end: int | None = Query(
+        default=None, ge=0, le=MAX_DB_INT, description="last frame index (inclusive)"
+    ),
+) -> list[FrameOut]:
+    _video(session, video_id)
+    last = start + MAX_FRAMES_PER_REQUEST - 1 if end is None else end
+    if last < start:
+        raise HTTPException(status.HTTP_422_UNPROCESSABLE_ENTITY, "end must not be before start")
+    if last - start + 1 > MAX_FRAMES_PER_REQUEST:
+        raise HTTPException(
+            status.HTTP_422_UNPROCESSABLE_ENTITY,
+            f"at most {MAX_FRAMES_PER_REQUEST} frames per request",
+        )
+    frames = session.scalars(
+        select(Frame)
+        .where(Frame.video_id == video_id, Frame.index >= start, Frame.index <= last)
+        .order_by(Frame.index)
+    )
+    return [_frame_out(f) for f in frames]

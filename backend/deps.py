@@ -1,0 +1,77 @@
+"""FastAPI dependencies: database session, settings, the current user and the permission check."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from typing import Annotated
+
+from fastapi import Depends, HTTPException, Path, Request, status
+from sqlalchemy.orm import Session
+
+from backend.models.users import User
+from backend.permissions import PERMISSIONS
+from backend.security import read_access_token
+from backend.settings import Settings
+
+SESSION_COOKIE = "vigil_session"
+
+
+def get_settings(request: Request) -> Settings:
+    return request.app.state.settings
+
+
+def get_session(request: Request) -> Iterator[Session]:
+    """The request's unit of work: committed when the endpoint returns without error."""
+    with request.app.state.session_factory() as session, session.begin():
+        yield session
+
+
+#: Integer ids and counters fit PostgreSQL INTEGER columns; larger values get a 422, not a 500.
+MAX_DB_INT = 2**31 - 1
+DbId = Annotated[int, Path(ge=1, le=MAX_DB_INT)]
+
+SettingsDep = Annotated[Settings, Depends(get_settings)]
+# scope="function": the commit happens when the endpoint returns, BEFORE the response is sent
+# (with the default request scope a client could get 201 for a row that then fails to commit).
+SessionDep = Annotated[Session, Depends(get_session, scope="function")]
+
+
+def bearer_token(request: Request) -> str | None:
+    header = request.headers.get("authorization", "")
+    scheme, _, value = header.partition(" ")
+    if scheme.lower() == "bearer" and value:
+        return value
+    return request.cookies.get(SESSION_COOKIE)
+
+
+def user_from_token(session: Session, settings: Settings, token: str | None) -> User | None:
+    if not token:
+        return None
+    user_id = read_access_token(settings.secret_key, token)
+    if user_id is None:
+        return None
+    user = session.get(User, user_id)
+    return user if user is not None and user.active else None
+
+
+def get_current_user(request: Request, session: SessionDep, settings: SettingsDep) -> User:
+    user = user_from_token(session, settings, bearer_token(request))
+    if user is None:
+        raise HTTPException(
+            status.HTTP_401_UNAUTHORIZED,
+            "not signed in or session expired",
+            headers={"WWW-Authenticate": "Bearer"},
+        )
+    route = request.scope.get("route")
+    roles = PERMISSIONS.get((request.method, getattr(route, "path", "")))
+    if roles is None:
+        raise HTTPException(status.HTTP_403_FORBIDDEN, "route has no permission entry")
+    if roles and user.role not in roles:
+        raise HTTPException(
+            status.HTTP_403_FORBIDDEN,
+            f"role {user.role} may not {request.method} {route.path}",
+        )
+    return user
+
+
+CurrentUser = Annotated[User, Depends(get_current_user)]

@@ -1,0 +1,180 @@
+"""Robot websocket (/ws/robot): hello, then transports and frame batches, acknowledged only
+after the database commit (by the per-process FrameWriter). Bad input closes this connection
+with a code and a reason; frames already committed stay, and other robots are unaffected."""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import logging
+import time
+
+from fastapi import APIRouter, WebSocket, WebSocketDisconnect
+from pydantic import ValidationError
+from sqlalchemy.exc import DataError
+from starlette.concurrency import run_in_threadpool
+
+from backend.db import transaction
+from backend.ingest import service
+from backend.registry import push as model_push
+from vigil import protocol
+from vigil.protocol import Hello, Welcome
+
+log = logging.getLogger(__name__)
+router = APIRouter()
+
+# Close reasons are limited to 123 bytes by the websocket protocol.
+MAX_REASON_BYTES = 123
+
+
+class CloseConnection(Exception):
+    def __init__(self, code: int, reason: str) -> None:
+        super().__init__(reason)
+        self.code = code
+        self.reason = reason.encode()[:MAX_REASON_BYTES].decode(errors="ignore")
+
+
+def describe(error: ValidationError) -> str:
+    """The first problem of a message, naming the field: 'invalid frames.0.ts: ...'."""
+    first = error.errors()[0]
+    loc = list(first["loc"])
+    if len(loc) > 1 and isinstance(loc[0], str) and loc[0] in protocol.MESSAGE_TYPES:
+        loc = loc[1:]  # the discriminator tag pydantic puts first
+    where = ".".join(str(part) for part in loc) or "message"
+    return f"invalid {where}: {first['msg']}"
+
+
+def parse(text: str | None, data: bytes | None) -> protocol.RobotMessage:
+    """Validate one raw websocket message or raise CloseConnection with a precise reason."""
+    if text is None:
+        size = len(data or b"")
+        raise CloseConnection(
+            protocol.CLOSE_BAD_MESSAGE,
+            f"binary message ({size} bytes) not accepted: send JSON text",
+        )
+    if len(text) > protocol.MAX_MESSAGE_BYTES:
+        raise CloseConnection(
+            protocol.CLOSE_TOO_LARGE,
+            f"message of {len(text)} bytes exceeds {protocol.MAX_MESSAGE_BYTES}",
+        )
+    try:
+        return protocol.parse_robot_message(text)
+    except ValidationError as error:
+        kinds = {e["type"] for e in error.errors()}
+        if "json_invalid" in kinds:
+            raise CloseConnection(
+                protocol.CLOSE_BAD_MESSAGE, f"message is not valid JSON: {error.errors()[0]['msg']}"
+            ) from None
+        if "union_tag_invalid" in kinds:
+            raise CloseConnection(protocol.CLOSE_BAD_MESSAGE, "unknown message type") from None
+        if "union_tag_not_found" in kinds or not error.errors()[0]["loc"]:
+            raise CloseConnection(
+                protocol.CLOSE_BAD_MESSAGE, "message must be a JSON object with a 'type'"
+            ) from None
+        raise CloseConnection(protocol.CLOSE_BAD_MESSAGE, describe(error)) from None
+    except ValueError as error:
+        raise CloseConnection(protocol.CLOSE_BAD_MESSAGE, str(error)) from None
+
+
+async def receive_message(websocket: WebSocket) -> protocol.RobotMessage:
+    event = await websocket.receive()
+    if event["type"] == "websocket.disconnect":
+        raise WebSocketDisconnect(event.get("code", 1000))
+    return parse(event.get("text"), event.get("bytes"))
+
+
+class RobotConnection:
+    """One robot's websocket as the FrameWriter sees it."""
+
+    def __init__(self, websocket: WebSocket, robot_id: str) -> None:
+        self.websocket = websocket
+        self.robot_id = robot_id
+        self.closed = False
+
+    async def send_ack(self, seq: int) -> None:
+        if self.closed:
+            return
+        try:
+            await self.websocket.send_text(f'{{"type":"ack","seq":{seq}}}')  # = Ack(seq=seq)
+        except Exception:  # the robot went away; it will resend what it did not see acked
+            self.closed = True
+
+    async def reject(self, code: int, reason: str) -> None:
+        await self.close(code, reason)
+
+    async def close(self, code: int, reason: str) -> None:
+        if self.closed:
+            return
+        self.closed = True
+        with contextlib.suppress(Exception):
+            await self.websocket.close(
+                code, reason.encode()[:MAX_REASON_BYTES].decode("ascii", "ignore")
+            )
+
+
+async def _hello(websocket: WebSocket) -> Hello:
+    state = websocket.app.state
+    try:
+        hello = await asyncio.wait_for(
+            receive_message(websocket), state.settings.robot_hello_timeout_s
+        )
+    except TimeoutError:
+        raise CloseConnection(protocol.CLOSE_HELLO_TIMEOUT, "no hello received in time") from None
+    if not isinstance(hello, Hello):
+        raise CloseConnection(protocol.CLOSE_BAD_MESSAGE, "first message must be hello")
+    if hello.protocol != protocol.PROTOCOL_VERSION:
+        raise CloseConnection(
+            protocol.CLOSE_PROTOCOL_VERSION,
+            f"protocol {hello.protocol} not supported (server speaks {protocol.PROTOCOL_VERSION})",
+        )
+    return hello
+
+
+@router.websocket("/ws/robot")
+async def robot_socket(websocket: WebSocket) -> None:
+    state = websocket.app.state
+    await websocket.accept()
+    connection: RobotConnection | None = None
+    try:
+        hello = await _hello(websocket)
+
+        def _authenticate() -> int | None:
+            with transaction(state.session_factory) as session:
+                return service.authenticate(session, hello).last_seq
+
+        try:
+            last_seq = await run_in_threadpool(_authenticate)
+        except (service.RobotAuthError, DataError):
+            raise CloseConnection(
+                protocol.CLOSE_UNAUTHORIZED, "unknown robot or wrong or revoked token"
+            ) from None
+        connection = RobotConnection(websocket, hello.robot_id)
+        previous = state.robots.connect(hello.robot_id, connection)
+        if previous is not None:
+            log.info("robot %s reconnected: closing its older connection", hello.robot_id)
+            await previous.close(protocol.CLOSE_REPLACED, "replaced by a newer connection")
+        await websocket.send_text(
+            Welcome(robot_id=hello.robot_id, last_seq=last_seq).model_dump_json()
+        )
+        log.info("robot %s connected (agent %s)", hello.robot_id, hello.agent_version)
+        await model_push.on_robot_connected(websocket, hello.robot_id)
+        writer = state.writer
+        while True:
+            message = await receive_message(websocket)
+            received = time.perf_counter()
+            if isinstance(message, Hello):
+                raise CloseConnection(protocol.CLOSE_BAD_MESSAGE, "hello sent twice")
+            await writer.submit(connection, message, received)
+    except CloseConnection as close:
+        log.warning("closing robot connection: %s (%s)", close.reason, close.code)
+        if connection is not None:
+            await connection.close(close.code, close.reason)
+        else:
+            with contextlib.suppress(Exception):
+                await websocket.close(close.code, close.reason)
+    except (WebSocketDisconnect, RuntimeError):
+        pass  # RuntimeError: the socket was closed under us (replaced or rejected)
+    finally:
+        if connection is not None:
+            connection.closed = True
+            state.robots.disconnect(connection.robot_id, connection)

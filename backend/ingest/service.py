@@ -1,0 +1,396 @@
+"""Robot ingest: transports, frame storage (deduplicated by robot + sequence) and the alarms
+that robot decisions raise. The caller commits; acknowledgements go out only after that."""
+
+from __future__ import annotations
+
+import json
+import struct
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from datetime import UTC, datetime
+from itertools import chain
+
+from sqlalchemy import bindparam, select, update
+from sqlalchemy.orm import Session
+
+from backend.alarms.service import DecisionEvidence, fold_evidence, raise_or_update
+from backend.ingest.bulk import insert_frame_rows
+from backend.models._types import utcnow
+from backend.models.alarms import Alarm, AlarmKind, AlarmState
+from backend.models.robots import Robot, Transport
+from backend.models.videos import Frame, Video
+from backend.security import robot_token_matches
+from vigil.classes import Decision, TransportMode
+from vigil.protocol import FrameRecord, Hello, TransportEnd, TransportStart
+from vigil.skeleton import N_KEYPOINTS
+
+ALARM_KIND_OF_DECISION = {Decision.EMERGENCY: AlarmKind.EMERGENCY, Decision.PAUSE: AlarmKind.PAUSE}
+
+
+class RobotAuthError(Exception):
+    pass
+
+
+def authenticate(session: Session, hello: Hello) -> Robot:
+    robot = session.get(Robot, hello.robot_id)
+    if robot is None or not robot_token_matches(robot.token_hash, hello.token):
+        raise RobotAuthError("unknown robot or wrong or revoked token")
+    robot.agent_version = hello.agent_version
+    robot.running_model_version = hello.running_model
+    robot.last_seen_at = utcnow()
+    return robot
+
+
+def _video_name(robot_id: str, transport_id: str | None) -> str:
+    return f"robot/{robot_id}/{transport_id or 'untracked'}"
+
+
+def start_transport(session: Session, robot: Robot, message: TransportStart) -> Transport:
+    transport = session.get(Transport, message.transport_id)
+    if transport is None:
+        # A robot carries one patient at a time: starting a transport ends any it left open.
+        for stale in session.scalars(
+            select(Transport).where(Transport.robot_id == robot.id, Transport.ended_at.is_(None))
+        ):
+            stale.ended_at = datetime.fromtimestamp(message.ts, UTC)
+        transport = Transport(
+            id=message.transport_id,
+            robot_id=robot.id,
+            mode=message.mode,
+            patient=message.patient,
+            location=message.location,
+            started_at=datetime.fromtimestamp(message.ts, UTC),
+        )
+        session.add(transport)
+    elif transport.robot_id != robot.id:
+        raise ValueError(f"transport_id {message.transport_id} belongs to another robot")
+    return transport
+
+
+def end_transport(session: Session, robot: Robot, message: TransportEnd) -> None:
+    transport = session.get(Transport, message.transport_id)
+    if transport is not None and transport.robot_id == robot.id and transport.ended_at is None:
+        transport.ended_at = datetime.fromtimestamp(message.ts, UTC)
+
+
+@dataclass(slots=True)
+class RobotState:
+    """The robot columns the ingest path reads and writes, loaded without the ORM."""
+
+    id: str
+    ward: str
+    token_hash: str | None
+    last_seq: int | None
+    last_seen_at: datetime | None = None
+    running_model_version: str | None = None
+    running_model_changed: bool = False
+
+
+@dataclass(slots=True)
+class TransportState:
+    id: str
+    robot_id: str
+    mode: TransportMode
+    patient: str | None
+    location: str | None
+    last_frame_at: datetime | None = None
+
+
+@dataclass(slots=True)
+class VideoState:
+    id: int
+    name: str
+    frame_count: int
+    initial_count: int = 0
+
+
+@dataclass
+class IngestContext:
+    """Rows and lookups shared by every robot's work in one writer transaction.
+
+    Frame rows are gathered here and inserted with one bulk statement by `flush_rows`; robots,
+    transports and videos are loaded once per transaction as plain rows (no ORM identity map)
+    and their changed columns written back with one executemany per table.
+    """
+
+    robots: dict[str, RobotState | None] = field(default_factory=dict)
+    transports: dict[str, TransportState | Transport | None] = field(default_factory=dict)
+    videos: dict[str, VideoState | Video] = field(default_factory=dict)
+    rows: list[tuple] = field(default_factory=list)  # laid out as bulk.FRAME_COLUMNS
+    pending_seqs: dict[str, set[int]] = field(default_factory=dict)
+    open_alarms: dict[tuple[str, str, AlarmKind], Alarm] = field(default_factory=dict)
+
+    def preload(
+        self,
+        session: Session,
+        streams: set[tuple[str, str | None]],
+        alarming_robots: set[str] | None = None,
+    ) -> IngestContext:
+        """Load, in a few queries, what the (robot id, transport id) streams of a flush touch;
+        unresolved alarms only for `alarming_robots` (those with an Emergency or Pause frame
+        in the flush; default: every robot)."""
+        robot_ids = {robot_id for robot_id, _ in streams}
+        transport_ids = {tid for _, tid in streams if tid is not None}
+        missing = robot_ids - self.robots.keys()
+        if missing:
+            self.robots.update(dict.fromkeys(missing))
+            for row in session.execute(
+                select(Robot.id, Robot.ward, Robot.token_hash, Robot.last_seq).where(
+                    Robot.id.in_(missing)
+                )
+            ):
+                self.robots[row.id] = RobotState(row.id, row.ward, row.token_hash, row.last_seq)
+        missing = transport_ids - self.transports.keys()
+        if missing:
+            self.transports.update(dict.fromkeys(missing))
+            for row in session.execute(
+                select(
+                    Transport.id, Transport.robot_id, Transport.mode, Transport.patient,
+                    Transport.location,
+                ).where(Transport.id.in_(missing))
+            ):  # fmt: skip
+                self.transports[row.id] = TransportState(*row)
+        names = {_video_name(robot_id, tid) for robot_id, tid in streams} - self.videos.keys()
+        if names:
+            for row in session.execute(
+                select(Video.id, Video.name, Video.frame_count).where(Video.name.in_(names))
+            ):
+                self.videos[row.name] = VideoState(row.id, row.name, row.frame_count,
+                                                   row.frame_count)  # fmt: skip
+        alarming = robot_ids if alarming_robots is None else alarming_robots & robot_ids
+        if alarming:
+            for alarm in session.scalars(
+                select(Alarm).where(
+                    Alarm.robot_id.in_(alarming),
+                    Alarm.state != AlarmState.RESOLVED,
+                    Alarm.kind.in_(ALARM_KIND_OF_DECISION.values()),
+                )
+            ).unique():
+                self.open_alarms[(alarm.robot_id, alarm.transport_key, alarm.kind)] = alarm
+        return self
+
+    def write_back(self, session: Session) -> None:
+        """One executemany per table for the columns the flush changed."""
+        connection = session.connection()
+        robots = [r for r in self.robots.values() if r is not None and r.last_seen_at]
+        if robots:
+            table = Robot.__table__
+            connection.execute(
+                update(table)
+                .where(table.c.id == bindparam("_id"))
+                .values(last_seq=bindparam("_last_seq"), last_seen_at=bindparam("_seen")),
+                [{"_id": r.id, "_last_seq": r.last_seq, "_seen": r.last_seen_at} for r in robots],
+            )
+            models = [r for r in robots if r.running_model_changed]
+            if models:
+                connection.execute(
+                    update(table)
+                    .where(table.c.id == bindparam("_id"))
+                    .values(running_model_version=bindparam("_model")),
+                    [{"_id": r.id, "_model": r.running_model_version} for r in models],
+                )
+        videos = [
+            v for v in self.videos.values()
+            if isinstance(v, VideoState) and v.frame_count != v.initial_count
+        ]  # fmt: skip
+        if videos:
+            table = Video.__table__
+            connection.execute(
+                update(table).where(table.c.id == bindparam("_id"))
+                .values(frame_count=bindparam("_count")),
+                [{"_id": v.id, "_count": v.frame_count} for v in videos],
+            )  # fmt: skip
+            for video in videos:
+                video.initial_count = video.frame_count
+        transports = [
+            t for t in self.transports.values()
+            if isinstance(t, TransportState) and t.last_frame_at is not None
+        ]  # fmt: skip
+        if transports:
+            table = Transport.__table__
+            connection.execute(
+                update(table).where(table.c.id == bindparam("_id"))
+                .values(last_frame_at=bindparam("_at")),
+                [{"_id": t.id, "_at": t.last_frame_at} for t in transports],
+            )  # fmt: skip
+
+    def transport(
+        self, session: Session, transport_id: str | None
+    ) -> TransportState | Transport | None:
+        if transport_id is None:
+            return None
+        if transport_id not in self.transports:
+            self.transports[transport_id] = session.get(Transport, transport_id)
+        return self.transports[transport_id]
+
+    def flush_rows(self, session: Session) -> int:
+        stored = len(self.rows)
+        insert_frame_rows(session, self.rows)
+        self.rows = []
+        self.pending_seqs = {}
+        return stored
+
+
+def _video_for(
+    session: Session,
+    robot: Robot | RobotState,
+    transport: Transport | TransportState | None,
+    context: IngestContext,
+) -> Video | VideoState:
+    name = _video_name(robot.id, transport.id if transport else None)
+    video = context.videos.get(name)
+    if video is None:
+        video = session.scalars(select(Video).where(Video.name == name)).first()
+    if video is None:
+        video = Video(
+            name=name,
+            source="robot",
+            mode=transport.mode if transport else TransportMode.WALKING,
+            camera=f"{robot.id}/front",
+            location=transport.location if transport else None,
+            person=transport.patient if transport else None,
+            transport_id=transport.id if transport else None,
+            robot_id=robot.id,
+            frame_count=0,
+        )
+        session.add(video)
+        session.flush()
+    context.videos[name] = video
+    return video
+
+
+@dataclass
+class IngestResult:
+    highest_seq: int | None
+    stored: int
+    duplicates: int
+    alarms: list[Alarm] = field(default_factory=list)
+    new_alarm_ids: set[int] = field(default_factory=set)
+
+
+_KEYPOINTS = struct.Struct(f"<{N_KEYPOINTS * 3}f")
+_DEPTH = struct.Struct(f"<{N_KEYPOINTS}f")
+_NAN = float("nan")
+
+
+def pack_keypoints(keypoints: list[list[float]]) -> bytes:
+    """Same bytes as vigil.skeleton.encode_keypoints (25 x 3 little-endian float32), without
+    building a numpy array per frame."""
+    return _KEYPOINTS.pack(*chain.from_iterable(keypoints))
+
+
+def pack_depth(depth: list[float | None] | None) -> bytes | None:
+    """Same bytes as vigil.skeleton.encode_depth; null (unknown) becomes NaN."""
+    if depth is None:
+        return None
+    return _DEPTH.pack(*(_NAN if v is None else v for v in depth))
+
+
+def _scores_json(scores: dict) -> str | None:
+    if not scores:
+        return None
+    return json.dumps({str(k): v for k, v in scores.items()})
+
+
+def _existing_seqs(
+    session: Session, robot: Robot | RobotState, seqs: list[int], context: IngestContext
+) -> set[int]:
+    pending = context.pending_seqs.setdefault(robot.id, set())
+    # robot.last_seq is the highest stored sequence number (kept in the same transaction as
+    # the rows), so a batch entirely above it cannot hold a stored frame: skip the query.
+    if robot.last_seq is not None and min(seqs) <= robot.last_seq:
+        stored = session.scalars(
+            select(Frame.seq).where(Frame.robot_id == robot.id, Frame.seq.in_(seqs))
+        ).all()
+        return pending | set(stored)
+    return pending
+
+
+def store_frames(
+    session: Session,
+    robot: Robot | RobotState,
+    frames: Sequence[FrameRecord],
+    context: IngestContext | None = None,
+) -> IngestResult:
+    """Store the frames not stored yet and raise or update the alarms their decisions call for.
+
+    With a shared `context` the rows are only gathered (the caller runs `context.flush_rows`);
+    without one they are inserted before returning.
+    """
+    own_context = context is None
+    context = context or IngestContext()
+    seqs = [f.seq for f in frames]
+    existing = _existing_seqs(session, robot, seqs, context)
+    fresh: dict[int, FrameRecord] = {}
+    for frame in frames:
+        if frame.seq not in existing:
+            fresh.setdefault(frame.seq, frame)
+    duplicates = len(frames) - len(fresh)
+
+    now = utcnow()
+    videos: dict[str | None, Video] = {}
+    alarms: dict[tuple[str | None, AlarmKind], Alarm] = {}
+    new_alarm_ids: set[int] = set()
+    rows = context.rows
+    pending = context.pending_seqs[robot.id]
+    for frame in sorted(fresh.values(), key=lambda f: f.seq):
+        key = frame.transport_id
+        transport = context.transport(session, key)
+        video = videos.get(key)
+        if video is None:
+            video = videos[key] = _video_for(session, robot, transport, context)
+            if transport is not None:
+                transport.last_frame_at = now
+        shadow = frame.shadow
+        decision = frame.decision
+        rows.append(
+            (
+                video.id,
+                video.frame_count,
+                frame.ts,
+                robot.id,
+                frame.seq,
+                pack_keypoints(frame.keypoints),
+                pack_depth(frame.depth),
+                decision.value if decision else None,
+                _scores_json(frame.scores),
+                frame.model_version,
+                frame.threshold,
+                frame.delay_ms,
+                shadow.decision.value if shadow else None,
+                _scores_json(shadow.scores) if shadow else None,
+                shadow.model_version if shadow else None,
+            )
+        )
+        pending.add(frame.seq)
+        video.frame_count += 1
+        kind = ALARM_KIND_OF_DECISION.get(frame.decision)
+        if kind is not None:
+            evidence = DecisionEvidence(
+                seq=frame.seq,
+                ts=frame.ts,
+                model_version=frame.model_version,
+                threshold=frame.threshold,
+                delay_ms=frame.delay_ms,
+                video_id=video.id,
+            )
+            alarm = alarms.get((key, kind)) or context.open_alarms.get((robot.id, key or "", kind))
+            if alarm is not None and alarm.state != AlarmState.RESOLVED:
+                fold_evidence(alarm, evidence, now)
+            else:
+                # Pending row updates cannot change which alarm is unresolved: no autoflush.
+                with session.no_autoflush:
+                    alarm, is_new = raise_or_update(session, robot, transport, kind, evidence)
+                context.open_alarms[(robot.id, key or "", kind)] = alarm
+                if is_new:
+                    new_alarm_ids.add(alarm.id)
+            alarms[(key, kind)] = alarm
+    stored = len(fresh)
+    if own_context:
+        context.flush_rows(session)
+    highest = max(seqs) if seqs else None
+    if highest is not None and (robot.last_seq is None or highest > robot.last_seq):
+        robot.last_seq = highest
+    robot.last_seen_at = now
+    unique_alarms = list({a.id: a for a in alarms.values()}.values())
+    return IngestResult(highest, stored, duplicates, unique_alarms, new_alarm_ids)

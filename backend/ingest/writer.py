@@ -1,0 +1,283 @@
+"""The per-process frame writer: gathers the messages of every robot connection and commits
+them together, every `ingest_flush_ms` or as soon as `ingest_flush_frames` are waiting.
+
+Only after the commit are the robots acknowledged (their highest committed sequence number)
+and the alarms their decisions raised pushed. If a shared transaction fails, each robot's work
+is retried in its own transaction so one misbehaving robot cannot hold back the others.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import logging
+import time
+from collections.abc import Awaitable, Callable
+from dataclasses import dataclass, field
+from typing import Protocol
+
+from sqlalchemy.exc import DataError
+from sqlalchemy.orm import Session, sessionmaker
+
+from backend.alarms.schemas import AlarmOut
+from backend.db import transaction
+from backend.ingest import service
+from backend.metrics import Metrics
+from vigil import protocol
+from vigil.protocol import FrameBatch, Heartbeat, TransportEnd, TransportStart
+
+log = logging.getLogger(__name__)
+
+RobotWork = FrameBatch | TransportStart | TransportEnd | Heartbeat
+
+
+class RejectedMessage(Exception):
+    """A message the database refuses for this robot; its connection is closed with `code`."""
+
+    def __init__(self, code: int, reason: str) -> None:
+        super().__init__(reason)
+        self.code = code
+        self.reason = reason
+
+
+class RobotLink(Protocol):
+    """What the writer needs of a robot connection."""
+
+    robot_id: str
+
+    async def send_ack(self, seq: int) -> None: ...
+
+    async def reject(self, code: int, reason: str) -> None: ...
+
+
+@dataclass(slots=True)
+class Job:
+    link: RobotLink
+    message: RobotWork
+    received: float  # time.perf_counter() when the message arrived
+
+    @property
+    def frame_count(self) -> int:
+        return len(self.message.frames) if isinstance(self.message, FrameBatch) else 0
+
+
+@dataclass
+class Outcome:
+    acks: dict[int, int] = field(default_factory=dict)  # id(link) -> highest committed seq
+    stored: int = 0
+    alarms: list[dict] = field(default_factory=list)
+    rejected: dict[int, RejectedMessage] = field(default_factory=dict)  # id(job) -> error
+
+
+class FrameWriter:
+    def __init__(
+        self,
+        session_factory: sessionmaker[Session],
+        metrics: Metrics,
+        publish_alarm: Callable[[dict], Awaitable[None]],
+        flush_ms: float = 50,
+        flush_frames: int = 500,
+        max_pending_frames: int = 20_000,
+    ) -> None:
+        self._session_factory = session_factory
+        self._metrics = metrics
+        self._publish_alarm = publish_alarm
+        self._flush_s = flush_ms / 1000
+        self._flush_frames = flush_frames
+        self._pending: list[Job] = []
+        self._pending_frames = 0
+        self._oldest: float | None = None
+        self._arrived = asyncio.Event()
+        self._room = asyncio.Event()
+        self._room.set()
+        self._max_pending_frames = max_pending_frames
+        self._task: asyncio.Task | None = None
+
+    # -- called by robot connections -------------------------------------------------------
+    async def submit(self, link: RobotLink, message: RobotWork, received: float) -> Job:
+        """Queue a message for the next commit; waits only when the writer is far behind."""
+        while self._pending_frames >= self._max_pending_frames:
+            self._room.clear()
+            await self._room.wait()
+        job = Job(link, message, received)
+        if not self._pending:
+            self._oldest = received
+        self._pending.append(job)
+        self._pending_frames += job.frame_count
+        self._arrived.set()
+        return job
+
+    # -- lifecycle -------------------------------------------------------------------------
+    def start(self) -> None:
+        self._task = asyncio.create_task(self._run(), name="frame-writer")
+
+    async def stop(self) -> None:
+        """Commit what is pending, then stop."""
+        if self._task is None:
+            return
+        self._task.cancel()
+        with contextlib.suppress(asyncio.CancelledError):
+            await self._task
+        if self._pending:
+            await self._flush()
+
+    async def _run(self) -> None:
+        while True:
+            await self._arrived.wait()
+            self._arrived.clear()
+            # Linger until the oldest message has waited flush_ms or enough frames are queued.
+            while self._pending and self._pending_frames < self._flush_frames:
+                remaining = (self._oldest or 0) + self._flush_s - time.perf_counter()
+                if remaining <= 0:
+                    break
+                with contextlib.suppress(TimeoutError):
+                    await asyncio.wait_for(self._arrived.wait(), remaining)
+                self._arrived.clear()
+            if self._pending:
+                try:
+                    await self._flush()
+                except Exception:  # never let the writer die: log, the robots will resend
+                    log.exception("frame writer flush failed")
+
+    async def _flush(self) -> None:
+        jobs, self._pending = self._pending, []
+        self._pending_frames = 0
+        self._oldest = None
+        self._room.set()
+        started = time.perf_counter()
+        outcome = await asyncio.to_thread(self._commit, jobs)
+        self._metrics.flush_seconds.observe(time.perf_counter() - started)
+        self._metrics.flush_frames.observe(outcome.stored)
+        # Committed: now tell the nurses, then the robots.
+        for alarm in outcome.alarms:
+            await self._publish_alarm(alarm)
+        self._metrics.frames_ingested.inc(outcome.stored)
+        acked: dict[int, RobotLink] = {}
+        now = time.perf_counter()
+        for job in jobs:
+            error = outcome.rejected.get(id(job))
+            if error is not None:
+                await job.link.reject(error.code, error.reason)
+                continue
+            if id(job.link) in outcome.acks:
+                acked[id(job.link)] = job.link
+                self._metrics.ack_latency.observe(now - job.received)
+        for key, link in acked.items():
+            await link.send_ack(outcome.acks[key])
+
+    # -- in a worker thread ----------------------------------------------------------------
+    def _commit(self, jobs: list[Job]) -> Outcome:
+        try:
+            with transaction(self._session_factory) as session:
+                return self._apply(session, jobs)
+        except RejectedMessage:
+            pass
+        except Exception as error:
+            log.warning("shared ingest transaction failed (%s); retrying robot by robot", error)
+        outcome = Outcome()
+        by_link: dict[int, list[Job]] = {}
+        for job in jobs:
+            by_link.setdefault(id(job.link), []).append(job)
+        for link_jobs in by_link.values():
+            try:
+                with transaction(self._session_factory) as session:
+                    single = self._apply(session, link_jobs)
+            except RejectedMessage as error:
+                for job in link_jobs:
+                    outcome.rejected[id(job)] = error
+                continue
+            except Exception as error:
+                if _unstorable(error):  # e.g. a NUL byte in a text field on PostgreSQL
+                    reason = f"value cannot be stored: {str(error).splitlines()[0]}"
+                    for job in link_jobs:
+                        outcome.rejected[id(job)] = RejectedMessage(
+                            protocol.CLOSE_BAD_MESSAGE, reason
+                        )
+                    continue
+                log.exception("ingest of robot %s failed", link_jobs[0].link.robot_id)
+                failure = RejectedMessage(protocol.CLOSE_INTERNAL_ERROR, f"not stored: {error}")
+                for job in link_jobs:
+                    outcome.rejected[id(job)] = failure
+                continue
+            outcome.acks.update(single.acks)
+            outcome.stored += single.stored
+            outcome.alarms.extend(single.alarms)
+        return outcome
+
+    def _apply(self, session: Session, jobs: list[Job]) -> Outcome:
+        outcome = Outcome()
+        streams: set[tuple[str, str | None]] = set()
+        alarming: set[str] = set()
+        for job in jobs:
+            robot_id = job.link.robot_id
+            if isinstance(job.message, FrameBatch):
+                for f in job.message.frames:
+                    streams.add((robot_id, f.transport_id))
+                    if f.decision in service.ALARM_KIND_OF_DECISION:
+                        alarming.add(robot_id)
+            else:
+                streams.add((robot_id, None))
+        context = service.IngestContext().preload(session, streams, alarming)
+        touched = {}
+        # Consecutive frame batches of one connection become one store_frames call.
+        run: list[protocol.FrameRecord] = []
+        run_link: RobotLink | None = None
+
+        def store_run() -> None:
+            nonlocal run, run_link
+            if run_link is None:
+                return
+            robot = self._robot(context, run_link.robot_id)
+            result = service.store_frames(session, robot, run, context)
+            if result.highest_seq is not None:
+                key = id(run_link)
+                outcome.acks[key] = max(outcome.acks.get(key, -1), result.highest_seq)
+            for alarm in result.alarms:
+                touched[alarm.id] = alarm
+            run, run_link = [], None
+
+        for job in sorted(jobs, key=lambda j: id(j.link)):  # stable: keeps each robot's order
+            message = job.message
+            if isinstance(message, FrameBatch):
+                if run_link is not None and run_link is not job.link:
+                    store_run()
+                run_link = job.link
+                run.extend(message.frames)
+                continue
+            store_run()
+            robot = self._robot(context, job.link.robot_id)
+            if isinstance(message, TransportStart):
+                try:
+                    transport = service.start_transport(session, robot, message)
+                except ValueError as error:
+                    raise RejectedMessage(protocol.CLOSE_BAD_MESSAGE, str(error)) from None
+                context.transports[transport.id] = transport
+            elif isinstance(message, TransportEnd):
+                service.end_transport(session, robot, message)
+            elif isinstance(message, Heartbeat):
+                robot.last_seen_at = service.utcnow()
+                if message.running_model is not None:
+                    robot.running_model_version = message.running_model
+                    robot.running_model_changed = True
+        store_run()
+        outcome.stored = context.flush_rows(session)
+        context.write_back(session)
+        session.flush()
+        outcome.alarms = [
+            AlarmOut.model_validate(a).model_dump(mode="json") for a in touched.values()
+        ]
+        return outcome
+
+    @staticmethod
+    def _robot(context: service.IngestContext, robot_id: str):
+        robot = context.robots.get(robot_id)
+        if robot is None or robot.token_hash is None:
+            raise RejectedMessage(protocol.CLOSE_UNAUTHORIZED, "robot token revoked")
+        return robot
+
+
+def _unstorable(error: Exception) -> bool:
+    """A value the database refuses (SQLAlchemy's DataError, or the driver's own from COPY)."""
+    if isinstance(error, DataError):
+        return True
+    return any(cls.__name__ == "DataError" for cls in type(error).__mro__)

@@ -1,0 +1,1 @@
+"""Labelling workspace: video importers, annotation segments, review, export, agreement."""

@@ -1,0 +1,159 @@
+"""Import what `export` writes: Vigil JSON (new video), COCO keypoints (new video), CSV (labels
+onto existing videos). Imported labels become segments with source `import`; a JSON import keeps
+each segment's status, CSV and COCO labels arrive accepted (the export holds accepted labels)."""
+
+from __future__ import annotations
+
+import csv
+import io
+
+import numpy as np
+from sqlalchemy.orm import Session
+
+from backend.labelling.errors import LabellingError
+from backend.labelling.export import CSV_COLUMNS, JSON_FORMAT
+from backend.labelling.runs import label_runs
+from backend.labelling.segments import SegmentDraft, create_segment
+from backend.labelling.store import add_video, video_by_name
+from backend.models.annotations import AnnotationSegment, SegmentSource, SegmentStatus
+from backend.models.videos import Split, Video
+from vigil.classes import TransportMode
+from vigil.formats.coco import coco17_to_body25
+from vigil.skeleton import N_KEYPOINTS
+
+
+def _video_from_meta(meta: dict, name: str | None) -> Video:
+    if not isinstance(meta, dict):
+        raise LabellingError("video: must be an object")
+    try:
+        return Video(
+            name=name or meta["name"],
+            source=meta.get("source") or "export",
+            generated=bool(meta.get("generated", False)),
+            mode=TransportMode(meta.get("mode", "walking")),
+            camera=meta.get("camera"),
+            location=meta.get("location"),
+            fps=float(meta.get("fps") or 30.0),
+            person=meta.get("person"),
+            split=Split(meta.get("split") or "unassigned"),
+            image_width=meta.get("image_width") or None,
+            image_height=meta.get("image_height") or None,
+            intrinsics=meta.get("intrinsics"),
+        )
+    except KeyError as error:
+        raise LabellingError(f"video.{error.args[0]}: missing") from error
+    except ValueError as error:
+        raise LabellingError(f"video: {error}") from error
+
+
+def _add_segments(
+    session: Session, video: Video, runs, status=SegmentStatus.ACCEPTED
+) -> list[AnnotationSegment]:
+    return [
+        create_segment(
+            session,
+            video,
+            SegmentDraft(first, last, label),
+            None,
+            source=SegmentSource.IMPORT,
+            status=status,
+        )  # fmt: skip
+        for first, last, label in runs
+    ]
+
+
+def import_json(session: Session, document: dict, name: str | None = None) -> Video:
+    if document.get("format") != JSON_FORMAT:
+        raise LabellingError(f"format: expected {JSON_FORMAT!r}, got {document.get('format')!r}")
+    video = _video_from_meta(document.get("video"), name)
+    frames = document.get("frames")
+    if not isinstance(frames, list) or not frames:
+        raise LabellingError("frames: must be a non-empty list")
+    try:
+        indices = [int(f["index"]) for f in frames]
+        keypoints = np.array([f["keypoints"] for f in frames], np.float32)
+        depth = np.array(
+            [
+                [np.nan if v is None else v for v in f["depth"]]
+                if f.get("depth") is not None
+                else [np.nan] * N_KEYPOINTS
+                for f in frames
+            ],
+            np.float32,
+        )
+        timestamps = [float(f["ts"]) for f in frames]
+    except (KeyError, TypeError, ValueError) as error:
+        raise LabellingError(f"frames: malformed frame ({error})") from error
+    if keypoints.shape[1:] != (N_KEYPOINTS, 3) or depth.shape[1:] != (N_KEYPOINTS,):
+        raise LabellingError("frames: keypoints must be 25 x 3 and depth 25 numbers per frame")
+    if min(indices) < 0 or len(set(indices)) != len(indices):
+        raise LabellingError("frames: indices must be unique and not negative")
+    add_video(session, video, keypoints, timestamps, depth, indices)
+    for segment in document.get("segments") or []:
+        try:
+            status = SegmentStatus(segment.get("status", "accepted"))
+            draft = SegmentDraft(
+                int(segment["first_frame"]), int(segment["last_frame"]), segment["label_key"]
+            )
+        except (KeyError, TypeError, ValueError) as error:
+            raise LabellingError(f"segments: malformed segment ({error})") from error
+        created = create_segment(
+            session, video, draft, None, source=SegmentSource.IMPORT, status=status
+        )
+        created.review_comment = segment.get("review_comment")
+    return video
+
+
+def import_coco(session: Session, document: dict, name: str | None = None) -> Video:
+    info = document.get("info") or {}
+    meta = dict(info.get("video") or {})
+    if not meta.get("name") and not name:
+        raise LabellingError("info.video.name: missing (or pass a name)")
+    images = document.get("images")
+    if not isinstance(images, list) or not images:
+        raise LabellingError("images: must be a non-empty list")
+    video = _video_from_meta(meta, name)
+    by_image = {a.get("image_id"): a for a in document.get("annotations") or []}
+    indices, points, labels = [], [], []
+    for image in sorted(images, key=lambda im: im.get("frame_index", im.get("id", 0))):
+        index = int(image.get("frame_index", image["id"] - 1))
+        annotation = by_image.get(image["id"])
+        coco = np.zeros((17, 3), np.float32)
+        if annotation is not None:
+            flat = annotation.get("keypoints")
+            if not isinstance(flat, list) or len(flat) != 51:
+                raise LabellingError(f"annotations[{annotation.get('id')}].keypoints: need 51")
+            coco = np.array(flat, np.float32).reshape(17, 3)
+            coco[:, 2] = (coco[:, 2] > 0).astype(np.float32)
+        indices.append(index)
+        points.append(coco)
+        labels.append(image.get("label_key"))
+    keypoints = coco17_to_body25(np.stack(points))
+    add_video(session, video, keypoints, [i / video.fps for i in indices], None, indices)
+    frame_label = [None] * video.frame_count
+    for index, label in zip(indices, labels, strict=True):
+        frame_label[index] = label or None
+    _add_segments(session, video, label_runs(frame_label))
+    return video
+
+
+def import_csv(session: Session, text: str) -> dict[str, int]:
+    """Labels onto videos that exist (by name); returns segments created per video."""
+    reader = csv.DictReader(io.StringIO(text))
+    if tuple(reader.fieldnames or ())[:4] != CSV_COLUMNS[:4]:
+        raise LabellingError(f"csv: header must start with {','.join(CSV_COLUMNS[:4])}")
+    per_video: dict[str, dict[int, str | None]] = {}
+    for line, row in enumerate(reader, start=2):
+        try:
+            frame = int(row["frame"])
+        except (TypeError, ValueError) as error:
+            raise LabellingError(f"csv line {line}: frame must be an integer") from error
+        per_video.setdefault(row["video"], {})[frame] = row["label_key"] or None
+    created: dict[str, int] = {}
+    for name, labels in per_video.items():
+        video = video_by_name(session, name)
+        if video is None:
+            raise LabellingError(f"csv: video {name!r} does not exist; import its frames first")
+        frame_label = [labels.get(i) for i in range(max(labels) + 1)]
+        created[name] = len(_add_segments(session, video, label_runs(frame_label)))
+    return created

@@ -1,0 +1,1 @@
+"""Importers turning datasets and files into videos with frames (and labels)."""

@@ -1,0 +1,142 @@
+"""UR Fall Detection (real falls; Kwolek & Kepski 2014, CC BY-NC-SA 4.0) -> videos + labels.
+
+Official per-frame labels map onto the taxonomy as imported, accepted segments:
+
+| sequence | -1 (not lying) | 0 (in between)  | 1 (lying on the ground)   |
+| -------- | -------------- | --------------- | ------------------------- |
+| fall-*   | walking        | falling         | lying_on_floor            |
+| adl-*    | walking        | bending         | lying_down_deliberately   |
+
+ADL "0" is a transitional pose (crouching, bending down, sitting down); the data cannot tell
+these apart, so one label is used for all of them: `bending`, Normal in every mode as is
+`sitting_down`. Frames without an official label get no segment.
+
+Frame index i is the i-th row of the keypoint extraction (npy_index - 1). Those keypoints
+belong to official picture max(i, 1); the clip's 0-based frame is therefore i - 1
+(Video.rgb_frame_offset = -1) and depth picture fall-01-cam0-d-NNN.png belongs to frame NNN.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+from sqlalchemy.orm import Session
+
+from backend.labelling.depth import depth_at_keypoints, read_depth_png
+from backend.labelling.runs import label_runs
+from backend.labelling.segments import SegmentDraft, create_segment
+from backend.labelling.store import add_video, video_by_name
+from backend.models.annotations import SegmentSource, SegmentStatus
+from backend.models.videos import Split, Video
+from vigil.classes import TransportMode
+from vigil.datasets import urfd
+
+LABEL_MAP = {
+    "fall": {-1: "walking", 0: "falling", 1: "lying_on_floor"},
+    "adl": {-1: "walking", 0: "bending", 1: "lying_down_deliberately"},
+}
+#: The URFD clip: 640x240, depth picture left, RGB (320x240) right.
+RGB_CROP = {"x": 320, "y": 0, "width": 320, "height": 240}
+#: Depth PNG raw value -> metres (README: P * 6000 / 65535 mm for falls, 7000 for ADL).
+DEPTH_RANGE_MM = {"fall": 6000.0, "adl": 7000.0}
+DEPTH_NAME = re.compile(r"^(?P<seq>(fall|adl)-\d+)-cam0-d-(?P<frame>\d+)\.png$")
+#: Nominal Kinect v1 colour-camera intrinsics at 640x480 (URFD publishes no calibration).
+KINECT_INTRINSICS = {"fx": 525.0, "fy": 525.0, "cx": 319.5, "cy": 239.5}
+TEST_EVERY = 5  # every 5th sequence of each kind is a test video (split by video, never frame)
+
+
+@dataclass
+class ImportReport:
+    created: list[str] = field(default_factory=list)
+    skipped: list[str] = field(default_factory=list)
+    segments: int = 0
+
+
+def split_for(name: str) -> Split:
+    return Split.TEST if int(name.split("-")[1]) % TEST_EVERY == 0 else Split.TRAIN
+
+
+def _depth_for(directory: Path, sequence: urfd.Sequence) -> np.ndarray | None:
+    depth_dir = directory / "depth"
+    if not depth_dir.is_dir():
+        return None
+    kind = sequence.name.split("-")[0]
+    metres_per_unit = DEPTH_RANGE_MM[kind] / 65535 / 1000
+    depth = np.full((len(sequence), 25), np.nan, np.float32)
+    found = False
+    for path in sorted(depth_dir.glob(f"{sequence.name}-cam0-d-*.png")):
+        match = DEPTH_NAME.match(path.name)
+        frame = int(match["frame"]) if match else -1
+        if 0 <= frame < len(sequence):
+            picture = read_depth_png(path)
+            depth[frame] = depth_at_keypoints(picture, sequence.keypoints[frame], metres_per_unit)
+            found = True
+    return depth if found else None
+
+
+def import_urfd(
+    session: Session,
+    directory: Path | str | None = None,
+    names: list[str] | None = None,
+    labels: bool = True,
+    sequences: list[urfd.Sequence] | None = None,
+) -> ImportReport:
+    """Idempotent: sequences already imported (by video name) are skipped. labels=False
+    imports the recordings only (to label them from scratch). `sequences` saves re-reading
+    the keypoint file when the caller has already loaded them."""
+    directory = Path(directory) if directory else urfd.default_dir()
+    report = ImportReport()
+    for sequence in sequences if sequences is not None else urfd.load(directory, names):
+        if video_by_name(session, sequence.name) is not None:
+            report.skipped.append(sequence.name)
+            continue
+        kind = sequence.name.split("-")[0]
+        clip = directory / "video" / f"{sequence.name}-cam0.mp4"
+        video = Video(
+            name=sequence.name,
+            source="urfd",
+            generated=False,
+            mode=TransportMode.WALKING,
+            camera="urfd-kinect-cam0",
+            location="URFD lab (Rzeszow)",
+            person=None,  # URFD does not say who is in which sequence
+            split=split_for(sequence.name),
+            fps=urfd.FPS,
+            image_width=urfd.IMAGE_SIZE[0],
+            image_height=urfd.IMAGE_SIZE[1],
+            rgb_path=str(clip) if clip.is_file() else None,
+            rgb_crop=RGB_CROP if clip.is_file() else None,
+            rgb_frame_offset=-1,
+            intrinsics=KINECT_INTRINSICS,
+        )
+        depth = _depth_for(directory, sequence)
+        if depth is not None:
+            video.depth_path = str(directory / "depth")
+        indices = np.rint(sequence.timestamps * urfd.FPS).astype(int)
+        add_video(
+            session,
+            video,
+            sequence.keypoints,
+            sequence.timestamps,
+            depth=depth,
+            indices=indices,
+        )
+        official = [
+            None if np.isnan(value) or not labels else LABEL_MAP[kind][int(value)]
+            for value in sequence.urfd_label
+        ]
+        for first, last, label in label_runs(official):
+            create_segment(
+                session,
+                video,
+                SegmentDraft(int(indices[first]), int(indices[last]), label),
+                None,
+                source=SegmentSource.IMPORT,
+                status=SegmentStatus.ACCEPTED,
+            )
+            report.segments += 1
+        report.created.append(sequence.name)
+    return report

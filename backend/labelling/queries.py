@@ -1,0 +1,87 @@
+"""Labelling queries, in one place."""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+
+import numpy as np
+from sqlalchemy import select
+from sqlalchemy.orm import Session
+
+from backend.models.annotations import AnnotationSegment, SegmentStatus
+from backend.models.users import User
+from backend.models.videos import Frame, Video
+from vigil.skeleton import N_KEYPOINTS, decode_depth, decode_keypoints
+
+LIVE = tuple(s for s in SegmentStatus if s != SegmentStatus.DELETED)
+
+
+def video_segments(
+    session: Session, video_id: int, statuses: Iterable[SegmentStatus] = LIVE
+) -> list[AnnotationSegment]:
+    return list(
+        session.scalars(
+            select(AnnotationSegment)
+            .where(
+                AnnotationSegment.video_id == video_id,
+                AnnotationSegment.status.in_(list(statuses)),
+            )
+            .order_by(AnnotationSegment.first_frame, AnnotationSegment.id)
+        )
+    )
+
+
+def video_frames(session: Session, video: Video) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(indices, keypoints (n, 25, 3), depth (n, 25) NaN where unknown) of a whole video."""
+    rows = session.execute(
+        select(Frame.index, Frame.keypoints, Frame.depth)
+        .where(Frame.video_id == video.id)
+        .order_by(Frame.index)
+    ).all()
+    indices = np.array([r[0] for r in rows], np.int64)
+    keypoints = np.stack([decode_keypoints(r[1]) for r in rows]) if rows else np.zeros((0, 25, 3))
+    depth = np.full((len(rows), N_KEYPOINTS), np.nan, np.float32)
+    for i, row in enumerate(rows):
+        if row[2] is not None:
+            depth[i] = decode_depth(row[2])
+    return indices, keypoints, depth
+
+
+def frame_timestamps(session: Session, video_id: int) -> dict[int, float]:
+    return dict(
+        session.execute(select(Frame.index, Frame.ts).where(Frame.video_id == video_id)).all()
+    )
+
+
+def usernames(session: Session, ids: Iterable[int | None]) -> dict[int, str]:
+    wanted = {i for i in ids if i is not None}
+    if not wanted:
+        return {}
+    return dict(session.execute(select(User.id, User.username).where(User.id.in_(wanted))).all())
+
+
+def user_by_name(session: Session, username: str) -> User | None:
+    return session.scalars(select(User).where(User.username == username)).first()
+
+
+def progress_by_video(session: Session) -> dict[int, dict[str, int]]:
+    """video id -> {status: number of segments, "labelled_frames": frames covered by a
+    segment that is not rejected (overlaps counted once)}."""
+    out: dict[int, dict[str, int]] = {}
+    covered: dict[int, set[int]] = {}
+    rows = session.execute(
+        select(
+            AnnotationSegment.video_id,
+            AnnotationSegment.status,
+            AnnotationSegment.first_frame,
+            AnnotationSegment.last_frame,
+        ).where(AnnotationSegment.status != SegmentStatus.DELETED)
+    ).all()
+    for video_id, status, first, last in rows:
+        entry = out.setdefault(video_id, {})
+        entry[str(status)] = entry.get(str(status), 0) + 1
+        if status != SegmentStatus.REJECTED:
+            covered.setdefault(video_id, set()).update(range(first, last + 1))
+    for video_id, frames in covered.items():
+        out[video_id]["labelled_frames"] = len(frames)
+    return out

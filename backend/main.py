@@ -1,0 +1,156 @@
+"""The FastAPI application. `create_app()` builds it; the engine is made in the lifespan."""
+
+from __future__ import annotations
+
+import asyncio
+import logging
+from contextlib import asynccontextmanager
+from pathlib import Path
+
+from fastapi import FastAPI, HTTPException, Request, Response, status
+from fastapi.responses import FileResponse, JSONResponse
+from fastapi.staticfiles import StaticFiles
+from prometheus_client import CONTENT_TYPE_LATEST, generate_latest
+from sqlalchemy import func, select
+from sqlalchemy.exc import DataError
+
+from backend.alarms.monitor import AlarmMonitor
+from backend.api import (
+    alarm_review,
+    alarms,
+    audit,
+    auth,
+    jobs,
+    labelling,
+    misc,
+    registry,
+    robots,
+    videos,
+)
+from backend.db import make_engine, make_session_factory
+from backend.deps import CurrentUser
+from backend.ingest import robot_ws
+from backend.ingest.registry import RobotRegistry
+from backend.ingest.writer import FrameWriter
+from backend.metrics import Metrics
+from backend.models.alarms import Alarm, AlarmState
+from backend.realtime import browser_ws
+from backend.realtime.bus import AlarmBus
+from backend.realtime.hub import BrowserHub
+from backend.registry import push as model_push
+from backend.settings import Settings
+
+log = logging.getLogger("vigil.backend")
+
+ROUTERS = (
+    auth.router,
+    misc.router,
+    robots.router,
+    alarms.router,
+    alarm_review.router,
+    audit.router,
+    videos.router,
+    registry.router,
+    jobs.router,
+)
+
+
+def create_app(settings: Settings | None = None) -> FastAPI:
+    settings = settings or Settings()
+
+    @asynccontextmanager
+    async def lifespan(app: FastAPI):
+        engine = make_engine(settings.database_url)
+        app.state.engine = engine
+        app.state.session_factory = factory = make_session_factory(engine)
+        log.info("database %s", engine.url.render_as_string(hide_password=True))
+        app.state.bus = bus = AlarmBus(app.state.hub, settings.redis_url, settings.redis_channel)
+        await bus.start()
+        app.state.writer = writer = FrameWriter(
+            factory,
+            metrics,
+            bus.publish,
+            flush_ms=settings.ingest_flush_ms,
+            flush_frames=settings.ingest_flush_frames,
+        )
+        writer.start()
+        app.state.monitor = monitor = AlarmMonitor(factory, settings, bus.publish)
+        monitor.start()
+        reconcile = asyncio.create_task(model_push.reconcile_forever(app))
+        try:
+            yield
+        finally:
+            reconcile.cancel()
+            await monitor.stop()
+            await writer.stop()
+            await bus.stop()
+            engine.dispose()
+
+    app = FastAPI(
+        title="Vigil",
+        version="0.1.0",
+        description="Emergency detection for autonomous hospital patient transports.",
+        lifespan=lifespan,
+    )
+    app.state.settings = settings
+    app.state.metrics = metrics = Metrics()
+    app.state.hub = BrowserHub()
+    app.state.robots = RobotRegistry(on_change=metrics.connected_robots.set)
+    for router in ROUTERS:
+        app.include_router(router)
+    labelling.install(app, settings)
+    app.include_router(robot_ws.router)
+    app.include_router(browser_ws.router)
+
+    @app.get("/metrics", tags=["system"], response_class=Response)
+    def prometheus_metrics(user: CurrentUser) -> Response:
+        with app.state.session_factory() as session:
+            counts = dict(
+                session.execute(
+                    select(Alarm.kind, func.count())
+                    .where(Alarm.state != AlarmState.RESOLVED)
+                    .group_by(Alarm.kind)
+                ).all()
+            )
+        for kind in ("emergency", "pause", "robot_offline", "stream_stalled"):
+            metrics.open_alarms.labels(kind).set(counts.get(kind, 0))
+        return Response(generate_latest(metrics.registry), media_type=CONTENT_TYPE_LATEST)
+
+    @app.exception_handler(DataError)
+    def unstorable_value(request: Request, error: DataError) -> JSONResponse:
+        # e.g. a NUL byte in a text field on PostgreSQL: the client's value, not our fault.
+        reason = str(error.orig).splitlines()[0] if error.orig else "invalid value"
+        return JSONResponse({"detail": f"value cannot be stored: {reason}"}, status_code=422)
+
+    @app.exception_handler(OverflowError)
+    def integer_out_of_range(request: Request, error: OverflowError) -> JSONResponse:
+        # SQLite raises this for integers beyond 64 bits, e.g. an absurd id in a path.
+        return JSONResponse({"detail": f"value out of range: {error}"}, status_code=422)
+
+    _mount_frontend(app, settings.frontend_dir)
+    return app
+
+
+def _mount_frontend(app: FastAPI, frontend_dir: Path) -> None:
+    """Serve the built single-page app; unknown non-API paths get index.html."""
+    index = frontend_dir / "index.html"
+    assets = frontend_dir / "assets"
+    if assets.is_dir():
+        app.mount("/assets", StaticFiles(directory=assets), name="assets")
+
+    @app.get("/{path:path}", include_in_schema=False)
+    def single_page_app(path: str) -> FileResponse:
+        if path.startswith(("api/", "ws/")) or path == "metrics":
+            raise HTTPException(status.HTTP_404_NOT_FOUND, "not found")
+        candidate = (frontend_dir / path).resolve()
+        if path and candidate.is_file() and candidate.is_relative_to(frontend_dir.resolve()):
+            return FileResponse(candidate)
+        if not index.is_file():
+            raise HTTPException(
+                status.HTTP_503_SERVICE_UNAVAILABLE,
+                "frontend not built: run `make frontend` (make run does it)",
+            )
+        return FileResponse(index)
+
+
+app = create_app()

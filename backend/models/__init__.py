@@ -1,0 +1,32 @@
+"""SQLAlchemy 2 typed models, one module per domain."""
+
+from backend.models.alarms import (
+    Alarm,
+    AlarmEvent,
+    AlarmKind,
+    AlarmPriority,
+    AlarmState,
+    FalseAlarmReason,
+    Verdict,
+)
+from backend.models.annotations import AnnotationSegment, SegmentEvent, SegmentSource, SegmentStatus
+from backend.models.jobs import Job, JobKind, JobStatus
+from backend.models.registry import (
+    Deployment,
+    DeploymentScope,
+    DeploymentStatus,
+    ModelStatus,
+    ModelVersion,
+)
+from backend.models.robots import Robot, Transport
+from backend.models.taxonomy import TaxonomyLabel, TaxonomyVersion
+from backend.models.users import Role, User
+from backend.models.videos import Frame, Split, Video
+
+__all__ = [
+    "Alarm", "AlarmEvent", "AlarmKind", "AlarmPriority", "AlarmState", "AnnotationSegment",
+    "Deployment", "DeploymentScope", "DeploymentStatus", "FalseAlarmReason", "Frame", "Job",
+    "JobKind", "JobStatus", "ModelStatus", "ModelVersion", "Robot", "Role", "SegmentEvent",
+    "SegmentSource", "SegmentStatus", "Split", "TaxonomyLabel", "TaxonomyVersion", "Transport",
+    "User", "Verdict", "Video",
+]  # fmt: skip

@@ -1,0 +1,131 @@
+from datetime import datetime
+from enum import StrEnum
+
+from sqlalchemy import ForeignKey, Index, String, Text, text
+from sqlalchemy.orm import Mapped, mapped_column, relationship
+
+from backend.db import Base
+from backend.models._types import UTCDateTime, utcnow
+from backend.models.users import User
+
+
+class AlarmKind(StrEnum):
+    EMERGENCY = "emergency"
+    PAUSE = "pause"
+    ROBOT_OFFLINE = "robot_offline"
+    STREAM_STALLED = "stream_stalled"
+
+
+class AlarmPriority(StrEnum):
+    HIGH = "high"
+    MEDIUM = "medium"
+    TECHNICAL = "technical"
+
+
+PRIORITY_OF_KIND = {
+    AlarmKind.EMERGENCY: AlarmPriority.HIGH,
+    AlarmKind.PAUSE: AlarmPriority.MEDIUM,
+    AlarmKind.ROBOT_OFFLINE: AlarmPriority.TECHNICAL,
+    AlarmKind.STREAM_STALLED: AlarmPriority.TECHNICAL,
+}
+
+
+class AlarmState(StrEnum):
+    OPEN = "open"
+    ACKNOWLEDGED = "acknowledged"
+    RESOLVED = "resolved"
+
+
+class Verdict(StrEnum):
+    TRUE_EMERGENCY = "true_emergency"
+    FALSE_ALARM = "false_alarm"
+    UNSURE = "unsure"
+
+
+class FalseAlarmReason(StrEnum):
+    BENDING = "bending"
+    SITTING_DOWN = "sitting_down"
+    LYING_DOWN_DELIBERATELY = "lying_down_deliberately"
+    OTHER = "other"
+
+
+class Alarm(Base):
+    __tablename__ = "alarms"
+    __table_args__ = (
+        # One alarm per transport (robot for technical alarms) and kind is not resolved.
+        Index(
+            "uq_alarms_one_unresolved",
+            "robot_id",
+            "transport_key",
+            "kind",
+            unique=True,
+            sqlite_where=text("state != 'resolved'"),
+            postgresql_where=text("state != 'resolved'"),
+        ),
+        Index("ix_alarms_state_ward", "state", "ward"),
+    )
+
+    id: Mapped[int] = mapped_column(primary_key=True)
+    kind: Mapped[AlarmKind] = mapped_column(String(16))
+    priority: Mapped[AlarmPriority] = mapped_column(String(16))
+    state: Mapped[AlarmState] = mapped_column(String(16), default=AlarmState.OPEN)
+    robot_id: Mapped[str] = mapped_column(ForeignKey("robots.id"))
+    transport_id: Mapped[str | None] = mapped_column(ForeignKey("transports.id"))
+    # transport_id or '' (NULLs never collide in a unique index, so the key is never NULL).
+    transport_key: Mapped[str] = mapped_column(String(64), default="")
+    ward: Mapped[str] = mapped_column(String(64))
+    patient: Mapped[str | None] = mapped_column(String(64))
+    location: Mapped[str | None] = mapped_column(String(128))
+    raised_at: Mapped[datetime] = mapped_column(UTCDateTime, default=utcnow)
+    updated_at: Mapped[datetime] = mapped_column(UTCDateTime, default=utcnow)
+    acknowledged_at: Mapped[datetime | None] = mapped_column(UTCDateTime)
+    acknowledged_by_id: Mapped[int | None] = mapped_column(ForeignKey("users.id"))
+    resolved_at: Mapped[datetime | None] = mapped_column(UTCDateTime)
+    resolved_by_id: Mapped[int | None] = mapped_column(ForeignKey("users.id"))
+    verdict: Mapped[Verdict | None] = mapped_column(String(16))
+    reason: Mapped[FalseAlarmReason | None] = mapped_column(String(32))
+    comment: Mapped[str | None] = mapped_column(Text)
+    escalation_level: Mapped[int] = mapped_column(default=0)
+    escalated_at: Mapped[datetime | None] = mapped_column(UTCDateTime)
+    realarmed_at: Mapped[datetime | None] = mapped_column(UTCDateTime)
+    video_id: Mapped[int | None] = mapped_column(ForeignKey("videos.id"))
+    first_seq: Mapped[int | None] = mapped_column()
+    last_seq: Mapped[int | None] = mapped_column()
+    first_frame_ts: Mapped[float | None] = mapped_column()
+    last_frame_ts: Mapped[float | None] = mapped_column()
+    decision_count: Mapped[int] = mapped_column(default=0)
+    model_version: Mapped[str | None] = mapped_column(String(64), index=True)
+    threshold: Mapped[float | None] = mapped_column()
+    delay_ms: Mapped[int | None] = mapped_column()
+
+    acknowledged_by_user: Mapped[User | None] = relationship(
+        foreign_keys=[acknowledged_by_id], lazy="joined"
+    )
+    resolved_by_user: Mapped[User | None] = relationship(
+        foreign_keys=[resolved_by_id], lazy="joined"
+    )
+
+    @property
+    def acknowledged_by(self) -> str | None:
+        return self.acknowledged_by_user.username if self.acknowledged_by_user else None
+
+    @property
+    def resolved_by(self) -> str | None:
+        return self.resolved_by_user.username if self.resolved_by_user else None
+
+
+class AlarmEvent(Base):
+    """Audit trail: every transition of an alarm with who, when, from, to and comment."""
+
+    __tablename__ = "alarm_events"
+    __table_args__ = (Index("ix_alarm_events_at", "at"),)
+
+    id: Mapped[int] = mapped_column(primary_key=True)
+    alarm_id: Mapped[int] = mapped_column(ForeignKey("alarms.id", ondelete="CASCADE"), index=True)
+    at: Mapped[datetime] = mapped_column(UTCDateTime, default=utcnow)
+    actor_user_id: Mapped[int | None] = mapped_column(ForeignKey("users.id"))
+    actor: Mapped[str] = mapped_column(String(128))  # "nurse:alice", "robot:r1", "system"
+    action: Mapped[str] = mapped_column(String(32))
+    from_state: Mapped[AlarmState | None] = mapped_column(String(16))
+    to_state: Mapped[AlarmState] = mapped_column(String(16))
+    comment: Mapped[str | None] = mapped_column(Text)

@@ -1,0 +1,40 @@
+from datetime import datetime
+
+from sqlalchemy import ForeignKey, Index, String
+from sqlalchemy.orm import Mapped, mapped_column
+
+from backend.db import Base
+from backend.models._types import UTCDateTime, utcnow
+from vigil.classes import TransportMode
+
+
+class Robot(Base):
+    __tablename__ = "robots"
+
+    id: Mapped[str] = mapped_column(String(64), primary_key=True)
+    name: Mapped[str] = mapped_column(String(128), default="")
+    ward: Mapped[str] = mapped_column(String(64))
+    token_hash: Mapped[str | None] = mapped_column(String(128))
+    token_created_at: Mapped[datetime | None] = mapped_column(UTCDateTime)
+    assigned_model_id: Mapped[int | None] = mapped_column(ForeignKey("model_versions.id"))
+    shadow_model_id: Mapped[int | None] = mapped_column(ForeignKey("model_versions.id"))
+    running_model_version: Mapped[str | None] = mapped_column(String(64))
+    agent_version: Mapped[str | None] = mapped_column(String(64))
+    last_seen_at: Mapped[datetime | None] = mapped_column(UTCDateTime)
+    last_seq: Mapped[int | None] = mapped_column()
+    created_at: Mapped[datetime] = mapped_column(UTCDateTime, default=utcnow)
+
+
+class Transport(Base):
+    __tablename__ = "transports"
+    __table_args__ = (Index("ix_transports_active", "ended_at"),)
+
+    id: Mapped[str] = mapped_column(String(64), primary_key=True)
+    robot_id: Mapped[str] = mapped_column(ForeignKey("robots.id"), index=True)
+    mode: Mapped[TransportMode] = mapped_column(String(16))
+    patient: Mapped[str | None] = mapped_column(String(64))
+    location: Mapped[str | None] = mapped_column(String(128))
+    started_at: Mapped[datetime] = mapped_column(UTCDateTime, default=utcnow)
+    ended_at: Mapped[datetime | None] = mapped_column(UTCDateTime)
+    # When a frame of this transport was last committed (stream-stalled detection).
+    last_frame_at: Mapped[datetime | None] = mapped_column(UTCDateTime)

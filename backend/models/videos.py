@@ -1,0 +1,76 @@
+from datetime import datetime
+from enum import StrEnum
+
+from sqlalchemy import JSON, ForeignKey, Index, LargeBinary, String, UniqueConstraint
+from sqlalchemy.orm import Mapped, mapped_column
+
+from backend.db import Base
+from backend.models._types import UTCDateTime, utcnow
+from vigil.classes import Decision, TransportMode
+
+
+class Split(StrEnum):
+    TRAIN = "train"
+    TEST = "test"
+    UNASSIGNED = "unassigned"
+
+
+class Video(Base):
+    """A recording: an imported dataset sequence, an OpenPose directory or a robot transport."""
+
+    __tablename__ = "videos"
+
+    id: Mapped[int] = mapped_column(primary_key=True)
+    name: Mapped[str] = mapped_column(String(128), unique=True)
+    source: Mapped[str] = mapped_column(String(32))  # urfd, openpose, export, robot, generated
+    generated: Mapped[bool] = mapped_column(default=False)
+    mode: Mapped[TransportMode] = mapped_column(String(16))
+    camera: Mapped[str | None] = mapped_column(String(64))
+    location: Mapped[str | None] = mapped_column(String(128))
+    fps: Mapped[float] = mapped_column(default=30.0)
+    person: Mapped[str | None] = mapped_column(String(64))  # pseudonym
+    split: Mapped[Split] = mapped_column(String(16), default=Split.UNASSIGNED)
+    transport_id: Mapped[str | None] = mapped_column(ForeignKey("transports.id"), index=True)
+    robot_id: Mapped[str | None] = mapped_column(ForeignKey("robots.id"))
+    rgb_path: Mapped[str | None] = mapped_column(String(512))
+    depth_path: Mapped[str | None] = mapped_column(String(512))
+    frame_count: Mapped[int] = mapped_column(default=0)
+    # Size of the keypoints' coordinate space (pixels); None when keypoints are normalised.
+    image_width: Mapped[float | None] = mapped_column()
+    image_height: Mapped[float | None] = mapped_column()
+    # Pinhole camera of the keypoints' image: {"fx", "fy", "cx", "cy"} in pixels (3D view).
+    intrinsics: Mapped[dict | None] = mapped_column(JSON)
+    # Where the RGB picture sits in the clip's frames: {"x", "y", "width", "height"} in pixels
+    # (URFD clips put depth left and RGB right); None = the whole frame.
+    rgb_crop: Mapped[dict | None] = mapped_column(JSON)
+    # Clip frame = skeleton frame index + offset (clamped to the clip); URFD keypoints lag by 1.
+    rgb_frame_offset: Mapped[int] = mapped_column(default=0, server_default="0")
+    created_at: Mapped[datetime] = mapped_column(UTCDateTime, default=utcnow)
+
+
+class Frame(Base):
+    """One classified skeleton frame; keypoints and depth as little-endian float32 blobs."""
+
+    __tablename__ = "frames"
+    __table_args__ = (
+        UniqueConstraint("video_id", "index", name="uq_frames_video_index"),
+        UniqueConstraint("robot_id", "seq", name="uq_frames_robot_seq"),
+        Index("ix_frames_video_ts", "video_id", "ts"),
+    )
+
+    id: Mapped[int] = mapped_column(primary_key=True)
+    video_id: Mapped[int] = mapped_column(ForeignKey("videos.id", ondelete="CASCADE"))
+    index: Mapped[int] = mapped_column()
+    ts: Mapped[float] = mapped_column()  # seconds (unix time for robot frames)
+    robot_id: Mapped[str | None] = mapped_column(String(64))
+    seq: Mapped[int | None] = mapped_column()
+    keypoints: Mapped[bytes] = mapped_column(LargeBinary)
+    depth: Mapped[bytes | None] = mapped_column(LargeBinary)
+    decision: Mapped[Decision | None] = mapped_column(String(16))
+    scores: Mapped[dict | None] = mapped_column(JSON)
+    model_version: Mapped[str | None] = mapped_column(String(64))
+    threshold: Mapped[float | None] = mapped_column()
+    delay_ms: Mapped[int | None] = mapped_column()
+    shadow_decision: Mapped[Decision | None] = mapped_column(String(16))
+    shadow_scores: Mapped[dict | None] = mapped_column(JSON)
+    shadow_model_version: Mapped[str | None] = mapped_column(String(64))

@@ -1,0 +1,78 @@
+"""Alarm fan-out. A committed alarm goes to this process's browsers at once and, when
+`redis_url` is set, through Redis pub/sub to every other backend replica, which hands it to its
+own browsers (each replica ignores its own messages)."""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import json
+import logging
+import uuid
+
+from backend.realtime.hub import BrowserHub
+
+log = logging.getLogger(__name__)
+
+
+class AlarmBus:
+    def __init__(self, hub: BrowserHub, redis_url: str | None, channel: str) -> None:
+        self.hub = hub
+        self.origin = uuid.uuid4().hex
+        self._redis_url = redis_url
+        self._channel = channel
+        self._redis = None
+        self._listener: asyncio.Task | None = None
+        self.subscribed = asyncio.Event()
+
+    async def start(self) -> None:
+        if not self._redis_url:
+            return
+        import redis.asyncio as redis
+
+        self._redis = redis.from_url(self._redis_url)
+        self._listener = asyncio.create_task(self._listen(), name="alarm-bus")
+        # Serve only once subscribed, so no alarm of another replica is missed at start-up.
+        try:
+            await asyncio.wait_for(self.subscribed.wait(), 5)
+        except TimeoutError:
+            log.warning("Redis at %s not reachable: alarms stay local until it is", self._redis_url)
+
+    async def stop(self) -> None:
+        if self._listener is not None:
+            self._listener.cancel()
+            with contextlib.suppress(asyncio.CancelledError):
+                await self._listener
+        if self._redis is not None:
+            await self._redis.aclose()
+
+    async def publish(self, alarm: dict) -> None:
+        """Push one committed alarm (its AlarmOut JSON) to every browser allowed to see it."""
+        await self.hub.publish_alarm(alarm)
+        if self._redis is None:
+            return
+        try:
+            await self._redis.publish(
+                self._channel, json.dumps({"origin": self.origin, "alarm": alarm})
+            )
+        except Exception as error:  # Redis down: local browsers have it; others see it on reload
+            log.warning("alarm %s not fanned out through Redis: %s", alarm.get("id"), error)
+
+    async def _listen(self) -> None:
+        while True:
+            try:
+                async with self._redis.pubsub() as pubsub:
+                    await pubsub.subscribe(self._channel)
+                    self.subscribed.set()
+                    async for message in pubsub.listen():
+                        if message.get("type") != "message":
+                            continue
+                        payload = json.loads(message["data"])
+                        if payload.get("origin") != self.origin:
+                            await self.hub.publish_alarm(payload["alarm"])
+            except asyncio.CancelledError:
+                raise
+            except Exception as error:
+                self.subscribed.clear()
+                log.warning("Redis alarm subscription lost (%s); retrying in 1 s", error)
+                await asyncio.sleep(1)

@@ -1,0 +1,1 @@
+"""Model registry: versions, gate, rollout to robots, rollback, shadow mode."""

@@ -1,0 +1,140 @@
+"""Tell connected robots which model to run: `assign_model` messages over their websocket.
+
+Sent right after a rollout change is committed, after `welcome` when a robot (re)connects with a
+different version than assigned, and by a reconcile loop that resends an assignment a robot has
+not switched to (this also carries rollbacks made by the worker's automatic check).
+"""
+
+from __future__ import annotations
+
+import asyncio
+import logging
+import time
+
+from fastapi import FastAPI, WebSocket
+from sqlalchemy import select
+from starlette.concurrency import run_in_threadpool
+
+from backend.models.registry import ModelVersion
+from backend.models.robots import Robot
+from vigil.protocol import ModelAssignment
+
+log = logging.getLogger(__name__)
+DOWNLOAD_PATH = "/api/robot/models/{version}/file"
+
+
+def http_base(websocket: WebSocket) -> str:
+    url = websocket.base_url
+    scheme = {"ws": "http", "wss": "https"}.get(url.scheme, url.scheme)
+    return str(url.replace(scheme=scheme)).rstrip("/")
+
+
+def assignment_for(model: ModelVersion, base_url: str, shadow: bool) -> ModelAssignment:
+    return ModelAssignment(
+        version=model.version,
+        url=base_url + DOWNLOAD_PATH.format(version=model.version),
+        sha256=model.sha256,
+        manifest=model.manifest,
+        shadow=shadow,
+    )
+
+
+def _wanted(
+    app: FastAPI, robot_id: str
+) -> tuple[ModelVersion | None, ModelVersion | None, str | None]:
+    with app.state.session_factory() as session:
+        robot = session.get(Robot, robot_id)
+        if robot is None:
+            return None, None, None
+        assigned = (
+            session.get(ModelVersion, robot.assigned_model_id) if robot.assigned_model_id else None
+        )
+        shadow = session.get(ModelVersion, robot.shadow_model_id) if robot.shadow_model_id else None
+        session.expunge_all()
+        return assigned, shadow, robot.running_model_version
+
+
+def _sent(app: FastAPI) -> dict:
+    if not hasattr(app.state, "assignments_sent"):
+        app.state.assignments_sent = {}
+    return app.state.assignments_sent
+
+
+def _socket(app: FastAPI, robot_id: str) -> WebSocket | None:
+    connection = app.state.robots.socket(robot_id)  # a RobotConnection (or a bare socket)
+    if connection is None or getattr(connection, "closed", False):
+        return None
+    return getattr(connection, "websocket", connection)
+
+
+async def push_to_robot(app: FastAPI, robot_id: str, force: bool = True) -> bool:
+    """Send the robot its assignment(s) if it is connected here; True if anything was sent."""
+    websocket = _socket(app, robot_id)
+    if websocket is None:
+        return False
+    assigned, shadow, running = await run_in_threadpool(_wanted, app, robot_id)
+    sent = _sent(app)
+    messages = []
+    if assigned is not None and (force or assigned.version != running):
+        messages.append(assignment_for(assigned, http_base(websocket), shadow=False))
+    if shadow is not None and force:
+        messages.append(assignment_for(shadow, http_base(websocket), shadow=True))
+    for message in messages:
+        try:
+            await websocket.send_text(message.model_dump_json())
+        except Exception:  # the robot went away; it gets the assignment when it is back
+            log.info("robot %s disconnected before its assignment was sent", robot_id)
+            return False
+        log.info("assigned %s%s to robot %s", message.version,
+                 " (shadow)" if message.shadow else "", robot_id)  # fmt: skip
+    sent[robot_id] = (assigned.version if assigned else None, time.monotonic())
+    return bool(messages)
+
+
+async def push_to_robots(app: FastAPI, robot_ids: list[str]) -> None:
+    for robot_id in robot_ids:
+        await push_to_robot(app, robot_id)
+
+
+async def on_robot_connected(websocket: WebSocket, robot_id: str) -> None:
+    """Called by the robot socket after `welcome`: send what the robot should run, if it differs
+    from what it reported in hello (or a shadow model is assigned)."""
+    app = websocket.app
+    assigned, shadow, running = await run_in_threadpool(_wanted, app, robot_id)
+    if (assigned is not None and assigned.version != running) or shadow is not None:
+        await push_to_robot(app, robot_id, force=True)
+
+
+async def reconcile(app: FastAPI) -> list[str]:
+    """Resend to connected robots that still do not run their assigned version."""
+    resend_after = app.state.settings.assignment_resend_s
+    sent = _sent(app)
+
+    def _lagging() -> list[tuple[str, str]]:
+        with app.state.session_factory() as session:
+            rows = session.execute(
+                select(Robot.id, ModelVersion.version, Robot.running_model_version).join(
+                    ModelVersion, ModelVersion.id == Robot.assigned_model_id
+                )
+            ).all()
+        return [(r, v) for r, v, running in rows if v != running]
+
+    pushed = []
+    for robot_id, version in await run_in_threadpool(_lagging):
+        if _socket(app, robot_id) is None:
+            continue
+        last = sent.get(robot_id)
+        if last and last[0] == version and time.monotonic() - last[1] < resend_after:
+            continue
+        if await push_to_robot(app, robot_id, force=False):
+            pushed.append(robot_id)
+    return pushed
+
+
+async def reconcile_forever(app: FastAPI, period_s: float = 2.0) -> None:
+    while True:
+        await asyncio.sleep(period_s)
+        try:
+            await reconcile(app)
+        except Exception:
+            log.exception("assignment reconcile failed")

@@ -1,0 +1,130 @@
+"""Registry reads in one place: models, deployments, the fleet's target vs running versions."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from sqlalchemy import func, select
+from sqlalchemy.orm import Session
+
+from backend.models.jobs import Job, JobStatus
+from backend.models.registry import Deployment, ModelVersion
+from backend.models.robots import Robot
+from backend.registry.schemas import DeploymentOut, FleetRobot, ModelDetail, ModelSummary
+
+GOLD_HEADLINE = ("falls_detected", "falls_total", "adl_false_alarms", "adl_total",
+                 "frame_recall", "frame_f1", "median_time_to_alarm_s")  # fmt: skip
+
+
+def _assigned_counts(session: Session) -> dict[int, int]:
+    return dict(
+        session.execute(
+            select(Robot.assigned_model_id, func.count())
+            .where(Robot.assigned_model_id.is_not(None))
+            .group_by(Robot.assigned_model_id)
+        ).all()
+    )
+
+
+def summary(model: ModelVersion, assigned: int = 0) -> ModelSummary:
+    gold = (model.metrics or {}).get("gold")
+    return ModelSummary(
+        id=model.id, version=model.version, mode=model.mode, kind=model.kind, status=model.status,
+        sha256=model.sha256, created_at=model.created_at, job_id=model.job_id,
+        threshold=model.manifest["threshold"], delay_ms=model.manifest["delay_ms"],
+        gold={k: gold.get(k) for k in GOLD_HEADLINE} if gold else None,
+        parent=(model.lineage or {}).get("parent"), robots_assigned=assigned,
+    )  # fmt: skip
+
+
+def plots_dir(model: ModelVersion) -> Path:
+    return Path(model.file_path).parent / "plots"
+
+
+def detail(session: Session, model: ModelVersion) -> ModelDetail:
+    base = summary(model, _assigned_counts(session).get(model.id, 0))
+    directory = plots_dir(model)
+    plots = sorted(p.stem for p in directory.glob("*.png")) if directory.is_dir() else []
+    return ModelDetail(**base.model_dump(), manifest=model.manifest, metrics=model.metrics,
+                       lineage=model.lineage, plots=plots)  # fmt: skip
+
+
+def list_models(session: Session) -> list[ModelSummary]:
+    counts = _assigned_counts(session)
+    models = session.scalars(select(ModelVersion).order_by(ModelVersion.created_at.desc()))
+    return [summary(m, counts.get(m.id, 0)) for m in models]
+
+
+def model_by_version(session: Session, version: str) -> ModelVersion | None:
+    return session.scalars(select(ModelVersion).where(ModelVersion.version == version)).first()
+
+
+def deployment_out(session: Session, deployment: Deployment) -> DeploymentOut:
+    out = DeploymentOut.model_validate(deployment)
+    out.model_version = session.get(ModelVersion, deployment.model_version_id).version
+    return out
+
+
+def list_deployments(session: Session, limit: int = 100) -> list[DeploymentOut]:
+    rows = session.scalars(select(Deployment).order_by(Deployment.id.desc()).limit(limit))
+    return [deployment_out(session, d) for d in rows]
+
+
+def fleet(session: Session, connected: set[str]) -> list[FleetRobot]:
+    versions = dict(session.execute(select(ModelVersion.id, ModelVersion.version)).all())
+    robots = session.scalars(select(Robot).order_by(Robot.ward, Robot.id))
+    out = []
+    for robot in robots:
+        target = versions.get(robot.assigned_model_id)
+        out.append(FleetRobot(
+            id=robot.id, name=robot.name, ward=robot.ward, connected=robot.id in connected,
+            target_version=target, running_version=robot.running_model_version,
+            shadow_version=versions.get(robot.shadow_model_id),
+            in_sync=target is None or target == robot.running_model_version,
+            agent_version=robot.agent_version, last_seen_at=robot.last_seen_at,
+        ))  # fmt: skip
+    return out
+
+
+def list_jobs(session: Session, status: JobStatus | None = None, limit: int = 100) -> list[Job]:
+    query = select(Job).order_by(Job.id.desc()).limit(min(limit, 500))
+    if status is not None:
+        query = query.where(Job.status == status)
+    return list(session.scalars(query))
+
+
+COMPARED = (
+    ("falls_detected", "higher"), ("adl_false_alarms", "lower"), ("frame_recall", "higher"),
+    ("frame_precision", "higher"), ("frame_f1", "higher"), ("fp", "lower"), ("fp_d", "lower"),
+    ("fn", "lower"), ("fn_d", "lower"), ("event_f1", "higher"),
+    ("median_time_to_alarm_s", "lower"), ("max_time_to_alarm_s", "lower"),
+)  # fmt: skip
+
+
+def compare(a: ModelVersion, b: ModelVersion) -> tuple[list[dict], list[dict]]:
+    """Side-by-side gold-set figures (plus operating point and latency) and per-event results."""
+    ga, gb = (a.metrics or {}).get("gold") or {}, (b.metrics or {}).get("gold") or {}
+    rows = [
+        {"metric": "threshold", "a": a.manifest["threshold"], "b": b.manifest["threshold"]},
+        {"metric": "delay_ms", "a": a.manifest["delay_ms"], "b": b.manifest["delay_ms"]},
+    ]
+    la, lb = (a.metrics or {}).get("latency") or {}, (b.metrics or {}).get("latency") or {}
+    rows.append({"metric": "latency_p95_ms", "a": la.get("p95_ms"), "b": lb.get("p95_ms"),
+                 "better": "lower"})  # fmt: skip
+    for key, better in COMPARED:
+        rows.append({"metric": key, "a": ga.get(key), "b": gb.get(key), "better": better})
+    for row in rows:
+        va, vb = row["a"], row["b"]
+        numeric = isinstance(va, int | float) and isinstance(vb, int | float)
+        row["delta"] = vb - va if numeric else None
+        if numeric and "better" in row and va != vb:
+            row["winner"] = "b" if (vb > va) == (row["better"] == "higher") else "a"
+        else:
+            row["winner"] = None
+    events_a = {e["sequence"]: e for e in ga.get("events", [])}
+    events_b = {e["sequence"]: e for e in gb.get("events", [])}
+    events = [
+        {"sequence": name, "a": events_a.get(name), "b": events_b.get(name)}
+        for name in sorted(set(events_a) | set(events_b))
+    ]
+    return rows, events

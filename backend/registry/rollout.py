@@ -1,0 +1,213 @@
+"""Promotion, staged rollout, rollback and shadow deployments: which model each robot should run.
+
+A deployment names a model and a scope (one robot, a ward, the fleet). A promotion that passed
+the gate starts with one canary robot (a scope of several robots) and reaches the rest on
+`advance`, once the canary reports that it runs the new version. Every robot's previous
+assignment is kept in the deployment, so a rollback restores exactly what each robot had.
+Services change the session; the request (or the job) commits.
+"""
+
+from __future__ import annotations
+
+from sqlalchemy import select
+from sqlalchemy.orm import Session
+
+from backend.models._types import utcnow
+from backend.models.registry import (
+    Deployment,
+    DeploymentScope,
+    DeploymentStatus,
+    ModelStatus,
+    ModelVersion,
+)
+from backend.models.robots import Robot
+from backend.models.users import User
+
+ALLOWED: dict[DeploymentStatus, frozenset[DeploymentStatus]] = {
+    DeploymentStatus.PENDING_APPROVAL: frozenset(
+        {DeploymentStatus.CANARY, DeploymentStatus.ACTIVE, DeploymentStatus.ROLLED_BACK}
+    ),
+    DeploymentStatus.CANARY: frozenset(
+        {DeploymentStatus.ACTIVE, DeploymentStatus.ROLLED_BACK, DeploymentStatus.SUPERSEDED}
+    ),
+    DeploymentStatus.ACTIVE: frozenset({DeploymentStatus.ROLLED_BACK, DeploymentStatus.SUPERSEDED}),
+    DeploymentStatus.ROLLED_BACK: frozenset(),
+    DeploymentStatus.SUPERSEDED: frozenset(),
+}
+LIVE = (DeploymentStatus.CANARY, DeploymentStatus.ACTIVE)
+
+
+class RolloutError(ValueError):
+    """A request that conflicts with the current state (HTTP 409)."""
+
+
+def _move(deployment: Deployment, new: DeploymentStatus) -> None:
+    if new not in ALLOWED[DeploymentStatus(deployment.status)]:
+        raise RolloutError(
+            f"deployment {deployment.id} cannot go from {deployment.status} to {new}"
+        )
+    deployment.status = new
+
+
+def robots_in_scope(session: Session, scope: DeploymentScope, target: str | None) -> list[Robot]:
+    query = select(Robot).order_by(Robot.id)
+    if scope == DeploymentScope.ROBOT:
+        if not target:
+            raise ValueError("target: a robot id is required for scope 'robot'")
+        query = query.where(Robot.id == target)
+    elif scope == DeploymentScope.WARD:
+        if not target:
+            raise ValueError("target: a ward is required for scope 'ward'")
+        query = query.where(Robot.ward == target)
+    robots = list(session.scalars(query))
+    if not robots:
+        raise ValueError(f"target: no robot in {scope.value} {target or ''}".strip())
+    return robots
+
+
+def _assign(session: Session, deployment: Deployment, robot_ids: list[str]) -> list[str]:
+    previous = dict(deployment.rollout["previous"])
+    for robot in session.scalars(select(Robot).where(Robot.id.in_(robot_ids))):
+        if deployment.shadow:
+            previous.setdefault(robot.id, robot.shadow_model_id)
+            robot.shadow_model_id = deployment.model_version_id
+        else:
+            previous.setdefault(robot.id, robot.assigned_model_id)
+            robot.assigned_model_id = deployment.model_version_id
+    assigned = sorted(set(deployment.rollout["assigned"]) | set(robot_ids))
+    deployment.rollout = {**deployment.rollout, "previous": previous, "assigned": assigned}
+    return robot_ids
+
+
+def _supersede_older(session: Session, deployment: Deployment) -> None:
+    mine = set(deployment.rollout["assigned"])
+    older = session.scalars(
+        select(Deployment).where(
+            Deployment.id != deployment.id,
+            Deployment.shadow == deployment.shadow,
+            Deployment.status.in_(LIVE),
+        )
+    )
+    for other in older:
+        theirs = set((other.rollout or {}).get("assigned", []))
+        if theirs and theirs <= mine:
+            _move(other, DeploymentStatus.SUPERSEDED)
+
+
+def _start(session: Session, deployment: Deployment) -> list[str]:
+    """Assign the canary (or every robot of a single-robot scope). Returns changed robot ids."""
+    robots = deployment.rollout["robots"]
+    model = session.get(ModelVersion, deployment.model_version_id)
+    if deployment.shadow or len(robots) == 1:
+        _move(deployment, DeploymentStatus.ACTIVE)
+        changed = _assign(session, deployment, robots)
+        if not deployment.shadow:
+            model.status = ModelStatus.PRODUCTION
+        _supersede_older(session, deployment)
+        return changed
+    _move(deployment, DeploymentStatus.CANARY)
+    model.status = ModelStatus.APPROVED
+    return _assign(session, deployment, [deployment.rollout["canary"]])
+
+
+def promote(
+    session: Session,
+    model: ModelVersion,
+    user: User,
+    scope: DeploymentScope,
+    target: str | None,
+    gate: dict,
+    canary_robot_id: str | None = None,
+    comment: str | None = None,
+    shadow: bool = False,
+    require_second_approver: bool = False,
+) -> tuple[Deployment, list[str]]:
+    """Create a deployment of a model whose gate passed; returns it and the robots to notify."""
+    if not shadow and not gate.get("passed"):
+        failed = [c["name"] for c in gate.get("checks", []) if not c["passed"]]
+        raise RolloutError(f"gate failed: {'; '.join(failed)}")
+    robots = [r.id for r in robots_in_scope(session, scope, target)]
+    if canary_robot_id is not None and canary_robot_id not in robots:
+        raise ValueError(f"canary_robot_id: robot {canary_robot_id} is not in the scope")
+    deployment = Deployment(
+        model_version_id=model.id,
+        previous_model_version_id=None,
+        scope=scope,
+        target=target,
+        shadow=shadow,
+        status=DeploymentStatus.PENDING_APPROVAL,
+        gate_report=gate,
+        approved_by_id=user.id,
+        comment=comment,
+        created_by_id=user.id,
+        rollout={
+            "robots": robots,
+            "canary": canary_robot_id or robots[0],
+            "previous": {},
+            "assigned": [],
+        },
+    )
+    session.add(deployment)
+    session.flush()
+    first = session.get(Robot, deployment.rollout["canary"])
+    deployment.previous_model_version_id = (
+        first.shadow_model_id if shadow else first.assigned_model_id
+    )
+    if require_second_approver and not shadow:
+        return deployment, []
+    return deployment, _start(session, deployment)
+
+
+def approve(session: Session, deployment: Deployment, user: User) -> list[str]:
+    """The second approver's sign-off starts a pending deployment."""
+    if deployment.status != DeploymentStatus.PENDING_APPROVAL:
+        raise RolloutError(f"deployment {deployment.id} is {deployment.status}, not pending")
+    if user.id in (deployment.approved_by_id, deployment.created_by_id):
+        raise RolloutError("the second approver must be a different engineer")
+    deployment.second_approver_id = user.id
+    return _start(session, deployment)
+
+
+def advance(session: Session, deployment: Deployment) -> list[str]:
+    """Canary -> every robot of the scope, once the canary runs the new version."""
+    if deployment.status != DeploymentStatus.CANARY:
+        raise RolloutError(f"deployment {deployment.id} is {deployment.status}, not canary")
+    model = session.get(ModelVersion, deployment.model_version_id)
+    canary = session.get(Robot, deployment.rollout["canary"])
+    if canary.running_model_version != model.version:
+        raise RolloutError(
+            f"canary robot {canary.id} runs {canary.running_model_version or 'no model'}, "
+            f"not {model.version} yet"
+        )
+    _move(deployment, DeploymentStatus.ACTIVE)
+    rest = [r for r in deployment.rollout["robots"] if r not in deployment.rollout["assigned"]]
+    changed = _assign(session, deployment, rest)
+    model.status = ModelStatus.PRODUCTION
+    _supersede_older(session, deployment)
+    return changed
+
+
+def rollback(session: Session, deployment: Deployment, reason: str) -> list[str]:
+    """Give every robot of the deployment back what it had before (if it still runs this one)."""
+    _move(deployment, DeploymentStatus.ROLLED_BACK)
+    deployment.rolled_back_at = utcnow()
+    deployment.rollback_reason = reason
+    previous = (deployment.rollout or {}).get("previous", {})
+    changed = []
+    for robot in session.scalars(select(Robot).where(Robot.id.in_(list(previous)))):
+        if deployment.shadow and robot.shadow_model_id == deployment.model_version_id:
+            robot.shadow_model_id = previous[robot.id]
+            changed.append(robot.id)
+        elif not deployment.shadow and robot.assigned_model_id == deployment.model_version_id:
+            robot.assigned_model_id = previous[robot.id]
+            changed.append(robot.id)
+            restored = session.get(ModelVersion, previous[robot.id]) if previous[robot.id] else None
+            if restored is not None:
+                restored.status = ModelStatus.PRODUCTION
+    model = session.get(ModelVersion, deployment.model_version_id)
+    still_used = session.scalars(
+        select(Robot.id).where(Robot.assigned_model_id == model.id).limit(1)
+    ).first()
+    if not deployment.shadow and still_used is None:
+        model.status = ModelStatus.RETIRED
+    return changed

@@ -1,0 +1,120 @@
+from datetime import datetime
+
+from pydantic import BaseModel, ConfigDict, Field
+
+from backend.models.jobs import JobKind, JobStatus
+from backend.models.registry import DeploymentScope, DeploymentStatus, ModelStatus
+from vigil.classes import TransportMode
+
+
+class ModelSummary(BaseModel):
+    model_config = ConfigDict(from_attributes=True, protected_namespaces=())
+
+    id: int
+    version: str
+    mode: TransportMode
+    kind: str
+    status: ModelStatus
+    sha256: str
+    created_at: datetime
+    job_id: int | None
+    threshold: float
+    delay_ms: int
+    gold: dict | None = Field(description="headline gold-set figures")
+    parent: str | None
+    robots_assigned: int = 0
+
+
+class ModelDetail(ModelSummary):
+    manifest: dict
+    metrics: dict
+    lineage: dict
+    plots: list[str]
+
+
+class Comparison(BaseModel):
+    a: ModelDetail
+    b: ModelDetail
+    rows: list[dict] = Field(description="metric, a, b, b - a, which is better")
+    events: list[dict] = Field(description="per gold-set recording: result under a and under b")
+
+
+class PromoteIn(BaseModel):
+    scope: DeploymentScope
+    target: str | None = Field(default=None, max_length=64, description="robot id or ward")
+    canary_robot_id: str | None = Field(default=None, max_length=64)
+    comment: str | None = Field(default=None, max_length=2000)
+
+
+class ShadowIn(BaseModel):
+    scope: DeploymentScope
+    target: str | None = Field(default=None, max_length=64)
+    comment: str | None = Field(default=None, max_length=2000)
+
+
+class RollbackIn(BaseModel):
+    reason: str = Field(default="rolled back by an engineer", max_length=2000)
+
+
+class DeploymentOut(BaseModel):
+    model_config = ConfigDict(from_attributes=True, protected_namespaces=())
+
+    id: int
+    model_version_id: int
+    model_version: str = ""
+    previous_model_version_id: int | None
+    scope: DeploymentScope
+    target: str | None
+    shadow: bool
+    status: DeploymentStatus
+    gate_report: dict
+    rollout: dict | None
+    approved_by_id: int | None
+    second_approver_id: int | None
+    comment: str | None
+    created_by_id: int | None
+    created_at: datetime
+    rolled_back_at: datetime | None
+    rollback_reason: str | None
+
+
+class FleetRobot(BaseModel):
+    id: str
+    name: str
+    ward: str
+    connected: bool
+    target_version: str | None
+    running_version: str | None
+    shadow_version: str | None
+    in_sync: bool
+    agent_version: str | None
+    last_seen_at: datetime | None
+
+
+class JobIn(BaseModel):
+    kind: JobKind
+    params: dict = Field(default_factory=dict)
+
+
+class JobOut(BaseModel):
+    model_config = ConfigDict(from_attributes=True)
+
+    id: int
+    kind: JobKind
+    status: JobStatus
+    params: dict
+    progress: float
+    message: str
+    result: dict | None
+    cancel_requested: bool
+    worker_id: str | None
+    attempts: int
+    created_by_id: int | None
+    created_at: datetime
+    started_at: datetime | None
+    finished_at: datetime | None
+    heartbeat_at: datetime | None
+
+
+class JobDetail(JobOut):
+    log: str

@@ -1,0 +1,93 @@
+"""Backend settings: one pydantic-settings class, read from VIGIL_* environment variables."""
+
+from pathlib import Path
+
+from pydantic import Field
+from pydantic_settings import BaseSettings, SettingsConfigDict
+
+REPO_ROOT = Path(__file__).resolve().parent.parent
+
+
+class Settings(BaseSettings):
+    model_config = SettingsConfigDict(env_prefix="VIGIL_", env_file=".env", extra="ignore")
+
+    database_url: str = Field(
+        default=f"sqlite:///{REPO_ROOT / 'var' / 'vigil.db'}",
+        description="SQLAlchemy URL; postgresql+psycopg://... selects PostgreSQL",
+    )
+    secret_key: str = Field(
+        default="dev-only-change-me",
+        description="HMAC key signing browser access tokens; set a long random value in production",
+    )
+    access_token_minutes: int = Field(default=12 * 60, description="browser session lifetime")
+    cookie_secure: bool = Field(default=False, description="mark the session cookie Secure")
+    frontend_dir: Path = Field(
+        default=REPO_ROOT / "frontend" / "dist", description="built frontend served at /"
+    )
+    model_store_dir: Path = Field(
+        default=REPO_ROOT / "var" / "models", description="registered model files"
+    )
+    redis_url: str | None = Field(
+        default=None, description="redis://... enables alarm fan-out across backend replicas"
+    )
+    redis_channel: str = Field(default="vigil:alarms", description="Redis pub/sub channel")
+    ingest_flush_ms: float = Field(
+        default=20, description="longest a received frame waits before its batch is committed"
+    )
+    ingest_flush_frames: int = Field(default=500, description="frames that force an early commit")
+    escalation_seconds: float = Field(
+        default=60, description="an open Emergency not acknowledged in this time escalates"
+    )
+    escalation_seconds_by_ward: dict[str, float] = Field(
+        default_factory=dict,
+        description='per-ward escalation time, JSON: {"ward-3a": 30}; others use the default',
+    )
+    escalation_max_level: int = Field(
+        default=3, description="escalation stops after this many levels"
+    )
+    realarm_minutes: float = Field(
+        default=15, description="an acknowledged alarm not resolved in this time re-alarms"
+    )
+    stream_stall_seconds: float = Field(
+        default=5.0,
+        description="no frame for this long during a transport raises a technical alarm",
+    )
+    robot_offline_seconds: float = Field(
+        default=10.0,
+        description="no message from a robot for this long during a transport: robot offline",
+    )
+    monitor_interval_s: float = Field(default=1.0, description="alarm monitor period")
+    urfd_dir: Path | None = Field(
+        default=None,
+        description="URFD dataset directory; None = ../shared/datasets/urfd next to the repo",
+    )
+    labelling_model_dir: Path | None = Field(
+        default=REPO_ROOT / "var" / "models" / "default-walking",
+        description="model that fills the labelling timeline's probability lane when a video "
+        "has no stored scores; None disables it",
+    )
+    rgb_cache_frames: int = Field(default=600, description="decoded RGB frames kept in memory")
+    viser_host: str = Field(default="127.0.0.1", description="3D view (viser) listens here")
+    viser_port: int = Field(default=8090, description="3D view (viser) port, started on first use")
+    robot_hello_timeout_s: float = Field(default=5.0, description="time a robot has to say hello")
+    gate_false_alarm_budget: float = Field(
+        default=0.15,
+        description="promotion gate: largest share of gold-set daily-activity recordings with a "
+        "false alarm",
+    )
+    gate_latency_ms: float = Field(
+        default=33.0, description="promotion gate: per-frame p95 latency bound (30 frames/s)"
+    )
+    require_second_approver: bool = Field(
+        default=False, description="a promotion waits for a second engineer's approval"
+    )
+    assignment_resend_s: float = Field(
+        default=30.0, description="resend a model assignment a robot has not switched to"
+    )
+
+    def escalation_seconds_for(self, ward: str) -> float:
+        return self.escalation_seconds_by_ward.get(ward, self.escalation_seconds)
+
+
+def get_settings() -> Settings:
+    return Settings()

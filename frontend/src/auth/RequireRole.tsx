@@ -1,0 +1,18 @@
+import type { ReactNode } from "react";
+import { Navigate, useLocation } from "react-router-dom";
+import { homeFor, mayOpen, type SECTION_ROLES } from "../lib/roles";
+import { useAuth } from "./AuthContext";
+
+export function RequireRole({
+  section,
+  children,
+}: {
+  section: keyof typeof SECTION_ROLES;
+  children: ReactNode;
+}) {
+  const { user } = useAuth();
+  const location = useLocation();
+  if (!user) return <Navigate to="/login" replace state={{ from: location.pathname }} />;
+  if (!mayOpen(user.role, section)) return <Navigate to={homeFor(user.role)} replace />;
+  return <>{children}</>;
+}

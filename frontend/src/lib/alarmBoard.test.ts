@@ -1,0 +1,113 @@
+import { describe, expect, it } from "vitest";
+import type { Alarm } from "../api/types";
+import {
+  applyMessage,
+  emptyBoard,
+  inWard,
+  isRealarmed,
+  soundRequired,
+  sortForBoard,
+  wardsOf,
+} from "./alarmBoard";
+
+function alarm(over: Partial<Alarm>): Alarm {
+  return {
+    id: 1,
+    kind: "emergency",
+    priority: "high",
+    state: "open",
+    robot_id: "r1",
+    ward: "A",
+    transport_id: "t1",
+    patient: "P-1",
+    location: "corridor",
+    raised_at: "2026-01-01T10:00:00Z",
+    updated_at: "2026-01-01T10:00:00Z",
+    acknowledged_at: null,
+    acknowledged_by: null,
+    resolved_at: null,
+    resolved_by: null,
+    verdict: null,
+    reason: null,
+    comment: null,
+    escalation_level: 0,
+    realarmed_at: null,
+    video_id: 1,
+    decision_count: 1,
+    first_seq: 10,
+    last_seq: 20,
+    model_version: "m1",
+    threshold: 0.5,
+    delay_ms: 300,
+    ...over,
+  };
+}
+
+describe("applyMessage", () => {
+  it("a snapshot replaces the board and drops resolved alarms", () => {
+    const before = applyMessage(emptyBoard, { type: "alarm", alarm: alarm({ id: 9 }) });
+    const after = applyMessage(before, {
+      type: "snapshot",
+      alarms: [alarm({ id: 1 }), alarm({ id: 2, state: "resolved" })],
+    });
+    expect([...after.keys()]).toEqual([1]);
+  });
+
+  it("updates, then removes an alarm once resolved", () => {
+    let board = applyMessage(emptyBoard, { type: "snapshot", alarms: [alarm({ id: 3 })] });
+    board = applyMessage(board, {
+      type: "alarm",
+      alarm: alarm({ id: 3, state: "acknowledged", updated_at: "2026-01-01T10:00:05Z" }),
+    });
+    expect(board.get(3)?.state).toBe("acknowledged");
+    board = applyMessage(board, {
+      type: "alarm",
+      alarm: alarm({ id: 3, state: "resolved", updated_at: "2026-01-01T10:00:09Z" }),
+    });
+    expect(board.has(3)).toBe(false);
+  });
+
+  it("ignores an older version arriving after a newer one", () => {
+    let board = applyMessage(emptyBoard, {
+      type: "alarm",
+      alarm: alarm({ id: 4, state: "acknowledged", updated_at: "2026-01-01T10:00:05Z" }),
+    });
+    board = applyMessage(board, { type: "alarm", alarm: alarm({ id: 4, state: "open" }) });
+    expect(board.get(4)?.state).toBe("acknowledged");
+  });
+});
+
+describe("board ordering and sound", () => {
+  it("puts unacknowledged first, then priority, then the oldest", () => {
+    const alarms = [
+      alarm({ id: 1, state: "acknowledged" }),
+      alarm({ id: 2, kind: "robot_offline", priority: "technical" }),
+      alarm({ id: 3, kind: "pause", priority: "medium" }),
+      alarm({ id: 4, raised_at: "2026-01-01T10:00:03Z" }),
+      alarm({ id: 5, raised_at: "2026-01-01T09:59:00Z" }),
+    ];
+    expect(sortForBoard(alarms).map((a) => a.id)).toEqual([5, 4, 3, 2, 1]);
+  });
+
+  it("sounds again for an acknowledged emergency that re-alarmed", () => {
+    const acked = alarm({ state: "acknowledged", acknowledged_at: "2026-01-01T10:00:10Z" });
+    expect(soundRequired([acked])).toBe(false);
+    const realarmed = { ...acked, realarmed_at: "2026-01-01T10:15:10Z" };
+    expect(isRealarmed(realarmed)).toBe(true);
+    expect(soundRequired([realarmed])).toBe(true);
+    expect(sortForBoard([alarm({ id: 2, kind: "pause", priority: "medium" }), { ...realarmed, id: 1 }])
+      .map((a) => a.id)).toEqual([1, 2]);
+  });
+
+  it("needs sound only for an unacknowledged emergency", () => {
+    expect(soundRequired([alarm({ state: "acknowledged" }), alarm({ kind: "pause" })])).toBe(false);
+    expect(soundRequired([alarm({ kind: "pause" }), alarm({})])).toBe(true);
+  });
+
+  it("filters by ward and lists wards", () => {
+    const alarms = [alarm({ id: 1, ward: "B" }), alarm({ id: 2, ward: "A" }), alarm({ id: 3, ward: "" })];
+    expect(wardsOf(alarms)).toEqual(["A", "B"]);
+    expect(inWard(alarms, "B").map((a) => a.id)).toEqual([1]);
+    expect(inWard(alarms, null)).toHaveLength(3);
+  });
+});

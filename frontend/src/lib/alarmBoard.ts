@@ -1,0 +1,83 @@
+// The live alarm board's state: every open or acknowledged alarm, kept from websocket messages.
+import type { Alarm, BrowserMessage } from "../api/types";
+
+export type Board = ReadonlyMap<number, Alarm>;
+
+export const emptyBoard: Board = new Map();
+
+/** A snapshot replaces the board (after every (re)connect); an alarm message updates one entry. */
+export function applyMessage(board: Board, message: BrowserMessage): Board {
+  if (message.type === "snapshot") {
+    return new Map(message.alarms.filter(isLive).map((a) => [a.id, a]));
+  }
+  const next = new Map(board);
+  const known = board.get(message.alarm.id);
+  // Messages may overtake each other; never let an older version replace a newer one.
+  if (known && Date.parse(known.updated_at) > Date.parse(message.alarm.updated_at)) return board;
+  if (isLive(message.alarm)) next.set(message.alarm.id, message.alarm);
+  else next.delete(message.alarm.id);
+  return next;
+}
+
+export function isLive(alarm: Alarm): boolean {
+  return alarm.state === "open" || alarm.state === "acknowledged";
+}
+
+const PRIORITY_RANK: Record<Alarm["priority"], number> = { high: 0, medium: 1, technical: 2 };
+
+/** Re-alarmed: acknowledged, then not resolved in time, so it calls for attention again. */
+export function isRealarmed(alarm: Alarm): boolean {
+  return (
+    alarm.state === "acknowledged" &&
+    !!alarm.realarmed_at &&
+    (!alarm.acknowledged_at || Date.parse(alarm.realarmed_at) >= Date.parse(alarm.acknowledged_at))
+  );
+}
+
+/** Open or re-alarmed: the alarm wants a nurse now. */
+export function needsAttention(alarm: Alarm): boolean {
+  return alarm.state === "open" || isRealarmed(alarm);
+}
+
+/** Needing attention first, then by priority, then oldest first (it has waited longest). */
+export function sortForBoard(alarms: Iterable<Alarm>): Alarm[] {
+  return [...alarms].sort(
+    (a, b) =>
+      Number(!needsAttention(a)) - Number(!needsAttention(b)) ||
+      PRIORITY_RANK[a.priority] - PRIORITY_RANK[b.priority] ||
+      Date.parse(a.raised_at) - Date.parse(b.raised_at) ||
+      a.id - b.id,
+  );
+}
+
+export function inWard(alarms: Iterable<Alarm>, ward: string | null): Alarm[] {
+  return [...alarms].filter((a) => ward === null || a.ward === ward);
+}
+
+export function wardsOf(alarms: Iterable<Alarm>): string[] {
+  const wards = new Set<string>();
+  for (const a of alarms) if (a.ward) wards.add(a.ward);
+  return [...wards].sort();
+}
+
+/** The emergency sound repeats while any emergency on the shown board is unacknowledged (or
+ * re-alarmed because it was acknowledged but not resolved in time). */
+export function soundRequired(alarms: Iterable<Alarm>): boolean {
+  for (const a of alarms) if (a.kind === "emergency" && needsAttention(a)) return true;
+  return false;
+}
+
+export type AlarmStyle = "emergency" | "pause" | "technical";
+
+export function styleOf(alarm: Alarm): AlarmStyle {
+  if (alarm.kind === "emergency") return "emergency";
+  if (alarm.kind === "pause") return "pause";
+  return "technical";
+}
+
+export const KIND_LABEL: Record<Alarm["kind"], string> = {
+  emergency: "Emergency",
+  pause: "Pause",
+  robot_offline: "Robot offline",
+  stream_stalled: "Stream stalled",
+};

@@ -1,0 +1,63 @@
+import { Link } from "react-router-dom";
+import type { Alarm } from "../api/types";
+import { isRealarmed, KIND_LABEL, styleOf } from "../lib/alarmBoard";
+import { elapsed } from "../lib/time";
+
+interface Props {
+  alarm: Alarm;
+  now: number;
+  busy: boolean;
+  onAcknowledge(alarm: Alarm): void;
+  onResolve(alarm: Alarm): void;
+}
+
+export function AlarmCard({ alarm, now, busy, onAcknowledge, onResolve }: Props) {
+  const style = styleOf(alarm);
+  return (
+    <article
+      className={`alarm alarm-${style} state-${alarm.state}${isRealarmed(alarm) ? " realarmed" : ""}`}
+      data-alarm-id={alarm.id}
+      data-state={alarm.state}
+      aria-label={`${KIND_LABEL[alarm.kind]} alarm ${alarm.id}`}
+    >
+      <header>
+        <span className="kind">{KIND_LABEL[alarm.kind]}</span>
+        {alarm.escalation_level > 0 && (
+          <span className="escalated" title="Not acknowledged in time: escalated">
+            Escalated{alarm.escalation_level > 1 ? ` ×${alarm.escalation_level}` : ""}
+          </span>
+        )}
+        {isRealarmed(alarm) && (
+          <span className="escalated realarmed" title="Acknowledged but not resolved in time">
+            Re-alarm
+          </span>
+        )}
+        <span className="since" title={alarm.raised_at}>{elapsed(alarm.raised_at, now)} ago</span>
+      </header>
+      <dl>
+        <dt>Robot</dt><dd>{alarm.robot_id}</dd>
+        <dt>Patient</dt><dd>{alarm.patient ?? "–"}</dd>
+        <dt>Location</dt><dd>{alarm.location ?? "–"}</dd>
+        <dt>Transport</dt><dd>{alarm.transport_id ?? "–"}</dd>
+        <dt>Ward</dt><dd>{alarm.ward ?? "–"}</dd>
+        {alarm.state === "acknowledged" && (
+          <>
+            <dt>Acknowledged</dt>
+            <dd>by {alarm.acknowledged_by ?? "?"}{alarm.acknowledged_at ? `, ${elapsed(alarm.acknowledged_at, now)} ago` : ""}</dd>
+          </>
+        )}
+      </dl>
+      <footer>
+        {alarm.state === "open" && (
+          <button type="button" className="ack" disabled={busy} onClick={() => onAcknowledge(alarm)}>
+            Acknowledge
+          </button>
+        )}
+        <button type="button" className="resolve" disabled={busy} onClick={() => onResolve(alarm)}>
+          Resolve…
+        </button>
+        <Link to={`/nurse/alarms/${alarm.id}`} className="replay-link">Replay</Link>
+      </footer>
+    </article>
+  );
+}

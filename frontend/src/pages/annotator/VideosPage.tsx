@@ -1,0 +1,174 @@
+import { useCallback, useEffect, useState } from "react";
+import { Link } from "react-router-dom";
+import { api, errorMessage } from "../../api/client";
+import { currentToken } from "../../api/session";
+import { useAuth } from "../../auth/AuthContext";
+import type { LabellingVideo } from "./types";
+
+type Split = LabellingVideo["split"];
+type Mode = LabellingVideo["mode"];
+
+/** The annotators' video list: progress, status, filters; admins change the split here. */
+export function VideosPage() {
+  const { user } = useAuth();
+  const [videos, setVideos] = useState<LabellingVideo[] | null>(null);
+  const [persons, setPersons] = useState<string[]>([]);
+  const [mode, setMode] = useState<Mode | "">("");
+  const [split, setSplit] = useState<Split | "">("");
+  const [person, setPerson] = useState("");
+  const [unreviewed, setUnreviewed] = useState(false);
+  const [error, setError] = useState<string | null>(null);
+  const [imported, setImported] = useState<string | null>(null);
+
+  const load = useCallback(async () => {
+    const { data, error } = await api.GET("/api/labelling/videos", {
+      params: {
+        query: {
+          mode: mode || undefined,
+          split: split || undefined,
+          person: person || undefined,
+          unreviewed: unreviewed ? true : undefined,
+        },
+      },
+    });
+    if (data) setVideos(data);
+    else setError(errorMessage(error, "Could not load videos"));
+  }, [mode, split, person, unreviewed]);
+
+  useEffect(() => void load(), [load]);
+  useEffect(() => {
+    void api.GET("/api/labelling/facets").then(({ data }) => data && setPersons(data.persons));
+  }, []);
+
+  const importFile = async (form: HTMLFormElement) => {
+    const data = new FormData(form);
+    const format = String(data.get("format"));
+    const file = data.get("file");
+    if (!(file instanceof File) || !file.size) return setError("Choose a file to import");
+    const body = new FormData();
+    body.append("file", file);
+    const response = await fetch(`/api/labelling/import?format=${format}`, {
+      method: "POST",
+      body,
+      headers: { Authorization: `Bearer ${currentToken() ?? ""}` },
+    });
+    const result = await response.json();
+    if (response.ok) {
+      setError(null);
+      setImported(`Imported ${result.videos.join(", ")} with ${result.segments} segment(s)`);
+      form.reset();
+      await load();
+    } else setError(errorMessage(result, "Import failed"));
+  };
+
+  const changeSplit = async (video: LabellingVideo, next: Split) => {
+    const { error } = await api.PATCH("/api/labelling/videos/{video_id}", {
+      params: { path: { video_id: video.id } },
+      body: { split: next },
+    });
+    if (error) setError(errorMessage(error, "Could not change the split"));
+    await load();
+  };
+
+  return (
+    <main className="page">
+      <div className="label-head">
+        <h1>Videos to label</h1>
+        <Link to="/annotate/review">Review queue</Link>
+        <Link to="/annotate/agreement">Agreement</Link>
+      </div>
+      <div className="filters" role="group" aria-label="Filters">
+        <label>Mode
+          <select value={mode} onChange={(e) => setMode(e.target.value as Mode | "")}>
+            <option value="">all</option>
+            <option value="walking">walking</option>
+            <option value="wheelchair">wheelchair</option>
+            <option value="combined">combined</option>
+          </select>
+        </label>
+        <label>Split
+          <select value={split} onChange={(e) => setSplit(e.target.value as Split | "")}>
+            <option value="">all</option>
+            <option value="train">train</option>
+            <option value="test">test</option>
+            <option value="unassigned">unassigned</option>
+          </select>
+        </label>
+        <label>Person
+          <select value={person} onChange={(e) => setPerson(e.target.value)}>
+            <option value="">all</option>
+            {persons.map((p) => <option key={p} value={p}>{p}</option>)}
+          </select>
+        </label>
+        <label className="toggle">
+          <input type="checkbox" checked={unreviewed} onChange={() => setUnreviewed(!unreviewed)} />
+          has unreviewed segments
+        </label>
+      </div>
+      {user?.role !== "engineer" && (
+        <form className="filters" aria-label="Import"
+          onSubmit={(e) => { e.preventDefault(); void importFile(e.currentTarget); }}>
+          <label>Import a Vigil export
+            <input type="file" name="file" accept=".json,.csv" />
+          </label>
+          <label>Format
+            <select name="format" defaultValue="json">
+              <option value="json">Vigil JSON (new video)</option>
+              <option value="coco">COCO keypoints (new video)</option>
+              <option value="csv">CSV labels (existing videos)</option>
+            </select>
+          </label>
+          <button type="submit">Import</button>
+          {imported && <span role="status">{imported}</span>}
+        </form>
+      )}
+      {error && <p role="alert" className="error">{error}</p>}
+      {!videos ? <p className="muted">Loading…</p> : videos.length === 0 ? (
+        <p className="empty">No videos match. Import some: <code>python -m backend.labelling.cli import-urfd</code></p>
+      ) : (
+        <table className="videos" aria-label="Videos">
+          <thead>
+            <tr>
+              <th>Video</th><th>Mode</th><th>Split</th><th>Person</th><th>Location · camera</th>
+              <th>Progress</th><th>Status</th><th>Unreviewed</th>
+            </tr>
+          </thead>
+          <tbody>
+            {videos.map((v) => {
+              const share = v.frame_count ? v.labelled_frames / v.frame_count : 0;
+              return (
+                <tr key={v.id}>
+                  <td>
+                    <Link to={`/annotate/videos/${v.id}`}>{v.name}</Link>
+                    {v.generated && <span className="tag">generated</span>}
+                    {v.has_rgb && <span className="tag">RGB</span>}
+                    {v.has_depth && <span className="tag">depth</span>}
+                  </td>
+                  <td>{v.mode}</td>
+                  <td>
+                    {user?.role === "admin" ? (
+                      <select aria-label={`Split of ${v.name}`} value={v.split}
+                        onChange={(e) => void changeSplit(v, e.target.value as Split)}>
+                        <option value="train">train</option>
+                        <option value="test">test</option>
+                        <option value="unassigned">unassigned</option>
+                      </select>
+                    ) : v.split}
+                  </td>
+                  <td>{v.person ?? "–"}</td>
+                  <td>{[v.location, v.camera].filter(Boolean).join(" · ") || "–"}</td>
+                  <td>
+                    <progress max={1} value={share} /> {Math.round(share * 100)}%
+                    <span className="muted"> ({v.labelled_frames}/{v.frame_count})</span>
+                  </td>
+                  <td><span className={`vstatus vstatus-${v.status}`}>{v.status.replace("_", " ")}</span></td>
+                  <td>{v.unreviewed || ""}</td>
+                </tr>
+              );
+            })}
+          </tbody>
+        </table>
+      )}
+    </main>
+  );
+}

@@ -1,0 +1,24 @@
+// API shapes of the labelling workspace, from the generated OpenAPI schema.
+import type { components } from "../../api/schema";
+
+type S = components["schemas"];
+
+export type LabellingVideo = S["LabellingVideoOut"];
+export type Segment = S["SegmentOut"];
+export type QueueItem = S["QueueItemOut"];
+export type Agreement = S["AgreementOut"];
+export type Probability = S["ProbabilityOut"];
+export type SkeletonFrame = S["FrameOut"];
+export type Taxonomy = S["TaxonomyOut"];
+export type TaxonomyLabel = S["TaxonomyLabelOut"];
+export type Decision = TaxonomyLabel["walking"];
+
+export const CLASS_COLOURS: Record<string, string> = {
+  normal: "#16a34a",
+  emergency: "#dc2626",
+  pause: "#d97706",
+};
+
+export function classColour(decision: string | null | undefined): string {
+  return (decision && CLASS_COLOURS[decision]) || "#64748b";
+}

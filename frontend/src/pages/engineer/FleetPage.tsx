@@ -1,0 +1,70 @@
+import { useEffect, useState } from "react";
+import { api, errorMessage } from "../../api/client";
+import type { Deployment, FleetRobot } from "./types";
+
+export function FleetPage() {
+  const [robots, setRobots] = useState<FleetRobot[] | null>(null);
+  const [deployments, setDeployments] = useState<Deployment[]>([]);
+  const [error, setError] = useState<string | null>(null);
+  const load = () => {
+    void api.GET("/api/fleet").then(({ data, error }) => {
+      if (data) setRobots(data); else setError(errorMessage(error, "Could not load the fleet"));
+    });
+    void api.GET("/api/deployments").then(({ data }) => data && setDeployments(data));
+  };
+  useEffect(() => {
+    load();
+    const timer = setInterval(load, 3000);
+    return () => clearInterval(timer);
+  }, []);
+
+  async function act(id: number, action: "rollback" | "advance" | "approve") {
+    setError(null);
+    const path = { params: { path: { deployment_id: id } } };
+    const response =
+      action === "rollback" ? await api.POST("/api/deployments/{deployment_id}/rollback", { ...path, body: { reason: "rolled back from the fleet view" } })
+      : action === "advance" ? await api.POST("/api/deployments/{deployment_id}/advance", path)
+      : await api.POST("/api/deployments/{deployment_id}/approve", path);
+    if (response.error) setError(errorMessage(response.error, `Could not ${action}`));
+    load();
+  }
+
+  return (
+    <>
+      <h1>Fleet</h1>
+      {error && <p role="alert" className="error">{error}</p>}
+      {robots === null ? <p className="muted">Loading…</p> : (
+        <table className="table" aria-label="Fleet">
+          <thead><tr><th>Robot</th><th>Ward</th><th>Connected</th><th>Target version</th><th>Running version</th><th>Shadow</th><th /></tr></thead>
+          <tbody>{robots.map((r) => (
+            <tr key={r.id} className={r.in_sync ? "" : "out-of-sync"}>
+              <td>{r.id}</td><td>{r.ward}</td><td>{r.connected ? "yes" : "no"}</td>
+              <td>{r.target_version ?? "–"}</td><td>{r.running_version ?? "–"}</td><td>{r.shadow_version ?? "–"}</td>
+              <td>{r.in_sync ? "in sync" : "switching…"}</td>
+            </tr>))}</tbody>
+        </table>
+      )}
+      <h2>Deployments</h2>
+      <table className="table" aria-label="Deployments">
+        <thead><tr><th>#</th><th>Model</th><th>Scope</th><th>Status</th><th>Robots</th><th>Note</th><th>Actions</th></tr></thead>
+        <tbody>{deployments.map((d) => {
+          const live = d.status === "canary" || d.status === "active";
+          return (
+            <tr key={d.id}>
+              <td>{d.id}</td><td>{d.model_version}{d.shadow ? " (shadow)" : ""}</td>
+              <td>{d.scope}{d.target ? ` ${d.target}` : ""}</td>
+              <td><span className={`pill deploy-${d.status}`}>{d.status}</span></td>
+              <td>{((d.rollout?.assigned as string[] | undefined) ?? []).join(", ")}{d.status === "canary" ? ` (canary ${String(d.rollout?.canary)})` : ""}</td>
+              <td>{d.rollback_reason ?? d.comment ?? ""}</td>
+              <td>
+                {d.status === "pending_approval" && <button type="button" onClick={() => act(d.id, "approve")}>Approve</button>}
+                {d.status === "canary" && <button type="button" onClick={() => act(d.id, "advance")}>Roll out to all</button>}
+                {live && <button type="button" onClick={() => act(d.id, "rollback")}>Roll back</button>}
+              </td>
+            </tr>
+          );
+        })}</tbody>
+      </table>
+    </>
+  );
+}

@@ -1,0 +1,176 @@
+import { Fragment, useEffect, useState, type FormEvent } from "react";
+import { useParams } from "react-router-dom";
+import { api, errorMessage } from "../../api/client";
+import { JobProgress } from "./JobProgress";
+import { fmt, type Deployment, type GateReport, type GoldEvent, type JobKind, type ModelDetail } from "./types";
+import { useJob } from "./useJobPolling";
+
+const TABLE3 = ["frame_recall", "frame_precision", "frame_f1", "fp", "fp_d", "fp_d_over_fp", "fn", "fn_d",
+  "fn_d_over_fn", "falls_detected", "falls_total", "adl_false_alarms", "adl_total", "median_time_to_alarm_s",
+  "max_time_to_alarm_s", "event_f1"];
+
+export function ModelPage() {
+  const modelId = Number(useParams().modelId);
+  const [model, setModel] = useState<ModelDetail | null>(null);
+  const [gate, setGate] = useState<GateReport | null>(null);
+  const [error, setError] = useState<string | null>(null);
+  const [jobId, setJobId] = useState<number | null>(null);
+  const job = useJob(jobId);
+
+  const load = () => {
+    void api.GET("/api/models/{model_id}", { params: { path: { model_id: modelId } } }).then(({ data, error }) => {
+      if (data) setModel(data); else setError(errorMessage(error, "Could not load the model"));
+    });
+    void api.GET("/api/models/{model_id}/gate", { params: { path: { model_id: modelId } } }).then(({ data }) => {
+      if (data) setGate(data as unknown as GateReport);
+    });
+  };
+  useEffect(load, [modelId]);
+  useEffect(() => { if (job?.status === "succeeded") load(); }, [job?.status]);
+
+  async function queue(kind: JobKind, params: Record<string, unknown>) {
+    const { data, error } = await api.POST("/api/jobs", { body: { kind, params: { model_version_id: modelId, ...params } } });
+    if (data) setJobId(data.id); else setError(errorMessage(error, "Could not queue the job"));
+  }
+
+  if (!model) return error ? <p role="alert" className="error">{error}</p> : <p className="muted">Loading…</p>;
+  const gold = (model.metrics as Record<string, any>).gold as Record<string, unknown> | null | undefined;
+  const latency = (model.metrics as Record<string, any>).latency as Record<string, number> | undefined;
+  const events = (gold?.events ?? []) as GoldEvent[];
+  return (
+    <>
+      <h1>{model.version} <span className={`pill status-${model.status}`}>{model.status}</span></h1>
+      {error && <p role="alert" className="error">{error}</p>}
+      <section className="card">
+        <h2>Lineage</h2>
+        <dl className="facts lineage">
+          <dt>Mode</dt><dd>{model.mode}</dd>
+          <dt>Family</dt><dd>{model.kind}</dd>
+          <dt>Threshold / delay</dt><dd>{fmt(model.threshold)} / {model.delay_ms} ms</dd>
+          {Object.entries(model.lineage).map(([k, v]) => (<Fragment key={k}><dt>{k}</dt><dd>{fmt(v)}</dd></Fragment>))}
+          <dt>sha256</dt><dd><code>{model.sha256}</code></dd>
+        </dl>
+      </section>
+      <section className="card">
+        <h2>Gold set evaluation</h2>
+        {gold ? (
+          <>
+            <p className="muted">Real URFD / labelled recordings with split “test”: {fmt((gold.sequences as string[])?.length)} recordings, {fmt(gold.frames)} frames{gold.generated_data ? " (includes GENERATED data)" : ""}.</p>
+            <div className="table-wrap">
+              <table className="table" aria-label="Table 3">
+                <thead><tr>{TABLE3.map((k) => <th key={k}>{k}</th>)}</tr></thead>
+                <tbody><tr>{TABLE3.map((k) => <td key={k}>{fmt(gold[k])}</td>)}</tr></tbody>
+              </table>
+            </div>
+            {latency && <p>Per-frame latency: p50 {fmt(latency.p50_ms, 2)} ms, p95 {fmt(latency.p95_ms, 2)} ms.</p>}
+            <h3>Per recording</h3>
+            <table className="table" aria-label="Events">
+              <thead><tr><th>Recording</th><th>Kind</th><th>Alarms</th><th>Detected</th><th>False alarm</th><th>Time to alarm (s)</th></tr></thead>
+              <tbody>{events.map((e) => (
+                <tr key={e.sequence} className={e.kind === "fall" && !e.detected ? "missed" : ""}>
+                  <td>{e.sequence}</td><td>{e.kind}</td><td>{e.alarms}</td><td>{fmt(e.detected)}</td><td>{fmt(e.false_alarm)}</td><td>{fmt(e.time_to_alarm_s, 2)}</td>
+                </tr>))}</tbody>
+            </table>
+            <div className="plots">
+              {model.plots.map((p) => <img key={p} alt={`plot ${p}`} src={`/api/models/${model.id}/plots/${p}`} />)}
+            </div>
+          </>
+        ) : <p>Not evaluated on the gold set yet.</p>}
+        <p>
+          <button type="button" onClick={() => queue("evaluate", {})}>Evaluate on the gold set</button>{" "}
+          <button type="button" onClick={() => queue("rethreshold", {})}>Re-choose threshold and delay</button>
+        </p>
+        {job && <JobProgress job={job} />}
+        {job?.status === "failed" && <p role="alert" className="error">{job.message}</p>}
+      </section>
+      <WhatIf modelId={model.id} threshold={model.threshold} delayMs={model.delay_ms} />
+      <Promote modelId={model.id} gate={gate} onDone={load} />
+    </>
+  );
+}
+
+function WhatIf({ modelId, threshold, delayMs }: { modelId: number; threshold: number; delayMs: number }) {
+  const [t, setT] = useState(String(threshold));
+  const [d, setD] = useState(String(delayMs));
+  const [jobId, setJobId] = useState<number | null>(null);
+  const [error, setError] = useState<string | null>(null);
+  const job = useJob(jobId);
+  async function run(event: FormEvent) {
+    event.preventDefault();
+    const { data, error } = await api.POST("/api/jobs", {
+      body: { kind: "whatif", params: { model_version_id: modelId, threshold: Number(t), delay_ms: Number(d) } },
+    });
+    if (data) setJobId(data.id); else setError(errorMessage(error, "Could not start the replay"));
+  }
+  const result = job?.status === "succeeded" ? (job.result as Record<string, any>) : null;
+  const rows = ["alarms", "falls_detected", "adl_false_alarms", "frame_recall", "median_time_to_alarm_s"];
+  return (
+    <section className="card">
+      <h2>What-if replay</h2>
+      <form className="filters" onSubmit={run} aria-label="What-if">
+        <label>Threshold <input name="threshold" type="number" step="any" min="0" max="1" value={t} onChange={(e) => setT(e.target.value)} /></label>
+        <label>Delay (ms) <input name="delay_ms" type="number" step="10" min="0" max="10000" value={d} onChange={(e) => setD(e.target.value)} /></label>
+        <button type="submit">Replay labelled recordings</button>
+      </form>
+      {error && <p role="alert" className="error">{error}</p>}
+      {job && !result && <JobProgress job={job} />}
+      {job?.status === "failed" && <p role="alert" className="error">{job.message}</p>}
+      {result && (
+        <table className="table" aria-label="What-if result">
+          <thead><tr><th /><th>Current</th><th>What-if</th><th>Change</th></tr></thead>
+          <tbody>{rows.map((k) => (
+            <tr key={k}><td>{k}</td><td>{fmt(result.baseline[k])}</td><td>{fmt(result.candidate[k])}</td><td>{fmt(result.change[k])}</td></tr>
+          ))}</tbody>
+        </table>
+      )}
+    </section>
+  );
+}
+
+function Promote({ modelId, gate, onDone }: { modelId: number; gate: GateReport | null; onDone: () => void }) {
+  const [scope, setScope] = useState<"robot" | "ward" | "fleet">("fleet");
+  const [target, setTarget] = useState("");
+  const [canary, setCanary] = useState("");
+  const [comment, setComment] = useState("");
+  const [result, setResult] = useState<Deployment | null>(null);
+  const [error, setError] = useState<string | null>(null);
+  async function send(shadow: boolean) {
+    setError(null);
+    const body = { scope, target: target || null, comment: comment || null };
+    const response = shadow
+      ? await api.POST("/api/models/{model_id}/shadow", { params: { path: { model_id: modelId } }, body })
+      : await api.POST("/api/models/{model_id}/promote", {
+          params: { path: { model_id: modelId } }, body: { ...body, canary_robot_id: canary || null },
+        });
+    if (response.data) { setResult(response.data); onDone(); }
+    else setError(errorMessage(response.error, "Promotion refused"));
+  }
+  return (
+    <section className="card">
+      <h2>Promote</h2>
+      {gate && (
+        <div aria-label="Gate" className={gate.passed ? "gate gate-pass" : "gate gate-fail"}>
+          <strong>Gate: {gate.passed ? "passed" : "blocked"}</strong>
+          <ul>{gate.checks.map((c) => (
+            <li key={c.name} className={c.passed ? "ok" : "fail"}>{c.passed ? "✓" : "✗"} {c.name}: {c.detail}</li>
+          ))}</ul>
+          {(gate.warnings ?? []).map((w) => <p key={w} className="warning">⚠ {w}</p>)}
+        </div>
+      )}
+      <form className="filters" onSubmit={(e) => { e.preventDefault(); void send(false); }} aria-label="Promote">
+        <label>Scope
+          <select name="scope" value={scope} onChange={(e) => setScope(e.target.value as typeof scope)}>
+            <option value="robot">one robot</option><option value="ward">a ward</option><option value="fleet">the fleet</option>
+          </select>
+        </label>
+        {scope !== "fleet" && <label>{scope === "robot" ? "Robot id" : "Ward"} <input name="target" value={target} onChange={(e) => setTarget(e.target.value)} /></label>}
+        {scope !== "robot" && <label>Canary robot (optional) <input name="canary" value={canary} onChange={(e) => setCanary(e.target.value)} /></label>}
+        <label>Comment <input name="comment" value={comment} onChange={(e) => setComment(e.target.value)} /></label>
+        <button className="primary" type="submit" disabled={!gate?.passed}>Sign off and promote</button>
+        <button type="button" onClick={() => void send(true)}>Run in shadow mode</button>
+      </form>
+      {error && <p role="alert" className="error">{error}</p>}
+      {result && <p role="status">Deployment {result.id}: {result.status}{result.shadow ? " (shadow)" : ""}{result.rollout?.canary && result.status === "canary" ? `, canary ${String(result.rollout.canary)}` : ""}.</p>}
+    </section>
+  );
+}

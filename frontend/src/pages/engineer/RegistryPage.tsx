@@ -1,0 +1,82 @@
+import { useEffect, useState, type FormEvent } from "react";
+import { Link, useNavigate } from "react-router-dom";
+import { api, errorMessage } from "../../api/client";
+import { JobProgress } from "./JobProgress";
+import { fmt, type ModelSummary } from "./types";
+import { useJob } from "./useJobPolling";
+
+const SPECS = ["rf-default", "rf", "svm-paper", "svm", "mlp"];
+
+export function RegistryPage() {
+  const [models, setModels] = useState<ModelSummary[] | null>(null);
+  const [error, setError] = useState<string | null>(null);
+  const [picked, setPicked] = useState<number[]>([]);
+  const [spec, setSpec] = useState("rf-default");
+  const [jobId, setJobId] = useState<number | null>(null);
+  const job = useJob(jobId);
+  const navigate = useNavigate();
+
+  const load = () =>
+    api.GET("/api/models").then(({ data, error }) => {
+      if (data) { setModels(data); setError(null); } else setError(errorMessage(error, "Could not load models"));
+    });
+  useEffect(() => { void load(); }, []);
+  useEffect(() => { if (job?.status === "succeeded") void load(); }, [job?.status]);
+
+  async function retrain(event: FormEvent) {
+    event.preventDefault();
+    const { data, error } = await api.POST("/api/jobs", { body: { kind: "retrain", params: { spec } } });
+    if (data) setJobId(data.id); else setError(errorMessage(error, "Could not queue the retrain job"));
+  }
+  const toggle = (id: number) =>
+    setPicked((p) => (p.includes(id) ? p.filter((x) => x !== id) : [...p.slice(-1), id]));
+
+  return (
+    <>
+      <h1>Model registry</h1>
+      <form className="filters" onSubmit={retrain} aria-label="Retrain">
+        <label>Model family
+          <select value={spec} onChange={(e) => setSpec(e.target.value)} name="spec">
+            {SPECS.map((s) => <option key={s}>{s}</option>)}
+          </select>
+        </label>
+        <button className="primary" type="submit">Retrain from accepted labels</button>
+        {job && <JobProgress job={job} />}
+      </form>
+      {error && <p role="alert" className="error">{error}</p>}
+      <p>
+        <button type="button" disabled={picked.length !== 2}
+          onClick={() => navigate(`/engineer/compare?a=${picked[0]}&b=${picked[1]}`)}>
+          Compare the two selected
+        </button>
+      </p>
+      {models === null ? <p className="muted">Loading…</p> : models.length === 0 ? <p className="empty">No models registered yet.</p> : (
+        <div className="table-wrap">
+          <table className="table" aria-label="Models">
+            <thead><tr>
+              <th>Pick</th><th>Version</th><th>Status</th><th>Mode</th><th>Gold falls</th>
+              <th>Gold false alarms</th><th>Frame F1</th><th>Threshold</th><th>Delay</th><th>Robots</th><th>Created</th>
+            </tr></thead>
+            <tbody>
+              {models.map((m) => (
+                <tr key={m.id}>
+                  <td><input type="checkbox" aria-label={`pick ${m.version}`} checked={picked.includes(m.id)} onChange={() => toggle(m.id)} /></td>
+                  <td><Link to={`/engineer/models/${m.id}`}>{m.version}</Link></td>
+                  <td><span className={`pill status-${m.status}`}>{m.status}</span></td>
+                  <td>{m.mode}</td>
+                  <td>{m.gold ? `${fmt(m.gold.falls_detected)}/${fmt(m.gold.falls_total)}` : "not evaluated"}</td>
+                  <td>{m.gold ? `${fmt(m.gold.adl_false_alarms)}/${fmt(m.gold.adl_total)}` : "–"}</td>
+                  <td>{fmt(m.gold?.frame_f1)}</td>
+                  <td>{fmt(m.threshold)}</td>
+                  <td>{m.delay_ms} ms</td>
+                  <td>{m.robots_assigned}</td>
+                  <td>{new Date(m.created_at).toLocaleString()}</td>
+                </tr>
+              ))}
+            </tbody>
+          </table>
+        </div>
+      )}
+    </>
+  );
+}

@@ -1,0 +1,106 @@
+"""`make run`: migrate, seed demo users and robots, then start the backend, the worker and a
+simulated fleet of 3 robots; Ctrl-C stops every child process."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+import urllib.request
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+VAR = ROOT / "var"
+PY = sys.executable
+HOST, PORT = "127.0.0.1", int(os.environ.get("VIGIL_PORT", "8000"))
+MODEL_DIR = VAR / "models" / "default-walking"
+TOKENS = VAR / "robot_tokens.json"
+
+
+def step(title: str, *args: str) -> None:
+    print(f"==> {title}", flush=True)
+    subprocess.run([PY, *args], cwd=ROOT, check=True)
+
+
+def start(name: str, *args: str) -> subprocess.Popen:
+    print(f"==> starting {name}", flush=True)
+    return subprocess.Popen([PY, *args], cwd=ROOT, start_new_session=True)
+
+
+def wait_for_backend(timeout_s: float = 60) -> None:
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        try:
+            with urllib.request.urlopen(f"http://{HOST}:{PORT}/api/health", timeout=1):
+                return
+        except OSError:
+            time.sleep(0.3)
+    raise SystemExit(f"backend did not answer on http://{HOST}:{PORT} within {timeout_s:.0f} s")
+
+
+def stop(children: list[subprocess.Popen]) -> None:
+    for child in children:
+        if child.poll() is None:
+            os.killpg(child.pid, signal.SIGTERM)
+    deadline = time.monotonic() + 10
+    for child in children:
+        try:
+            child.wait(max(0.1, deadline - time.monotonic()))
+        except subprocess.TimeoutExpired:
+            os.killpg(child.pid, signal.SIGKILL)
+
+
+def main() -> int:
+    VAR.mkdir(exist_ok=True)
+    step("applying database migrations", "-m", "backend.cli", "migrate")
+    step("creating demo users and robots", "-m", "backend.cli", "seed-demo", "--robots", "3")
+    if not (MODEL_DIR / "manifest.json").exists():
+        step(
+            "training the default walking model on URFD (first run only)",
+            "-m", "worker.training.cli", "train-default", "--out", str(MODEL_DIR),
+        )  # fmt: skip
+    children: list[subprocess.Popen] = []
+    try:
+        children.append(
+            start("backend", "-m", "backend.cli", "serve", "--host", HOST, "--port", str(PORT))
+        )
+        wait_for_backend()
+        children.append(start("worker", "-m", "worker.cli", "run"))
+        children.append(
+            start(
+                "simulated fleet of 3 robots (generated transports, including falls)",
+                "-m",
+                "robot_agent.cli",
+                "simulate",
+                "--backend",
+                f"ws://{HOST}:{PORT}/ws/robot",
+                "--robots",
+                "3",
+                "--tokens-file",
+                str(TOKENS),
+                "--model-dir",
+                str(MODEL_DIR),
+            )  # fmt: skip
+        )
+        print(
+            f"\nVigil is running: open http://{HOST}:{PORT} and sign in as nurse "
+            "(password printed above). Ctrl-C stops everything.\n",
+            flush=True,
+        )
+        while True:
+            for child in children:
+                if child.poll() is not None:
+                    print(f"a child process exited with code {child.returncode}; stopping")
+                    return 1
+            time.sleep(0.5)
+    except KeyboardInterrupt:
+        print("\nstopping…")
+        return 0
+    finally:
+        stop(children)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,99 @@
+import csv
+import io
+import json
+
+API = "/api/labelling"
+
+
+def _export(client, account, video_id, fmt):
+    response = client.get(f"{API}/videos/{video_id}/export?format={fmt}", headers=account.headers)
+    assert response.status_code == 200, response.text
+    return response
+
+
+def _import(client, account, fmt, content: str, name=None):
+    params = f"format={fmt}" + (f"&name={name}" if name else "")
+    return client.post(
+        f"{API}/import?{params}", files={"file": ("x", content.encode())}, headers=account.headers
+    )
+
+
+def test_csv_has_one_row_per_frame_with_class_per_mode(client, urfd_videos, annotator):
+    rows = list(
+        csv.DictReader(io.StringIO(_export(client, annotator, urfd_videos["fall-01"], "csv").text))
+    )
+    assert [int(r["frame"]) for r in rows] == list(range(160))
+    lying = [r for r in rows if r["label_key"] == "lying_on_floor"]
+    assert lying and all(r["walking"] == "emergency" == r["combined"] for r in lying)
+    assert {r["walking"] for r in rows if r["label_key"] == "walking"} == {"normal"}
+
+
+def test_json_round_trip_reproduces_frames_and_segments(client, urfd_videos, annotator):
+    first = _export(client, annotator, urfd_videos["fall-01"], "json").json()
+    created = _import(client, annotator, "json", json.dumps(first), name="fall-01-copy")
+    assert created.status_code == 201, created.text
+    copy_id = next(
+        v["id"]
+        for v in client.get(f"{API}/videos", headers=annotator.headers).json()
+        if v["name"] == "fall-01-copy"
+    )
+    second = _export(client, annotator, copy_id, "json").json()
+    assert second["frames"] == first["frames"]
+
+    def strip(segs):
+        return [(s["first_frame"], s["last_frame"], s["label_key"], s["status"]) for s in segs]
+
+    assert strip(second["segments"]) == strip(first["segments"])
+    assert {k: v for k, v in second["video"].items() if k != "name"} == {
+        k: v for k, v in first["video"].items() if k != "name"
+    }
+    duplicate = _import(client, annotator, "json", json.dumps(first), name="fall-01-copy")
+    assert duplicate.status_code == 409
+
+
+def test_csv_round_trip_onto_a_video_without_labels(client, urfd_videos, annotator):
+    document = _export(client, annotator, urfd_videos["fall-01"], "json").json()
+    document["segments"] = []
+    _import(client, annotator, "json", json.dumps(document), name="bare")
+    exported = _export(client, annotator, urfd_videos["fall-01"], "csv").text
+    renamed = exported.replace("fall-01,", "bare,")
+    assert _import(client, annotator, "csv", renamed).json() == {"videos": ["bare"], "segments": 3}
+    bare = next(
+        v["id"]
+        for v in client.get(f"{API}/videos", headers=annotator.headers).json()
+        if v["name"] == "bare"
+    )
+    assert _export(client, annotator, bare, "csv").text == renamed
+
+
+def test_coco_round_trip_keeps_the_17_keypoints_and_labels(client, urfd_videos, annotator):
+    first = _export(client, annotator, urfd_videos["fall-01"], "coco").json()
+    assert first["categories"][0]["keypoints"][0] == "nose" and len(first["images"]) == 160
+    assert all(len(a["keypoints"]) == 51 for a in first["annotations"])
+    assert (
+        _import(client, annotator, "coco", json.dumps(first), name="from-coco").status_code == 201
+    )
+    copy = next(
+        v["id"]
+        for v in client.get(f"{API}/videos", headers=annotator.headers).json()
+        if v["name"] == "from-coco"
+    )
+    second = _export(client, annotator, copy, "coco").json()
+    assert second["annotations"] == first["annotations"]
+    assert [i["label_key"] for i in second["images"]] == [i["label_key"] for i in first["images"]]
+
+
+def test_bad_import_files_are_refused_and_store_nothing(client, urfd_videos, annotator):
+    before = len(client.get(f"{API}/videos", headers=annotator.headers).json())
+    assert _import(client, annotator, "json", "{not json").status_code == 422
+    wrong = _import(client, annotator, "json", json.dumps({"format": "other"}))
+    assert wrong.status_code == 422 and "format" in wrong.json()["detail"]
+    document = _export(client, annotator, urfd_videos["fall-01"], "json").json()
+    document["segments"].append({"first_frame": 10, "last_frame": 500, "label_key": "falling"})
+    broken = _import(client, annotator, "json", json.dumps(document), name="broken")
+    assert broken.status_code == 422 and "last_frame" in broken.json()["detail"]
+    unknown_video = _import(
+        client, annotator, "csv", "video,frame,ts,label_key\nnope,0,0,walking\n"
+    )
+    assert unknown_video.status_code == 422 and "nope" in unknown_video.json()["detail"]
+    assert len(client.get(f"{API}/videos", headers=annotator.headers).json()) == before

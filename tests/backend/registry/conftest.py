@@ -1,0 +1,49 @@
+from __future__ import annotations
+
+import pytest
+
+from backend.db import transaction
+from backend.models.jobs import JobKind, JobStatus
+from backend.models.robots import Robot
+from backend.security import hash_robot_token
+from tests.backend.conftest import ROBOT_TOKEN
+from tests.registry_fixtures import factory, trained_model_dir, urfd_db, worker_settings
+from worker import queue
+from worker.runner import Worker
+
+__all__ = ["factory", "trained_model_dir", "urfd_db", "worker_settings"]
+
+
+@pytest.fixture
+def settings(settings):
+    # Two ADL recordings in the small gold set: one false alarm is 50 %.
+    return settings.model_copy(update={"gate_false_alarm_budget": 0.5})
+
+
+@pytest.fixture
+def register(factory, worker_settings):  # noqa: F811
+    """Register a model directory through the worker's register job; returns the model id."""
+
+    def run(model_dir) -> int:
+        with transaction(factory) as session:
+            job_id = queue.enqueue(session, JobKind.REGISTER, {"path": str(model_dir)}).id
+        Worker(worker_settings, factory, sweeps=[]).run_once()
+        with factory() as session:
+            from backend.models.jobs import Job
+
+            job = session.get(Job, job_id)
+            assert job.status == JobStatus.SUCCEEDED, job.log
+            return job.result["model_version_id"]
+
+    return run
+
+
+@pytest.fixture
+def fleet(session_factory) -> list[str]:
+    """Three robots in ward-a (same token as the `robot` fixture) and one in ward-b."""
+    with transaction(session_factory) as session:
+        for robot_id, ward in (("robot-a", "ward-a"), ("robot-b", "ward-a"),
+                               ("robot-c", "ward-a"), ("robot-d", "ward-b")):  # fmt: skip
+            session.add(Robot(id=robot_id, name=robot_id, ward=ward,
+                              token_hash=hash_robot_token(ROBOT_TOKEN)))  # fmt: skip
+    return ["robot-a", "robot-b", "robot-c", "robot-d"]

@@ -1,0 +1,154 @@
+"""Models reach robots: a separate robot process switches to the promoted version and reports
+it, a rollback brings the old one back; shadow decisions are stored but never alarm, and their
+disagreements land in the review queue."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+import httpx
+import pytest
+import uvicorn
+from sqlalchemy import func, select
+
+from backend.main import create_app
+from backend.models import (
+    Alarm,
+    AnnotationSegment,
+    Frame,
+    Robot,
+    Role,
+    SegmentSource,
+    SegmentStatus,
+)
+from tests.backend.conftest import ROBOT_TOKEN
+from tests.registry_fixtures import derive_model
+from vigil.protocol import FrameBatch, FrameRecord, Hello, ShadowDecision, TransportStart
+from worker.sweeps import shadow_disagreements
+
+REPO = Path(__file__).resolve().parents[3]
+
+
+@pytest.fixture
+def live_server(settings):
+    """The real backend on a free port (uvicorn in a thread)."""
+    app = create_app(settings)
+    server = uvicorn.Server(uvicorn.Config(app, host="127.0.0.1", port=0, log_level="warning"))
+    thread = threading.Thread(target=server.run, daemon=True)
+    thread.start()
+    deadline = time.monotonic() + 20
+    while not server.started:
+        assert time.monotonic() < deadline, "backend did not start"
+        time.sleep(0.05)
+    port = server.servers[0].sockets[0].getsockname()[1]
+    yield f"127.0.0.1:{port}"
+    server.should_exit = True
+    thread.join(10)
+
+
+def _wait_running(session_factory, robot_id: str, version: str, timeout: float = 30) -> None:
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        with session_factory() as session:
+            if session.get(Robot, robot_id).running_model_version == version:
+                return
+        time.sleep(0.1)
+    raise AssertionError(f"{robot_id} did not report running {version}")
+
+
+def test_robot_process_switches_to_the_promoted_version_and_back_on_rollback(
+    live_server, make_account, fleet, urfd_db, register, trained_model_dir, tmp_path,
+    session_factory,
+):  # fmt: skip
+    engineer = make_account(Role.ENGINEER)
+    v1 = register(trained_model_dir)
+    v2 = register(derive_model(trained_model_dir, tmp_path / "v2", "rf-test-2", threshold=0.5))
+    api = httpx.Client(base_url=f"http://{live_server}", headers=engineer.headers, timeout=10)
+    # Assigned before the robot connects: it gets the model right after welcome.
+    assert api.post(f"/api/models/{v1}/promote",
+                    json={"scope": "robot", "target": "robot-a"}).status_code == 201  # fmt: skip
+    robot = subprocess.Popen(
+        [sys.executable, "-m", "tests.backend.registry.model_robot", "--url",
+         f"ws://{live_server}/ws/robot", "--robot-id", "robot-a", "--token", ROBOT_TOKEN,
+         "--dir", str(tmp_path / "robot-models")],
+        cwd=REPO, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+    )  # fmt: skip
+    try:
+        _wait_running(session_factory, "robot-a", "rf-test-1")
+        # Promoted while connected: pushed at once.
+        second = api.post(f"/api/models/{v2}/promote",
+                          json={"scope": "robot", "target": "robot-a"}).json()  # fmt: skip
+        _wait_running(session_factory, "robot-a", "rf-test-2")
+        row = {r["id"]: r for r in api.get("/api/fleet").json()}["robot-a"]
+        assert (row["connected"], row["target_version"], row["running_version"], row["in_sync"]) \
+            == (True, "rf-test-2", "rf-test-2", True)  # fmt: skip
+        # One click back.
+        assert api.post(f"/api/deployments/{second['id']}/rollback", json={}).status_code == 200
+        _wait_running(session_factory, "robot-a", "rf-test-1")
+        assert (tmp_path / "robot-models" / "rf-test-2" / "model.onnx").is_file()
+    finally:
+        robot.terminate()
+        out, err = robot.communicate(timeout=10)
+    assert out.splitlines() == ["RUNNING rf-test-1", "RUNNING rf-test-2", "RUNNING rf-test-1"], err
+
+
+def _frame(seq: int, decision: str, shadow: str) -> FrameRecord:
+    return FrameRecord(
+        seq=seq, ts=1000.0 + seq / 30, transport_id="t-1",
+        keypoints=[[100.0 + i, 200.0 + i, 0.9] for i in range(25)],
+        decision=decision, scores={decision: 0.9}, model_version="prod-1",
+        shadow=ShadowDecision(decision=shadow, scores={shadow: 0.95},
+                              model_version="cand-1"),
+    )  # fmt: skip
+
+
+def test_shadow_decisions_never_alarm_and_disagreements_go_to_review(
+    client, robot, session_factory, factory, worker_settings
+):
+    with client.websocket_connect("/ws/robot") as ws:
+        ws.send_text(Hello(robot_id=robot, token=ROBOT_TOKEN).model_dump_json())
+        assert json.loads(ws.receive_text())["type"] == "welcome"
+        ws.send_text(
+            TransportStart(transport_id="t-1", mode="walking", ts=1000.0).model_dump_json()
+        )
+        frames = [_frame(i, "normal", "emergency" if 3 <= i <= 8 else "normal") for i in range(12)]
+        ws.send_text(FrameBatch(frames=frames).model_dump_json())
+        assert json.loads(ws.receive_text()) == {"type": "ack", "seq": 11}
+    with session_factory() as session:
+        assert session.scalar(select(func.count()).select_from(Alarm)) == 0
+        stored = session.scalars(select(Frame).order_by(Frame.seq)).all()
+        assert [f.shadow_decision for f in stored[2:5]] == ["normal", "emergency", "emergency"]
+        assert {f.shadow_model_version for f in stored} == {"cand-1"}
+    shadow_disagreements(factory, worker_settings)
+    shadow_disagreements(factory, worker_settings)  # idempotent
+    with session_factory() as session:
+        (segment,) = session.scalars(select(AnnotationSegment)).all()
+        assert (segment.first_frame, segment.last_frame) == (3, 8)
+        assert segment.source == SegmentSource.SHADOW_DISAGREEMENT
+        assert segment.status == SegmentStatus.PENDING and segment.priority == 2
+        assert "shadow cand-1 said emergency" in segment.review_comment
+
+
+def test_a_shadow_assignment_reaches_the_robot_on_connect(
+    client, make_account, fleet, urfd_db, register, trained_model_dir, session_factory
+):
+    engineer = make_account(Role.ENGINEER)
+    v1 = register(trained_model_dir)
+    response = client.post(f"/api/models/{v1}/shadow", headers=engineer.headers,
+                           json={"scope": "robot", "target": "robot-b"})  # fmt: skip
+    assert response.status_code == 201 and response.json()["shadow"] is True
+    with session_factory() as session:
+        robot = session.get(Robot, "robot-b")
+        assert robot.shadow_model_id == v1 and robot.assigned_model_id is None
+    with client.websocket_connect("/ws/robot") as ws:
+        ws.send_text(Hello(robot_id="robot-b", token=ROBOT_TOKEN).model_dump_json())
+        assert json.loads(ws.receive_text())["type"] == "welcome"
+        assignment = json.loads(ws.receive_text())
+    assert assignment["type"] == "assign_model" and assignment["shadow"] is True
+    assert assignment["version"] == "rf-test-1"
+    assert assignment["url"].endswith("/api/robot/models/rf-test-1/file")

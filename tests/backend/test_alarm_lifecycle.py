@@ -1,0 +1,216 @@
+"""Alarm lifecycle beyond the first alarm: escalation per ward, re-alarm, technical alarms from
+the monitor, resolve verdicts, illegal transitions (409) and the audit trail."""
+
+from __future__ import annotations
+
+import json
+from datetime import timedelta
+
+import pytest
+from sqlalchemy import select
+
+from backend.db import transaction
+from backend.models import Alarm, AlarmEvent, AlarmKind, AlarmState, Robot, Role
+from backend.models._types import utcnow
+from backend.security import hash_robot_token
+from tests.backend.conftest import ROBOT_TOKEN
+from tests.backend.test_first_alarm import frame
+from vigil.protocol import FrameBatch, Heartbeat, Hello, TransportEnd, TransportStart
+
+
+@pytest.fixture
+def settings(settings):
+    settings.monitor_interval_s = 3600  # the tests run the monitor passes themselves
+    settings.escalation_seconds = 60
+    settings.escalation_seconds_by_ward = {"ward-a": 30}
+    settings.escalation_max_level = 2
+    settings.realarm_minutes = 10
+    settings.stream_stall_seconds = 5
+    settings.robot_offline_seconds = 10
+    return settings
+
+
+def stream(client, robot_id: str, token: str, transport: str, *frames, end: bool = True) -> None:
+    with client.websocket_connect("/ws/robot") as ws:
+        ws.send_text(Hello(robot_id=robot_id, token=token).model_dump_json())
+        ws.receive_text()
+        ws.send_text(
+            TransportStart(transport_id=transport, mode="walking", patient="P-1", ts=0.0)
+            .model_dump_json()
+        )  # fmt: skip
+        ws.send_text(FrameBatch(frames=list(frames)).model_dump_json())
+        assert json.loads(ws.receive_text())["type"] == "ack"
+        if end:
+            ws.send_text(TransportEnd(transport_id=transport, ts=1.0).model_dump_json())
+            ws.send_text(Heartbeat(ts=1.0).model_dump_json())
+            ws.send_text(FrameBatch(frames=[frames[-1]]).model_dump_json())  # a replay
+            assert json.loads(ws.receive_text())["type"] == "ack"  # so the end is committed
+
+
+def tick(client, now) -> list[dict]:
+    return client.portal.call(client.app.state.monitor.tick, now)
+
+
+def events(session_factory, alarm_id: int) -> list[tuple[str, str | None, str, str]]:
+    with session_factory() as session:
+        rows = session.scalars(
+            select(AlarmEvent).where(AlarmEvent.alarm_id == alarm_id).order_by(AlarmEvent.id)
+        )
+        return [(e.action, e.from_state, e.to_state, e.actor) for e in rows]
+
+
+def test_unacknowledged_emergency_escalates_per_ward_and_is_pushed_again(
+    client, robot, make_account, session_factory
+):
+    with transaction(session_factory) as session:
+        session.add(Robot(id="robot-b", ward="ward-b", token_hash=hash_robot_token("tok-b")))
+    nurse = make_account(Role.NURSE, ward="ward-a")
+    stream(client, robot, ROBOT_TOKEN, "t-a", frame(0, "emergency", "t-a"))
+    stream(client, "robot-b", "tok-b", "t-b", frame(0, "emergency", "t-b"))
+    with session_factory() as session:
+        alarm_a, alarm_b = session.scalars(select(Alarm).order_by(Alarm.robot_id)).all()
+    start = alarm_a.raised_at
+
+    with client.websocket_connect(f"/ws/browser?token={nurse.token}") as browser:
+        snapshot = browser.receive_json()
+        assert [a["id"] for a in snapshot["alarms"]] == [alarm_a.id]  # ward-a only
+
+        assert tick(client, start + timedelta(seconds=29)) == []
+        changed = tick(client, start + timedelta(seconds=31))
+        # ward-a escalates after its own 30 s; ward-b waits for the default 60 s.
+        assert [(a["id"], a["escalation_level"]) for a in changed] == [(alarm_a.id, 1)]
+        pushed = browser.receive_json()
+        assert pushed["alarm"]["id"] == alarm_a.id and pushed["alarm"]["escalation_level"] == 1
+
+        changed = tick(client, start + timedelta(seconds=62))
+        assert sorted((a["robot_id"], a["escalation_level"]) for a in changed) == [
+            ("robot-a", 2), ("robot-b", 1)
+        ]  # fmt: skip
+        # The maximum level (2 here) is not exceeded.
+        changed = tick(client, start + timedelta(seconds=200))
+        assert [(a["robot_id"], a["escalation_level"]) for a in changed] == [("robot-b", 2)]
+
+    assert events(session_factory, alarm_a.id) == [
+        ("raise", None, "open", "robot:robot-a"),
+        ("escalate", "open", "open", "system"),
+        ("escalate", "open", "open", "system"),
+    ]
+
+
+def test_acknowledged_alarm_not_resolved_in_time_realarms(
+    client, robot, make_account, session_factory
+):
+    nurse = make_account(Role.NURSE, ward="ward-a", username="alice")
+    stream(client, robot, ROBOT_TOKEN, "t-1", frame(0, "pause", "t-1"))
+    with session_factory() as session:
+        alarm = session.scalars(select(Alarm)).one()
+    assert (alarm.kind, alarm.priority) == (AlarmKind.PAUSE, "medium")
+    response = client.post(f"/api/alarms/{alarm.id}/acknowledge", headers=nurse.headers,
+                           json={"comment": "on my way"})  # fmt: skip
+    assert response.status_code == 200, response.text
+    acknowledged_at = utcnow()
+
+    with client.websocket_connect(f"/ws/browser?token={nurse.token}") as browser:
+        browser.receive_json()
+        assert tick(client, acknowledged_at + timedelta(minutes=9)) == []
+        changed = tick(client, acknowledged_at + timedelta(minutes=10, seconds=1))
+        assert [a["id"] for a in changed] == [alarm.id]
+        assert changed[0]["state"] == "acknowledged" and changed[0]["realarmed_at"] is not None
+        assert browser.receive_json()["alarm"]["realarmed_at"] is not None
+        # Not again before another full period.
+        assert tick(client, acknowledged_at + timedelta(minutes=15)) == []
+
+    assert [e[0] for e in events(session_factory, alarm.id)] == [
+        "raise", "acknowledge", "realarm"
+    ]  # fmt: skip
+
+
+def test_stalled_stream_then_offline_robot_raise_one_technical_alarm_each(
+    client, robot, session_factory
+):
+    stream(client, robot, ROBOT_TOKEN, "t-1", frame(0, "normal", "t-1"), end=False)
+    now = utcnow()
+    assert tick(client, now + timedelta(seconds=3)) == []
+    stalled = tick(client, now + timedelta(seconds=6))
+    assert [(a["kind"], a["priority"], a["transport_id"]) for a in stalled] == [
+        ("stream_stalled", "technical", "t-1")
+    ]
+    assert tick(client, now + timedelta(seconds=7)) == []  # one alarm per outage
+    offline = tick(client, now + timedelta(seconds=11))
+    assert [a["kind"] for a in offline] == ["robot_offline"]
+    assert tick(client, now + timedelta(seconds=30)) == []
+
+    # A transport that ended raises nothing.
+    with transaction(session_factory) as session:
+        for transport in session.scalars(select(Alarm)):
+            session.delete(transport)
+        from backend.models import Transport
+
+        session.get(Transport, "t-1").ended_at = now
+    assert tick(client, now + timedelta(seconds=60)) == []
+
+
+def test_resolve_verdicts_illegal_transitions_and_audit(
+    client, robot, make_account, session_factory
+):
+    nurse = make_account(Role.NURSE, ward="ward-a", username="alice")
+    engineer = make_account(Role.ENGINEER, ward=None, username="erin")
+    stream(client, robot, ROBOT_TOKEN, "t-1", frame(0, "emergency", "t-1"))
+    with session_factory() as session:
+        alarm_id = session.scalars(select(Alarm.id)).one()
+    url = f"/api/alarms/{alarm_id}"
+
+    # A false alarm needs a reason; a true emergency must not have one.
+    bad = client.post(f"{url}/resolve", headers=nurse.headers, json={"verdict": "false_alarm"})
+    assert bad.status_code == 422 and "reason" in bad.text
+    bad = client.post(f"{url}/resolve", headers=nurse.headers,
+                      json={"verdict": "true_emergency", "reason": "bending"})  # fmt: skip
+    assert bad.status_code == 422
+    # Engineers see alarms but do not handle them.
+    assert client.post(f"{url}/acknowledge", headers=engineer.headers).status_code == 403
+
+    resolved = client.post(
+        f"{url}/resolve",
+        headers=nurse.headers,
+        json={"verdict": "false_alarm", "reason": "bending", "comment": "picked up a glove"},
+    )
+    assert resolved.status_code == 200, resolved.text
+    body = resolved.json()
+    assert (body["state"], body["verdict"], body["reason"], body["resolved_by"]) == (
+        "resolved", "false_alarm", "bending", "alice"
+    )  # fmt: skip
+    again = client.post(f"{url}/acknowledge", headers=nurse.headers)
+    assert again.status_code == 409 and "resolved" in again.json()["detail"]
+    assert client.post(f"{url}/resolve", headers=nurse.headers,
+                       json={"verdict": "unsure"}).status_code == 409  # fmt: skip
+
+    # Filters.
+    listed = client.get("/api/alarms", params={"state": "resolved", "kind": "emergency"},
+                        headers=nurse.headers).json()  # fmt: skip
+    assert [a["id"] for a in listed] == [alarm_id]
+    assert client.get("/api/alarms", params={"state": "open"}, headers=nurse.headers).json() == []
+
+    audit = client.get("/api/audit", params={"alarm_id": alarm_id}, headers=engineer.headers)
+    assert audit.status_code == 200
+    trail = [(e["action"], e["from_state"], e["to_state"], e["actor"]) for e in audit.json()]
+    assert trail == [
+        ("resolve", "open", "resolved", "nurse:alice"),
+        ("raise", None, "open", "robot:robot-a"),
+    ]
+    assert "picked up a glove" in audit.json()[0]["comment"]
+
+    # After resolution a new Emergency in the same transport opens a new alarm.
+    stream(client, robot, ROBOT_TOKEN, "t-1", frame(1, "emergency", "t-1"))
+    with session_factory() as session:
+        states = session.scalars(select(Alarm.state).order_by(Alarm.id)).all()
+    assert states == [AlarmState.RESOLVED, AlarmState.OPEN]
+
+
+def test_reconnecting_browser_first_receives_every_open_alarm(client, robot, make_account):
+    nurse = make_account(Role.NURSE, ward="ward-a")
+    stream(client, robot, ROBOT_TOKEN, "t-1", frame(0, "emergency", "t-1"),
+           frame(1, "pause", "t-1"))  # fmt: skip
+    with client.websocket_connect(f"/ws/browser?token={nurse.token}") as browser:
+        snapshot = browser.receive_json()
+    assert snapshot["type"] == "snapshot"
+    assert sorted(a["kind"] for a in snapshot["alarms"]) == ["emergency", "pause"]

@@ -1,0 +1,131 @@
+"""The real system for browser tests and the alarm-latency benchmark: the built frontend, the
+backend as a uvicorn subprocess on a free port against a throwaway, migrated SQLite database,
+and Debian Chromium options for Playwright."""
+
+from __future__ import annotations
+
+import os
+import socket
+import subprocess
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import httpx
+
+from backend.db import make_engine, make_session_factory, transaction
+from backend.migrate import upgrade
+from backend.models import Robot, Role, User
+from backend.security import hash_password, hash_robot_token
+
+REPO_ROOT = Path(__file__).resolve().parents[2]
+FRONTEND = REPO_ROOT / "frontend"
+CHROMIUM = os.environ.get("VIGIL_CHROMIUM", "/usr/bin/chromium")
+CHROMIUM_ARGS = [
+    "--no-sandbox", "--disable-gpu", "--disable-background-networking",
+    "--disable-component-update", "--disable-sync", "--no-first-run",
+]  # fmt: skip
+TABLET = {"width": 1024, "height": 768}
+PASSWORD = "nurse-password-1"
+ROBOT_ID = "robot-a"
+ROBOT_TOKEN = "browser-test-robot-token"
+
+
+def _newest_mtime(paths) -> float:
+    return max((p.stat().st_mtime for p in paths if p.is_file()), default=0.0)
+
+
+def build_frontend() -> Path:
+    """The production build in frontend/dist, rebuilt when a source file is newer than it."""
+    index = FRONTEND / "dist" / "index.html"
+    sources = [*FRONTEND.joinpath("src").rglob("*"), FRONTEND / "index.html",
+               FRONTEND / "package.json", FRONTEND / "vite.config.ts"]  # fmt: skip
+    if not index.exists() or _newest_mtime(sources) > index.stat().st_mtime:
+        if not (FRONTEND / "node_modules").is_dir():
+            subprocess.run(["npm", "ci", "--no-audit", "--no-fund"], cwd=FRONTEND, check=True)
+        subprocess.run(["npm", "run", "build"], cwd=FRONTEND, check=True)
+    return index.parent
+
+
+def prepare_database(database_url: str) -> None:
+    """Migrate, then add nurse 'nina' (ward-a), annotator 'anna' and robot-a (ward-a)."""
+    upgrade(database_url)
+    engine = make_engine(database_url)
+    with transaction(make_session_factory(engine)) as session:
+        password_hash = hash_password(PASSWORD)
+        session.add(User(username="nina", password_hash=password_hash, role=Role.NURSE,
+                         ward="ward-a"))  # fmt: skip
+        session.add(User(username="anna", password_hash=password_hash, role=Role.ANNOTATOR))
+        session.add(Robot(id=ROBOT_ID, name="A", ward="ward-a",
+                          token_hash=hash_robot_token(ROBOT_TOKEN)))  # fmt: skip
+    engine.dispose()
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+@dataclass
+class LiveServer:
+    base_url: str
+    database_url: str
+    port: int
+    env: dict[str, str]
+    log_path: Path
+    process: subprocess.Popen | None = None
+
+    @classmethod
+    def create(cls, workdir: Path, frontend_dist: Path) -> LiveServer:
+        database_url = f"sqlite:///{workdir / 'vigil.db'}"
+        prepare_database(database_url)
+        port = free_port()
+        env = {
+            **os.environ,
+            "VIGIL_DATABASE_URL": database_url,
+            "VIGIL_FRONTEND_DIR": str(frontend_dist),
+            "VIGIL_SECRET_KEY": "browser-test-secret",
+        }
+        env.pop("VIGIL_REDIS_URL", None)
+        return cls(f"http://127.0.0.1:{port}", database_url, port, env, workdir / "backend.log")
+
+    @property
+    def robot_ws_url(self) -> str:
+        return f"ws://127.0.0.1:{self.port}/ws/robot"
+
+    def start(self) -> None:
+        log = self.log_path.open("ab")
+        self.process = subprocess.Popen(
+            [sys.executable, "-m", "uvicorn", "backend.main:create_app", "--factory",
+             "--host", "127.0.0.1", "--port", str(self.port), "--log-level", "warning"],
+            cwd=REPO_ROOT, env=self.env, stdout=log, stderr=subprocess.STDOUT,
+        )  # fmt: skip
+        deadline = time.monotonic() + 30
+        while time.monotonic() < deadline:
+            if self.process.poll() is not None:
+                raise RuntimeError(f"backend exited: {self.log_path.read_text()[-2000:]}")
+            try:
+                if httpx.get(f"{self.base_url}/api/health", timeout=1).status_code == 200:
+                    return
+            except httpx.HTTPError:
+                time.sleep(0.1)
+        raise RuntimeError("backend did not come up in 30 s")
+
+    def stop(self) -> None:
+        if self.process is not None and self.process.poll() is None:
+            self.process.terminate()
+            try:
+                self.process.wait(10)
+            except subprocess.TimeoutExpired:
+                self.process.kill()
+                self.process.wait()
+        self.process = None
+
+
+def sign_in(page, base_url: str, username: str = "nina", password: str = PASSWORD) -> None:
+    page.goto(f"{base_url}/login")
+    page.get_by_label("User name").fill(username)
+    page.get_by_label("Password").fill(password)
+    page.get_by_role("button", name="Sign in").click()

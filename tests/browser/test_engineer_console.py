@@ -1,0 +1,110 @@
+"""The engineer console in Debian Chromium against the real backend and a worker: registry with
+gold-set metrics and plots, the gate blocking a model that misses a fall, promotion, the fleet
+view, a what-if replay job with live progress, and a one-click rollback."""
+
+from __future__ import annotations
+
+import threading
+
+import pytest
+from playwright.sync_api import expect
+from sqlalchemy import select
+
+from backend.db import make_engine, make_session_factory, transaction
+from backend.models import Deployment, Robot, Role, User
+from backend.models.jobs import JobKind
+from backend.models.videos import Split
+from backend.security import hash_password
+from tests.registry_fixtures import GOLD, TRAIN, derive_model, trained_model_dir  # noqa: F401
+from worker import queue
+from worker.db_data import import_urfd
+from worker.runner import Worker
+from worker.settings import WorkerSettings
+
+from .live_server import PASSWORD, REPO_ROOT, LiveServer, sign_in
+
+pytestmark = pytest.mark.browser
+SCREENSHOTS = REPO_ROOT / "docs" / "screenshots"
+
+
+@pytest.fixture
+def system(tmp_path, frontend_dist, trained_model_dir):  # noqa: F811
+    server = LiveServer.create(tmp_path, frontend_dist)
+    store = tmp_path / "models"
+    server.env |= {"VIGIL_MODEL_STORE_DIR": str(store), "VIGIL_GATE_FALSE_ALARM_BUDGET": "0.5"}
+    engine = make_engine(server.database_url)
+    factory = make_session_factory(engine)
+    with transaction(factory) as session:
+        session.add(User(username="erin", password_hash=hash_password(PASSWORD),
+                         role=Role.ENGINEER))  # fmt: skip
+        import_urfd(session, TRAIN[:2] + TRAIN[6:8], Split.TRAIN)
+        import_urfd(session, GOLD, Split.TEST)
+        queue.enqueue(session, JobKind.REGISTER, {"path": str(trained_model_dir)})
+        blind = derive_model(trained_model_dir, tmp_path / "blind", "blind-1", delay_ms=10_000)
+        queue.enqueue(session, JobKind.REGISTER, {"path": str(blind)})
+    settings = WorkerSettings(database_url=server.database_url, model_store_dir=store,
+                              worker_id="browser-worker", worker_poll_s=0.2,
+                              worker_heartbeat_s=0.3, worker_sweep_s=5)  # fmt: skip
+    worker = Worker(settings, factory)
+    assert worker.run_once() and worker.run_once()  # both registered before the page opens
+    thread = threading.Thread(target=worker.run_forever, daemon=True)
+    thread.start()
+    server.start()
+    yield server, factory
+    server.stop()
+    worker.stop()
+    thread.join(10)
+    engine.dispose()
+
+
+def test_engineer_registry_gate_promote_what_if_and_rollback(system, page):
+    server, factory = system
+    sign_in(page, server.base_url, "erin")
+    expect(page).to_have_url(f"{server.base_url}/engineer")
+    models = page.get_by_role("table", name="Models")
+    expect(models).to_contain_text("rf-test-1")
+    expect(models).to_contain_text("blind-1")
+
+    # The blind model (10 s delay) misses both gold falls: the gate blocks it.
+    page.get_by_role("link", name="blind-1").click()
+    gate = page.get_by_label("Gate")
+    expect(gate).to_contain_text("blocked")
+    expect(gate).to_contain_text("0 of 2 falls detected")
+    expect(page.get_by_role("button", name="Sign off and promote")).to_be_disabled()
+
+    page.get_by_role("link", name="Model registry").click()
+    page.get_by_role("link", name="rf-test-1").click()
+    expect(page.get_by_role("table", name="Table 3")).to_be_visible()
+    expect(page.get_by_role("img", name="plot roc")).to_be_visible()
+    expect(page.get_by_label("Gate")).to_contain_text("passed")
+    SCREENSHOTS.mkdir(parents=True, exist_ok=True)
+    page.screenshot(path=SCREENSHOTS / "engineer-model.png", full_page=True)
+
+    # What-if with a 10 s delay, run by the worker, progress shown live, then the change.
+    page.get_by_label("Delay (ms)").fill("10000")
+    page.get_by_role("button", name="Replay labelled recordings").click()
+    result = page.get_by_role("table", name="What-if result")
+    expect(result).to_be_visible(timeout=30_000)
+    expect(result.get_by_role("row", name="falls_detected")).to_contain_text("-2")
+
+    page.get_by_label("Scope").select_option("robot")
+    page.get_by_label("Robot id").fill("robot-a")
+    page.get_by_role("button", name="Sign off and promote").click()
+    expect(page.get_by_role("status")).to_contain_text("active")
+    with factory() as session:
+        assert session.get(Robot, "robot-a").assigned_model_id is not None
+
+    page.get_by_role("link", name="Fleet & deployments").click()
+    fleet = page.get_by_role("table", name="Fleet")
+    expect(fleet.get_by_role("row", name="robot-a")).to_contain_text("rf-test-1")
+    expect(fleet.get_by_role("row", name="robot-a")).to_contain_text("switching")
+    page.screenshot(path=SCREENSHOTS / "engineer-fleet.png", full_page=True)
+    page.get_by_role("table", name="Deployments").get_by_role("button", name="Roll back").click()
+    expect(page.get_by_role("table", name="Deployments")).to_contain_text("rolled_back")
+    with factory() as session:
+        assert session.get(Robot, "robot-a").assigned_model_id is None
+        (deployment,) = session.scalars(select(Deployment)).all()
+        assert deployment.status == "rolled_back" and deployment.gate_report["passed"]
+
+    page.get_by_role("link", name="Jobs").click()
+    expect(page.get_by_role("table", name="Jobs")).to_contain_text("whatif")

@@ -1,0 +1,193 @@
+"""The nurse console in Debian Chromium against the real backend and a simulated robot."""
+
+from __future__ import annotations
+
+import re
+import time
+
+import pytest
+from playwright.sync_api import expect
+from sqlalchemy import select
+
+from backend.alarms import service
+from backend.alarms.service import DecisionEvidence
+from backend.db import transaction
+from backend.models import Alarm, AlarmEvent, AlarmKind, AnnotationSegment, Frame, Robot, User
+from backend.models._types import utcnow
+
+from .live_server import REPO_ROOT, ROBOT_TOKEN, sign_in
+from .simulated_robot import SimulatedRobot, fall_frames
+
+pytestmark = pytest.mark.browser
+
+SCREENSHOTS = REPO_ROOT / "docs" / "screenshots"
+
+
+def _card(page, alarm_id: int | None = None):
+    selector = "article.alarm" + (f"[data-alarm-id='{alarm_id}']" if alarm_id else "")
+    return page.locator(selector)
+
+
+def test_foundation_slice_emergency_to_one_click_acknowledgement(live_server, page, db):
+    sign_in(page, live_server.base_url)
+    expect(page).to_have_url(f"{live_server.base_url}/nurse")
+    expect(page.locator("main.board")).to_have_attribute("data-link", "live")
+
+    with SimulatedRobot(live_server.robot_ws_url, "robot-a", ROBOT_TOKEN) as robot:
+        robot.start_transport("t-1", patient="P-17", location="corridor B")
+        robot.stream(fall_frames(0, time.time() - 5, "t-1"))
+
+    card = _card(page)
+    expect(card).to_have_count(1)
+    expect(card).to_contain_text("Emergency")
+    expect(card).to_contain_text("P-17")
+    alarm_id = int(card.get_attribute("data-alarm-id"))
+
+    card.get_by_role("button", name="Acknowledge").click()
+    expect(card).to_have_attribute("data-state", "acknowledged")
+
+    with db() as session:
+        alarm = session.get(Alarm, alarm_id)
+        nurse = session.scalars(select(User).where(User.username == "nina")).one()
+        assert alarm.state == "acknowledged"
+        assert alarm.acknowledged_by_id == nurse.id
+        assert alarm.acknowledged_at is not None
+        assert session.scalars(select(Frame)).first() is not None
+
+
+def test_fall_alarm_sounds_is_acknowledged_resolved_and_becomes_a_label(live_server, page, db):
+    SCREENSHOTS.mkdir(parents=True, exist_ok=True)
+    sign_in(page, live_server.base_url)
+    board = page.locator("main.board")
+    expect(board).to_have_attribute("data-link", "live")
+    expect(page.get_by_text("Sound is locked")).to_be_visible()
+    expect(board).to_have_attribute("data-audio-state", "locked")
+    page.get_by_role("button", name="Start shift").click()
+    expect(board).to_have_attribute("data-audio-state", "ready")
+    expect(page.get_by_text("Sound is locked")).to_have_count(0)
+
+    frames = fall_frames(100, time.time() - 5, "t-2", model_version="mlp-7")
+    first_emergency = next(i for i, f in enumerate(frames) if f.decision == "emergency")
+    with SimulatedRobot(live_server.robot_ws_url, "robot-a", ROBOT_TOKEN) as robot:
+        robot.start_transport("t-2", patient="P-42", location="ward A, corridor 3")
+        robot.stream(frames[:first_emergency])
+        robot.send_batch(frames[first_emergency : first_emergency + 1])
+        sent = time.monotonic()
+        card = _card(page)
+        card.wait_for(state="visible", timeout=1000)
+        shown_after = time.monotonic() - sent
+        robot.wait_ack(frames[first_emergency].seq)
+        robot.stream(frames[first_emergency + 1 :])
+    assert shown_after < 1.0, f"alarm took {shown_after:.2f} s to show"
+
+    expect(board).to_have_attribute("data-audio-state", "playing")
+    expect(page).to_have_title("(1) Alarms · Vigil")
+    expect(card).to_have_class(re.compile(r"alarm-emergency"))
+    for text in ("robot-a", "P-42", "ward A, corridor 3", "t-2", "ago"):
+        expect(card).to_contain_text(text)
+    alarm_id = int(card.get_attribute("data-alarm-id"))
+    page.screenshot(path=str(SCREENSHOTS / "nurse_board.png"), full_page=True)
+
+    card.get_by_role("button", name="Acknowledge").click()
+    expect(card).to_have_attribute("data-state", "acknowledged")
+    expect(board).to_have_attribute("data-audio-state", "ready")
+    with db() as session:
+        assert session.get(Alarm, alarm_id).state == "acknowledged"
+        events = session.scalars(
+            select(AlarmEvent).where(AlarmEvent.alarm_id == alarm_id).order_by(AlarmEvent.id)
+        ).all()
+        assert [(e.action, e.to_state, e.actor) for e in events] == [
+            ("raise", "open", "robot:robot-a"),
+            ("acknowledge", "acknowledged", "nurse:nina"),
+        ]
+
+    card.get_by_role("button", name="Resolve…").click()
+    dialog = page.get_by_role("dialog", name="Resolve alarm")
+    dialog.get_by_label("False alarm").check()
+    dialog.get_by_label("Sitting down").check()
+    dialog.get_by_label("Comment (optional)").fill("sat down on a bench")
+    dialog.get_by_role("button", name="Resolve").click()
+    expect(dialog).to_have_count(0)
+    expect(_card(page, alarm_id)).to_have_count(0)
+
+    with db() as session:
+        alarm = session.get(Alarm, alarm_id)
+        assert (alarm.state, alarm.verdict, alarm.reason) == ("resolved", "false_alarm",
+                                                             "sitting_down")  # fmt: skip
+        span = session.execute(
+            select(Frame.index).where(Frame.seq.in_([alarm.first_seq, alarm.last_seq]))
+            .order_by(Frame.index)
+        ).scalars().all()  # fmt: skip
+        segment = session.scalars(
+            select(AnnotationSegment).where(AnnotationSegment.alarm_id == alarm_id)
+        ).one()
+        assert (segment.status, segment.source, segment.label_key) == (
+            "pending", "nurse_verdict", "sitting_down"
+        )  # fmt: skip
+        assert (segment.first_frame, segment.last_frame) == (span[0], span[-1])
+        assert segment.video_id == alarm.video_id and segment.model_version == "mlp-7"
+
+    page.goto(f"{live_server.base_url}/nurse/alarms/{alarm_id}")
+    replay = page.locator("main.replay")
+    expect(replay).to_contain_text("mlp-7")
+    expect(replay).to_contain_text("threshold 0.60")
+    expect(page.locator("canvas.skeleton")).to_be_visible()
+    assert int(replay.get_attribute("data-frames")) >= 40
+    expect(replay).to_contain_text("delay filter fired")
+    expect(page.get_by_role("table", name="Audit trail")).to_contain_text("resolve")
+    page.screenshot(path=str(SCREENSHOTS / "alarm_replay.png"), full_page=True)
+
+    page.goto(f"{live_server.base_url}/nurse/history")
+    rows = page.get_by_role("table", name="Alarms").locator("tbody tr")
+    expect(rows).to_have_count(1)
+    expect(rows.first).to_contain_text("False alarm (sitting down)")
+    page.screenshot(path=str(SCREENSHOTS / "alarm_history.png"), full_page=True)
+
+    page.goto(f"{live_server.base_url}/nurse/fatigue")
+    by_model = page.get_by_role("img", name="Share false by model version")
+    expect(by_model.locator("rect")).to_have_count(1)
+    expect(by_model).to_contain_text("mlp-7")
+    page.screenshot(path=str(SCREENSHOTS / "alarm_fatigue.png"), full_page=True)
+
+
+def test_board_reconnects_and_shows_alarms_raised_while_disconnected(live_server, page, db):
+    sign_in(page, live_server.base_url)
+    board = page.locator("main.board")
+    expect(board).to_have_attribute("data-link", "live")
+    expect(page.get_by_text("No open alarms.")).to_be_visible()
+
+    live_server.stop()
+    expect(board).to_have_attribute("data-link", "disconnected")
+    expect(page.get_by_role("alert")).to_contain_text("Disconnected")
+
+    # While the browser is cut off, the robot's alarm is raised (through the alarm service).
+    with transaction(db) as session:
+        robot = session.get(Robot, "robot-a")
+        evidence = DecisionEvidence(seq=None, ts=None)
+        alarm, created = service.raise_or_update(session, robot, None, AlarmKind.PAUSE, evidence)
+        assert created
+        emergency, _ = service.raise_or_update(session, robot, None, AlarmKind.EMERGENCY, evidence)
+        service.escalate(session, emergency, utcnow())
+        offline, _ = service.raise_or_update(
+            session, robot, None, AlarmKind.ROBOT_OFFLINE, evidence
+        )
+    live_server.start()
+
+    expect(board).to_have_attribute("data-link", "live", timeout=15_000)
+    expect(page.get_by_role("alert")).to_have_count(0)
+    card = _card(page, alarm.id)
+    expect(card).to_be_visible()
+    expect(card).to_contain_text("Pause")
+    expect(card).to_have_class(re.compile(r"alarm-pause"))
+    escalated = _card(page, emergency.id)
+    expect(escalated).to_contain_text("Escalated")
+    expect(escalated).to_have_class(re.compile(r"alarm-emergency"))
+    # Emergency first; the sound stays locked until the nurse starts the shift.
+    expect(_card(page).first).to_have_attribute("data-alarm-id", str(emergency.id))
+    expect(board).to_have_attribute("data-audio-state", "locked")
+    expect(page.get_by_text("Sound is locked")).to_be_visible()
+    technical = _card(page, offline.id)
+    expect(technical).to_contain_text("Robot offline")
+    expect(technical).to_have_class(re.compile(r"alarm-technical"))
+    expect(_card(page).last).to_have_attribute("data-alarm-id", str(offline.id))
+    page.screenshot(path=str(SCREENSHOTS / "nurse_board_kinds.png"), full_page=True)

@@ -1,0 +1,143 @@
+"""Evaluate a model file on recordings: scores through the exported ONNX graph (what the robot
+runs), the detection code's Table 3 / per-event evaluation, per-frame latency, and PNG plots."""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+import numpy as np
+
+from vigil.classes import Decision
+from vigil.features import FEATURE_SETS
+from vigil.model_file import Classifier, load_classifier
+from vigil.runtime import FrameClassifier
+from vigil.skeleton import SkeletonFrame
+from worker.training.data import FrameData
+from worker.training.selection import (
+    StreamScores,
+    choose_delay,
+    choose_threshold,
+    evaluate,
+)
+
+LATENCY_FRAMES = 300
+
+
+def score_stream(classifier: Classifier, data: FrameData) -> StreamScores:
+    """Class scores of every frame of every sequence, computed by the ONNX model."""
+    manifest = classifier.manifest
+    if manifest.mode != data.mode:
+        raise ValueError(f"model is for {manifest.mode} transports, data is {data.mode}")
+    if manifest.window != 1:
+        raise ValueError("windowed models are evaluated frame by frame on the robot only")
+    # FrameData holds the full feature set; a model uses its own columns of it.
+    features = data.features[:, FEATURE_SETS[manifest.feature_set]]
+    scores = classifier.predict_proba(features)
+    return StreamScores(data, np.arange(len(data.names)), scores.astype(np.float64))
+
+
+def evaluate_model(classifier: Classifier, data: FrameData, threshold=None, delay_ms=None) -> dict:
+    """Table 3 columns and per-event results at the model's (or the given) operating point."""
+    stream = score_stream(classifier, data)
+    t = classifier.manifest.threshold if threshold is None else threshold
+    d = classifier.manifest.delay_ms if delay_ms is None else delay_ms
+    result = evaluate(stream, float(t), d / 1000.0)
+    result["threshold"], result["delay_ms"] = float(t), int(d)
+    result["frames"] = int(len(data.target))
+    result["sequences"] = list(data.names)
+    result["data_sha256"] = data.data_sha256
+    result["generated_data"] = bool(data.generated)
+    return result
+
+
+def choose_operating_point(classifier: Classifier, data: FrameData) -> tuple[float, int, dict]:
+    """Re-choose threshold (Youden / micro-F1) and delay (event F1) of a fixed model on new data."""
+    stream = score_stream(classifier, data)
+    labelled = data.target >= 0
+    threshold = choose_threshold(stream.scores[labelled], data.target[labelled], data.classes)
+    delay_s, sweep = choose_delay(stream, threshold)
+    return threshold, int(round(delay_s * 1000)), sweep
+
+
+def measure_latency(model_dir: Path, data: FrameData | None = None, n: int = LATENCY_FRAMES):
+    """Per-frame time of the robot's runtime (features + ONNX + policy), one frame at a time."""
+    runtime = FrameClassifier.from_dir(model_dir)
+    rng = np.random.default_rng(0)
+    frames = []
+    for i in range(n):
+        keypoints = np.zeros((25, 3), np.float32)
+        keypoints[:, :2] = rng.uniform(100, 400, (25, 2))
+        keypoints[:, 2] = 0.9
+        frames.append(SkeletonFrame(keypoints=keypoints, timestamp=i / 30.0))
+    for frame in frames[:20]:  # warm-up
+        runtime.classify(frame)
+    runtime.reset()
+    times = []
+    for frame in frames:
+        start = time.perf_counter()
+        runtime.classify(frame)
+        times.append((time.perf_counter() - start) * 1000)
+    times = np.array(times)
+    return {
+        "frames": n,
+        "p50_ms": float(np.percentile(times, 50)),
+        "p95_ms": float(np.percentile(times, 95)),
+        "max_ms": float(times.max()),
+        "note": "features + ONNX + policy per frame, synthetic poses, 1 thread",
+    }
+
+
+def write_plots(classifier: Classifier, data: FrameData, result: dict, out_dir: Path) -> list[str]:
+    """ROC and precision-recall of Emergency frames, and time to alarm per fall; returns names."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from sklearn.metrics import precision_recall_curve, roc_curve
+
+    out_dir.mkdir(parents=True, exist_ok=True)
+    stream = score_stream(classifier, data)
+    e = data.classes.index(Decision.EMERGENCY)
+    labelled = data.target >= 0
+    truth = data.target[labelled] == e
+    written = []
+    if truth.any() and (~truth).any():
+        score = stream.scores[labelled, e]
+        fpr, tpr, _ = roc_curve(truth, score)
+        fig, ax = plt.subplots(figsize=(4, 4), dpi=90)
+        ax.plot(fpr, tpr)
+        ax.plot([0, 1], [0, 1], ls=":", c="grey")
+        ax.set(xlabel="false positive rate", ylabel="true positive rate",
+               title="ROC, Emergency frames")  # fmt: skip
+        fig.tight_layout()
+        fig.savefig(out_dir / "roc.png")
+        plt.close(fig)
+        precision, recall, _ = precision_recall_curve(truth, score)
+        fig, ax = plt.subplots(figsize=(4, 4), dpi=90)
+        ax.plot(recall, precision)
+        ax.set(xlabel="recall", ylabel="precision", title="Precision-recall, Emergency frames")
+        fig.tight_layout()
+        fig.savefig(out_dir / "pr.png")
+        plt.close(fig)
+        written += ["roc", "pr"]
+    falls = [ev for ev in result.get("events", []) if ev["kind"] == "fall"]
+    if falls:
+        fig, ax = plt.subplots(figsize=(6, max(2.5, 0.22 * len(falls))), dpi=90)
+        names = [ev["sequence"] for ev in falls]
+        values = [ev["time_to_alarm_s"] if ev["detected"] else np.nan for ev in falls]
+        colors = ["tab:blue" if ev["detected"] else "tab:red" for ev in falls]
+        ax.barh(names, [0 if np.isnan(v) else v for v in values], color=colors)
+        for i, ev in enumerate(falls):
+            if not ev["detected"]:
+                ax.text(0, i, " missed", va="center", color="tab:red")
+        ax.set(xlabel="time to alarm (s)", title="Falls of the evaluation set")
+        fig.tight_layout()
+        fig.savefig(out_dir / "time_to_alarm.png")
+        plt.close(fig)
+        written.append("time_to_alarm")
+    return written
+
+
+def load(model_dir: Path) -> Classifier:
+    return load_classifier(model_dir)

@@ -1,0 +1,12 @@
+"""Job handlers by kind: each takes a JobContext and returns the job's result (a JSON dict)."""
+
+from backend.models.jobs import JobKind
+from worker.jobs import evaluate, register, rethreshold, retrain, whatif
+
+HANDLERS = {
+    JobKind.RETRAIN: retrain.run,
+    JobKind.RETHRESHOLD: rethreshold.run,
+    JobKind.EVALUATE: evaluate.run,
+    JobKind.REGISTER: register.run,
+    JobKind.WHATIF: whatif.run,
+}

@@ -1,0 +1,90 @@
+"""Put a model directory (ONNX + manifest) into the model store and the registry table."""
+
+from __future__ import annotations
+
+import shutil
+import subprocess
+from functools import cache
+from pathlib import Path
+
+from sqlalchemy import select
+from sqlalchemy.orm import Session
+
+from backend.models.registry import ModelStatus, ModelVersion
+from vigil.model_file import MANIFEST_NAME, load_classifier, read_manifest
+
+REPO_ROOT = Path(__file__).resolve().parent.parent
+
+
+@cache
+def code_version() -> str:
+    """The git commit of the code that trained the model (with -dirty), or 'unknown'."""
+    try:
+        sha = subprocess.run(
+            ["git", "rev-parse", "HEAD"], cwd=REPO_ROOT, capture_output=True, text=True,
+            check=True, timeout=5,
+        ).stdout.strip()  # fmt: skip
+        dirty = subprocess.run(
+            ["git", "status", "--porcelain", "--untracked-files=no"], cwd=REPO_ROOT,
+            capture_output=True, text=True, timeout=5,
+        ).stdout.strip()  # fmt: skip
+        return f"{sha}-dirty" if dirty else sha
+    except (OSError, subprocess.SubprocessError):
+        return "unknown"
+
+
+def store_path(store_dir: Path, version: str) -> Path:
+    if "/" in version or "\\" in version or version in ("", ".", ".."):
+        raise ValueError(f"version {version!r} is not a plain name")
+    return Path(store_dir) / version
+
+
+def register(
+    session: Session,
+    model_dir: Path,
+    store_dir: Path,
+    *,
+    lineage: dict,
+    metrics: dict | None = None,
+    job_id: int | None = None,
+    created_by_id: int | None = None,
+) -> ModelVersion:
+    """Verify the model (sha256 of its manifest), copy it to the store and add a candidate."""
+    classifier = load_classifier(model_dir)  # raises ModelIntegrityError on a bad file
+    manifest = classifier.manifest
+    if session.scalars(
+        select(ModelVersion).where(ModelVersion.version == manifest.version)
+    ).first():
+        raise ValueError(f"model version {manifest.version} is already registered")
+    target = store_path(store_dir, manifest.version)
+    if Path(model_dir).resolve() != target.resolve():
+        target.mkdir(parents=True, exist_ok=True)
+        _, source = read_manifest(model_dir)
+        shutil.copyfile(source / manifest.file, target / manifest.file)
+        shutil.copyfile(source / MANIFEST_NAME, target / MANIFEST_NAME)
+        if (source / "plots").is_dir():
+            shutil.copytree(source / "plots", target / "plots", dirs_exist_ok=True)
+    model = ModelVersion(
+        version=manifest.version,
+        mode=manifest.mode,
+        kind=manifest.name,
+        format=manifest.format,
+        file_path=str(target / manifest.file),
+        sha256=manifest.sha256,
+        manifest=manifest.model_dump(mode="json"),
+        metrics=metrics or {},
+        lineage={
+            "taxonomy_version": manifest.taxonomy_version,
+            "feature_version": manifest.feature_version,
+            "data_sha256": manifest.training_data_sha256,
+            "generated_data": manifest.generated_data,
+            "code_version": code_version(),
+            **lineage,
+        },
+        status=ModelStatus.CANDIDATE,
+        job_id=job_id,
+        created_by_id=created_by_id,
+    )
+    session.add(model)
+    session.flush()
+    return model
