@@ -23,17 +23,18 @@ from worker.training.estimators import ModelSpec
 from worker.training.publish import publish
 from worker.training.trainers import SklearnTrainer
 
-# The MLP configuration the URFD benchmark selected (bench/results/detection_urfd/report.json).
+# Name and configuration are a contract: worker jobs, bootstrap and bench/registry.py queue
+# retrains of "rf-default" and expect train-default to produce the same configuration.
 DEFAULT_SPEC = ModelSpec(
-    name="mlp-default",
-    family="mlp",
+    name="rf-default",
+    family="rf",
     grid={
-        "hidden_layer_sizes": [(64,)],
-        "alpha": [1e-4],
-        "learning_rate_init": [1e-3],
-        "activation": ["tanh"],
+        "n_estimators": [100],
+        "max_depth": [16],
+        "min_samples_leaf": [5],
+        "max_features": [0.3],
     },
-    description="Default walking model: MLP on pose + temporal features",
+    description="Default walking model: random forest on pose + temporal features",
 )
 
 
