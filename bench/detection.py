@@ -132,7 +132,11 @@ def main(argv: list[str] | None = None) -> int:
         "p99_frame_ms": latency[report["best"]]["p99"],
         "p99_frame_cpu_ms": latency[report["best"]]["cpu_p99"],
         "frame_latency_ms": latency,
-        "machine": {"cpus_used": 1, "platform": platform.platform()},
+        "machine": {
+            "cpus": os.cpu_count(),
+            "platform": platform.platform(),
+            "load_average_1min_at_end": os.getloadavg()[0],
+        },
         "report": str(report_dir.relative_to(RESULTS.parent.parent))
         if report_dir.is_relative_to(RESULTS.parent.parent)
         else str(report_dir),

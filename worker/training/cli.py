@@ -15,6 +15,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+from threadpoolctl import threadpool_limits
 
 from worker.training.cross_validation import select
 from worker.training.data import from_urfd
@@ -22,6 +23,8 @@ from worker.training.estimators import ModelSpec
 from worker.training.publish import publish
 from worker.training.trainers import SklearnTrainer
 
+# Name and configuration are a contract: worker jobs, bootstrap and bench/registry.py queue
+# retrains of "rf-default" and expect train-default to produce the same configuration.
 DEFAULT_SPEC = ModelSpec(
     name="rf-default",
     family="rf",
@@ -39,7 +42,8 @@ def train_default(out: Path, urfd_dir: Path | None) -> None:
     start = time.perf_counter()
     data = from_urfd(urfd_dir)
     trainer = SklearnTrainer(DEFAULT_SPEC)
-    selected = select(trainer, data, np.arange(len(data.names)), n_inner=5, stride=2)
+    with threadpool_limits(limits=1):
+        selected = select(trainer, data, np.arange(len(data.names)), n_inner=5, stride=2)
     manifest = publish(
         trainer,
         selected,

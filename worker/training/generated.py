@@ -1,4 +1,5 @@
-"""FrameData from GENERATED transports (wheelchair and combined modes; URFD has no such data)."""
+"""FrameData from GENERATED transports (vigil.synthetic) for the wheelchair and combined modes,
+which URFD cannot provide. Every figure computed from it is labelled generated."""
 
 from __future__ import annotations
 
@@ -8,32 +9,86 @@ import numpy as np
 
 from vigil.classes import MODE_CLASSES, Decision, TransportMode
 from vigil.features import extract_arrays
-from vigil.synthetic_transports import class_targets, generate_transports
+from vigil.skeleton import N_KEYPOINTS
+from vigil.synthetic import EVENTS_BY_LOCOMOTION, GeneratedTransport, Locomotion, generate_transport
 from worker.training.data import FrameData
 
+LOCOMOTIONS: dict[TransportMode, tuple[Locomotion, ...]] = {
+    TransportMode.WHEELCHAIR: (Locomotion.WHEELCHAIR,),
+    TransportMode.COMBINED: (Locomotion.WHEELCHAIR, Locomotion.WALKING, Locomotion.ROLLATOR),
+    TransportMode.WALKING: (Locomotion.WALKING, Locomotion.ROLLATOR),
+}
 
-def generated_frames(mode: TransportMode | str, repeats: int = 8, seed: int = 0) -> FrameData:
+
+def generate_for_mode(
+    mode: TransportMode | str, repeats: int = 5, seed: int = 0, duration_s: float = 8.0
+) -> list[GeneratedTransport]:
+    """One short transport per (locomotion, event, repeat): each event of the mode `repeats`
+    times, so every sequence holds one situation between stretches of normal activity."""
     mode = TransportMode(mode)
-    sequences = generate_transports(mode, repeats, seed)
-    emergency = MODE_CLASSES[mode].index(Decision.EMERGENCY)
-    feats, targets, groups, times, positive = [], [], [], [], []
+    transports = []
+    for locomotion in LOCOMOTIONS[mode]:
+        for event in EVENTS_BY_LOCOMOTION[locomotion]:
+            for _ in range(repeats):
+                transports.append(
+                    generate_transport(
+                        locomotion,
+                        seed=seed + len(transports),
+                        duration_s=duration_s,
+                        events=[event],
+                    )  # fmt: skip
+                )
+    return transports
+
+
+def patient_arrays(transport: GeneratedTransport) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Keypoints (n, 25, 3), depth (n, 25), usable (n,); frames where the patient is not seen
+    are empty (all keypoints missing), as a pose estimator would report nobody."""
+    n = transport.n_frames
+    keypoints = np.zeros((n, N_KEYPOINTS, 3), np.float32)
+    depth = np.full((n, N_KEYPOINTS), np.nan, np.float32)
+    usable = np.zeros(n, bool)
+    for t, frame in enumerate(transport.patient_frames):
+        if frame is not None:
+            keypoints[t], depth[t], usable[t] = frame.keypoints, frame.depth, True
+    return keypoints, depth, usable
+
+
+DEFAULT_REPEATS = {TransportMode.WHEELCHAIR: 4, TransportMode.COMBINED: 2, TransportMode.WALKING: 2}
+
+
+def generated_frames(
+    mode: TransportMode | str, repeats: int | None = None, seed: int = 0
+) -> FrameData:
+    mode = TransportMode(mode)
+    repeats = repeats or DEFAULT_REPEATS[mode]
+    classes = MODE_CLASSES[mode]
+    emergency = classes.index(Decision.EMERGENCY)
+    transports = generate_for_mode(mode, repeats, seed)
+    feats, targets, groups, times, usable_all, positive, names = [], [], [], [], [], [], []
     digest = hashlib.sha256()
-    for i, seq in enumerate(sequences):
-        feats.append(extract_arrays(seq.keypoints, seq.depth, seq.timestamps))
-        target = class_targets(seq, mode)
+    for i, transport in enumerate(transports):
+        keypoints, depth, usable = patient_arrays(transport)
+        timestamps = np.arange(transport.n_frames) / transport.fps
+        feats.append(extract_arrays(keypoints, depth, timestamps))
+        target = np.array([classes.index(d) for d in transport.decisions(mode)])
         targets.append(target)
         groups.append(np.full(len(target), i))
-        times.append(seq.timestamps)
+        times.append(timestamps)
+        usable_all.append(usable)
         positive.append(bool(np.any(target == emergency)))
-        digest.update(seq.keypoints.tobytes())
+        names.append(
+            f"gen-{transport.locomotion.value}-{'+'.join(transport.events)}-{transport.seed:03d}"
+        )
+        digest.update(keypoints.tobytes())
     return FrameData(
-        names=[s.name for s in sequences],
+        names=names,
         is_positive_sequence=np.array(positive),
         features=np.concatenate(feats),
         target=np.concatenate(targets),
         group=np.concatenate(groups),
         timestamps=np.concatenate(times),
-        usable=np.ones(sum(len(t) for t in targets), bool),
+        usable=np.concatenate(usable_all),
         mode=mode,
         data_sha256=digest.hexdigest(),
         generated=True,
