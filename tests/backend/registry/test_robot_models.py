@@ -15,6 +15,7 @@ import httpx
 import pytest
 import uvicorn
 from sqlalchemy import func, select
+from websockets.sync.client import connect
 
 from backend.db import transaction
 from backend.main import create_app
@@ -185,6 +186,31 @@ def test_a_shadow_assignment_reaches_the_robot_on_connect(
     assert assignment["type"] == "assign_model" and assignment["shadow"] is True
     assert assignment["version"] == "rf-test-1"
     assert assignment["url"].endswith("/api/robot/models/rf-test-1/file")
+
+
+def test_withdrawing_a_shadow_deployment_tells_the_connected_robot_to_stop_it(
+    live_server, make_account, fleet, urfd_db, register, trained_model_dir, tmp_path
+):
+    engineer = make_account(Role.ENGINEER)
+    v1 = register(trained_model_dir)
+    v2 = register(derive_model(trained_model_dir, tmp_path / "v2", "rf-test-2", threshold=0.5))
+    api = httpx.Client(base_url=f"http://{live_server}", headers=engineer.headers, timeout=10)
+    target = {"scope": "robot", "target": "robot-b"}
+    assert api.post(f"/api/models/{v1}/promote", json=target).status_code == 201
+    shadow = api.post(f"/api/models/{v2}/shadow", json=target).json()
+    with connect(f"ws://{live_server}/ws/robot") as ws:
+        hello = Hello(robot_id="robot-b", token=ROBOT_TOKEN, running_model="rf-test-1")
+        ws.send(hello.model_dump_json())
+        assert json.loads(ws.recv(timeout=10))["type"] == "welcome"
+        production, candidate = (json.loads(ws.recv(timeout=10)) for _ in range(2))
+        assert (production["version"], production["shadow"]) == ("rf-test-1", False)
+        assert "stop_shadow" not in production  # only sent when true: older agents read it
+        assert (candidate["version"], candidate["shadow"]) == ("rf-test-2", True)
+        assert api.post(f"/api/deployments/{shadow['id']}/rollback", json={}).status_code == 200
+        stop = json.loads(ws.recv(timeout=10))
+    assert (stop["type"], stop["version"], stop["shadow"], stop["stop_shadow"]) == (
+        "assign_model", "rf-test-1", False, True
+    )  # fmt: skip
 
 
 def test_robot_agent_runs_a_shadow_model_that_never_alarms(
