@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import asyncio
+from concurrent.futures import ThreadPoolExecutor
 
 from robot_agent.agent import AgentOptions, RobotAgent
 from robot_agent.outbox import Outbox
@@ -27,6 +28,13 @@ def _agent(tmp_path) -> RobotAgent:
                       tmp_path / "models")  # fmt: skip
 
 
+def _run(coroutine) -> None:
+    """asyncio.run in a thread of its own: a browser test's sync Playwright may have left an
+    event loop running in the main thread."""
+    with ThreadPoolExecutor(1) as pool:
+        pool.submit(asyncio.run, coroutine).result()
+
+
 def _production(tmp_path, **extra) -> ModelAssignment:
     manifest, _ = read_manifest(tmp_path / "m1")
     return ModelAssignment(version="upright-1", url="http://127.0.0.1:9/api/robot/models/"
@@ -36,13 +44,13 @@ def _production(tmp_path, **extra) -> ModelAssignment:
 
 def test_a_production_assignment_with_stop_shadow_stops_the_shadow_model(tmp_path):
     agent = _agent(tmp_path)
-    asyncio.run(agent.on_assignment(_production(tmp_path, stop_shadow=True)))
+    _run(agent.on_assignment(_production(tmp_path, stop_shadow=True)))
     assert agent.pipeline.shadow is None
     assert agent.pipeline.running_model == "upright-1"  # already running: nothing fetched
 
 
 def test_a_production_assignment_without_stop_shadow_keeps_the_shadow_model(tmp_path):
     agent = _agent(tmp_path)
-    asyncio.run(agent.on_assignment(_production(tmp_path)))
+    _run(agent.on_assignment(_production(tmp_path)))
     assert agent.pipeline.shadow.manifest.version == "candidate-1"
     assert agent.pipeline.running_model == "upright-1"
