@@ -95,6 +95,10 @@ class RobotAgent:
         self.pipeline.set_shadow(None)
 
     async def on_assignment(self, assignment: ModelAssignment) -> None:
+        if assignment.stop_shadow and self.pipeline.shadow is not None:
+            # The backend withdrew the shadow deployment (protocol 1 extension).
+            self.pipeline.set_shadow(None)
+            self.link.heartbeat_now()
         running = self.pipeline.running_model
         if assignment.shadow:
             shadow = self.pipeline.shadow

@@ -12,7 +12,15 @@ from __future__ import annotations
 
 from typing import Annotated, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, TypeAdapter
+from pydantic import (
+    BaseModel,
+    ConfigDict,
+    Field,
+    SerializerFunctionWrapHandler,
+    TypeAdapter,
+    model_serializer,
+    model_validator,
+)
 
 from vigil.classes import Decision, TransportMode
 from vigil.skeleton import N_KEYPOINTS
@@ -127,6 +135,25 @@ class ModelAssignment(_Message):
     sha256: str
     manifest: dict
     shadow: bool = False
+    # Protocol 1 extension: with shadow=False, also stop the shadow model the robot runs (its
+    # shadow deployment was withdrawn). Sent only when true, so robots that predate it (and
+    # refuse unknown fields) still read every other assignment.
+    stop_shadow: bool = Field(
+        default=False, description="also stop the shadow model (only with shadow=false)"
+    )
+
+    @model_validator(mode="after")
+    def _stop_shadow_with_production_only(self) -> ModelAssignment:
+        if self.stop_shadow and self.shadow:
+            raise ValueError("stop_shadow: only allowed with shadow=false")
+        return self
+
+    @model_serializer(mode="wrap")
+    def _omit_stop_shadow_unless_set(self, handler: SerializerFunctionWrapHandler) -> dict:
+        data = handler(self)
+        if not self.stop_shadow:
+            data.pop("stop_shadow", None)
+        return data
 
 
 class Welcome(_Message):

@@ -60,6 +60,14 @@ def _sent(app: FastAPI) -> dict:
     return app.state.assignments_sent
 
 
+def _shadows_sent(app: FastAPI) -> dict[str, str]:
+    """robot id -> shadow version sent on its current connection (an agent drops its shadow
+    model when it reconnects, so this is what each connected robot runs beside production)."""
+    if not hasattr(app.state, "shadows_sent"):
+        app.state.shadows_sent = {}
+    return app.state.shadows_sent
+
+
 def _socket(app: FastAPI, robot_id: str) -> WebSocket | None:
     connection = app.state.robots.socket(robot_id)  # a RobotConnection (or a bare socket)
     if connection is None or getattr(connection, "closed", False):
@@ -74,9 +82,16 @@ async def push_to_robot(app: FastAPI, robot_id: str, force: bool = True) -> bool
         return False
     assigned, shadow, running = await run_in_threadpool(_wanted, app, robot_id)
     sent = _sent(app)
+    shadows = _shadows_sent(app)
+    # A withdrawn shadow deployment: the production assignment also stops the shadow model
+    # (protocol 1 extension). Without a production assignment the robot drops it on reconnect.
+    stop_shadow = force and shadow is None and robot_id in shadows
     messages = []
     if assigned is not None and (force or assigned.version != running):
-        messages.append(assignment_for(assigned, http_base(websocket), shadow=False))
+        production = assignment_for(assigned, http_base(websocket), shadow=False)
+        if stop_shadow:
+            production = production.model_copy(update={"stop_shadow": True})
+        messages.append(production)
     if shadow is not None and force:
         messages.append(assignment_for(shadow, http_base(websocket), shadow=True))
     for message in messages:
@@ -86,7 +101,12 @@ async def push_to_robot(app: FastAPI, robot_id: str, force: bool = True) -> bool
             log.info("robot %s disconnected before its assignment was sent", robot_id)
             return False
         log.info("assigned %s%s to robot %s", message.version,
-                 " (shadow)" if message.shadow else "", robot_id)  # fmt: skip
+                 " (shadow)" if message.shadow else " (shadow stopped)" if message.stop_shadow
+                 else "", robot_id)  # fmt: skip
+        if message.shadow:
+            shadows[robot_id] = message.version
+        elif message.stop_shadow:
+            shadows.pop(robot_id, None)
     sent[robot_id] = (assigned.version if assigned else None, time.monotonic())
     return bool(messages)
 
@@ -100,6 +120,7 @@ async def on_robot_connected(websocket: WebSocket, robot_id: str) -> None:
     """Called by the robot socket after `welcome`: send what the robot should run, if it differs
     from what it reported in hello (or a shadow model is assigned)."""
     app = websocket.app
+    _shadows_sent(app).pop(robot_id, None)  # the agent dropped its shadow model on welcome
     assigned, shadow, running = await run_in_threadpool(_wanted, app, robot_id)
     if (assigned is not None and assigned.version != running) or shadow is not None:
         await push_to_robot(app, robot_id, force=True)
