@@ -10,7 +10,7 @@ PYTEST_ARGS ?=
 
 .PHONY: run test test-python test-sqlite test-postgresql test-frontend test-browser setup \
 	frontend chromium lint format bench-detection bench-ingest bench-robot \
-	bench-labelling bench-registry bench-alarm-latency readme clean
+	bench-labelling bench-registry bench-alarm-latency readme screenshots clean
 
 setup: $(STAMP) frontend
 
@@ -67,6 +67,10 @@ bench-registry: $(STAMP)
 
 bench-alarm-latency: $(STAMP) frontend chromium
 	$(PY) -m bench.alarm_latency
+
+# The screenshots in docs/ come from the browser tests (a plain test run keeps them in /tmp).
+screenshots: $(STAMP) frontend chromium
+	VIGIL_SCREENSHOT_DIR=docs/screenshots $(PY) -m pytest -q -m browser tests/browser
 
 # README's configuration and benchmark sections are generated; tests/test_readme.py checks them.
 readme: $(STAMP)

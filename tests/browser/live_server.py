@@ -18,10 +18,16 @@ from tests.support.live_backend import (
     prepare_database,
 )
 
-__all__ = ["PASSWORD", "REPO_ROOT", "ROBOT_ID", "ROBOT_TOKEN", "LiveServer", "free_port",
-           "prepare_database", "build_frontend", "sign_in"]  # fmt: skip
+__all__ = ["PASSWORD", "REPO_ROOT", "SCREENSHOTS", "ROBOT_ID", "ROBOT_TOKEN", "LiveServer",
+           "free_port", "prepare_database", "build_frontend", "sign_in"]  # fmt: skip
 
 FRONTEND = REPO_ROOT / "frontend"
+#: Where browser tests save screenshots: a temporary folder, unless `make screenshots` points
+#: VIGIL_SCREENSHOT_DIR at docs/screenshots (so a plain test run leaves the tree untouched).
+SCREENSHOTS = Path(
+    os.environ.get("VIGIL_SCREENSHOT_DIR")
+    or Path(os.environ.get("TMPDIR", "/tmp")) / "vigil-screenshots"
+)
 CHROMIUM = os.environ.get("VIGIL_CHROMIUM", "/usr/bin/chromium")
 CHROMIUM_ARGS = [
     "--no-sandbox", "--disable-gpu", "--disable-background-networking",

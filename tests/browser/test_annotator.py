@@ -18,9 +18,7 @@ from backend.models import AnnotationSegment, Role, User, Video
 from backend.security import hash_password
 from vigil.datasets import urfd
 
-from .live_server import PASSWORD, REPO_ROOT, sign_in
-
-SCREENSHOTS = REPO_ROOT / "docs" / "screenshots"
+from .live_server import PASSWORD, SCREENSHOTS, sign_in
 
 pytestmark = pytest.mark.browser
 

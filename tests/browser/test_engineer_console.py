@@ -21,10 +21,9 @@ from worker.db_data import import_urfd
 from worker.runner import Worker
 from worker.settings import WorkerSettings
 
-from .live_server import PASSWORD, REPO_ROOT, LiveServer, sign_in
+from .live_server import PASSWORD, SCREENSHOTS, LiveServer, sign_in
 
 pytestmark = pytest.mark.browser
-SCREENSHOTS = REPO_ROOT / "docs" / "screenshots"
 
 
 @pytest.fixture

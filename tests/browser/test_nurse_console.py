@@ -15,12 +15,10 @@ from backend.db import transaction
 from backend.models import Alarm, AlarmEvent, AlarmKind, AnnotationSegment, Frame, Robot, User
 from backend.models._types import utcnow
 
-from .live_server import REPO_ROOT, ROBOT_TOKEN, sign_in
+from .live_server import ROBOT_TOKEN, SCREENSHOTS, sign_in
 from .simulated_robot import SimulatedRobot, fall_frames
 
 pytestmark = pytest.mark.browser
-
-SCREENSHOTS = REPO_ROOT / "docs" / "screenshots"
 
 
 def _card(page, alarm_id: int | None = None):
