@@ -56,7 +56,7 @@ def _fmt(value, digits: int = 3) -> str:
     if value is None:
         return "–"
     if isinstance(value, float):
-        return f"{value:.{digits}g}" if abs(value) < 1000 else f"{value:,.0f}"
+        return f"{value:.{digits}g}" if abs(value) < 100 else f"{value:,.0f}"
     if isinstance(value, int) and abs(value) >= 10000:
         return f"{value:,}"
     return str(value)
@@ -115,12 +115,13 @@ def _ingest() -> str | None:
     data = _load("ingest.json")
     if data is None:
         return None
-    keys = ["database", "robots", "hz", "seconds", "frames_per_s", "ack_p50_ms", "ack_p99_ms",
-            "alarm_p50_ms", "alarm_p99_ms", "frames_lost", "duplicates"]  # fmt: skip
+    keys = ["database", "backend_workers", "robots", "hz", "seconds", "frames_per_s",
+            "ack_p50_ms", "ack_p99_ms", "alarm_p50_ms", "alarm_p99_ms", "frames_lost",
+            "duplicates", "load_average_1min"]  # fmt: skip
     rows = [[run.get(k) for k in keys] for run in data["runs"]]
     return (
         "**Ingest** (`make bench-ingest` → `bench/results/ingest.json`): the real backend and "
-        "simulated robots over loopback websockets; `hz` 0 is a saturation run (robots send as "
+        "simulated robots over loopback websockets; `hz` max is a saturation run (robots send as "
         "fast as acknowledgements allow).\n\n" + _table(keys, rows)
     )
 
