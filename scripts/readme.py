@@ -101,8 +101,9 @@ def _detection() -> str | None:
     extras = [
         f"{label}: {_fmt(data[key])}"
         for key, label in (
-            ("retrain_seconds", "full retrain of all model types (s)"),
-            ("frame_latency_p99_ms", "per-frame features + ONNX inference p99 (ms)"),
+            ("retrain_s", "full retrain of all model types with grids, thresholds and delay (s)"),
+            ("p99_frame_ms", "best model's features + ONNX inference + policy per frame, p99 (ms)"),
+            ("p99_frame_cpu_ms", "the same in CPU time of the thread, p99 (ms)"),
         )
         if key in data
     ]
