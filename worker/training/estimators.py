@@ -22,6 +22,8 @@ class ModelSpec:
     feature_set: str = "full"
     description: str = ""
     fixed: dict[str, Any] = field(default_factory=dict)
+    # How threshold and delay are chosen (worker.training.selection.choose_operating_point).
+    operating_point: str = "event"
 
     def configurations(self) -> list[dict[str, Any]]:
         keys = list(self.grid)
@@ -82,6 +84,7 @@ PAPER_SVM = ModelSpec(
     family="svm",
     grid={"degree": [2], "C": [0.5], "gamma_times_1_over_n": [1.0], "class_weight": [None]},
     feature_set="pose",
+    operating_point="youden",
     description="Zachariae et al.: SVM, poly kernel degree 2, C=0.5, gamma=1/n_features, "
     "single-frame pose features",
 )
