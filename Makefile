@@ -34,7 +34,7 @@ chromium:
 run: setup
 	$(PY) -m scripts.run_all
 
-test: $(STAMP) frontend chromium
+test: $(STAMP) frontend chromium lint
 	@echo "== Python tests on SQLite (with browser tests) =="
 	VIGIL_TEST_DATABASE=sqlite $(PY) -m pytest -q $(PYTEST_ARGS)
 	@echo "== Python tests on PostgreSQL (throwaway database) =="

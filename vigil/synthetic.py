@@ -11,13 +11,8 @@ angles) is animated activity by activity, each activity carrying one fine label 
 dropped keypoints, occlusion and 0-4 bystanders crossing the view. The same seed always
 gives the same transport.
 
-Relation to ``vigil.synthetic_transports``: that module is the simpler single-person,
-15 frames/s generator the detection code trains its wheelchair/combined models on (its output
-and seeds are part of published models, so it is kept as is). This module is the richer scene
-generator for the robot (several people, bystanders, occlusion, ArUco marker position,
-30 frames/s); ``GeneratedTransport.patient_sequence()`` converts a transport into the same
-``GeneratedSequence`` arrays, so ``synthetic_transports.class_targets`` and the feature code
-work on both.
+``GeneratedTransport.patient_sequence()`` gives the patient alone as plain arrays
+(``GeneratedSequence``) and ``class_targets`` their class per frame in a mode.
 """
 
 from __future__ import annotations
@@ -29,10 +24,31 @@ from enum import StrEnum
 
 import numpy as np
 
-from vigil.classes import Decision, TransportMode
+from vigil.classes import MODE_CLASSES, Decision, TransportMode
 from vigil.skeleton import INDEX, N_KEYPOINTS, SkeletonFrame
-from vigil.synthetic_transports import GeneratedSequence
 from vigil.taxonomy import DEFAULT_TAXONOMY, Taxonomy
+
+
+@dataclass(frozen=True)
+class GeneratedSequence:
+    """One GENERATED patient's frames as arrays."""
+
+    name: str
+    keypoints: np.ndarray  # (n, 25, 3) pixels of a 640x480 image
+    depth: np.ndarray  # (n, 25) metres, NaN where unknown
+    timestamps: np.ndarray  # (n,)
+    fine_labels: tuple[str, ...]
+    generated: bool = True
+
+
+def class_targets(
+    sequence: GeneratedSequence, mode: TransportMode | str, taxonomy: Taxonomy = DEFAULT_TAXONOMY
+) -> np.ndarray:
+    """Class index (in MODE_CLASSES[mode] order) of every frame."""
+    mode = TransportMode(mode)
+    classes = MODE_CLASSES[mode]
+    return np.array([classes.index(taxonomy.decision(k, mode)) for k in sequence.fine_labels])
+
 
 FPS = 30.0
 IMAGE_WIDTH, IMAGE_HEIGHT = 640, 480
@@ -613,9 +629,8 @@ class GeneratedTransport:
         return [seen[i] for i in order]
 
     def patient_sequence(self, name: str | None = None) -> GeneratedSequence:
-        """The patient alone as a ``vigil.synthetic_transports.GeneratedSequence`` (the arrays
-        the training code uses): frames where the patient is not seen have every keypoint
-        missing (confidence 0) and NaN depth."""
+        """The patient alone as a ``GeneratedSequence``: frames where the patient is not
+        seen have every keypoint missing (confidence 0) and NaN depth."""
         n = self.n_frames
         keypoints = np.zeros((n, N_KEYPOINTS, 3), np.float32)
         depth = np.full((n, N_KEYPOINTS), np.nan, np.float32)

@@ -11,9 +11,9 @@ from vigil.synthetic import (
     IMAGE_WIDTH,
     LABELS_BY_LOCOMOTION,
     Locomotion,
+    class_targets,
     generate_transport,
 )
-from vigil.synthetic_transports import class_targets
 from vigil.taxonomy import DEFAULT_TAXONOMY
 
 
