@@ -33,7 +33,6 @@ DELTA_LIMIT = 5.0  # body sizes (or log units): beyond this a change is a tracki
 PEAK_TAUS_S: tuple[float, ...] = (1.5, 4.0)
 MISSING_TAU_S = 1.0  # time constant of the decaying share of frames without a usable pose
 SINCE_SEEN_LIMIT_S = 3.0
-TALL_DECLINE_PER_S = 0.1  # log units per second the remembered body height is let go
 _HIPS = [INDEX["mid_hip"], INDEX["r_hip"], INDEX["l_hip"]]
 _NECK, _MID_HIP = INDEX["neck"], INDEX["mid_hip"]
 _SHOULDERS, _HIP_PAIR = [INDEX["r_shoulder"], INDEX["l_shoulder"]], [INDEX["r_hip"], INDEX["l_hip"]]
@@ -52,7 +51,6 @@ _STATE = (
     "bottom",
     "seen_at",
     "visible",
-    "log_height",
 )
 _S = {name: i for i, name in enumerate(_STATE)}
 _DELTAS = (
@@ -62,9 +60,8 @@ _DELTAS = (
 # Downward speeds whose decaying peaks are kept: centre drop, head drop, loss of uprightness.
 # Loss of keypoints: a body hitting the floor is often lost by the pose estimator.
 _PEAKED = ("d_down", "d_top", "d_upright", "d_visible")
-# Stream memory: time since the last usable pose, decaying share of frames without one, and how
-# far the bounding-box height is below the tallest recently seen (log units).
-_MEMORY = ("since_seen", "missing", "below_tall")
+# Stream memory: time since the last usable pose and the decaying share of frames without one.
+_MEMORY = ("since_seen", "missing")
 
 
 def _names() -> tuple[str, ...]:
@@ -139,7 +136,7 @@ def _pose_and_state(
     state = np.stack(
         [
             *(centre[:, 0], centre[:, 1], scale, aspect, upright, top, depth_m, has_depth, seen),
-            *(bottom, timestamps, count / N_KEYPOINTS, np.log(height)),
+            *(bottom, timestamps, count / N_KEYPOINTS),
         ],
         axis=1,
     )
@@ -216,17 +213,12 @@ class _Memory:
 
     def __init__(self) -> None:
         self.missing = 0.0
-        self.tall: float | None = None
 
     def step(self, state: np.ndarray, usable: bool, dt: float, now: float) -> np.ndarray:
         keep = float(np.exp(-dt / MISSING_TAU_S))
         self.missing = keep * self.missing + (1.0 - keep) * (0.0 if usable else 1.0)
-        log_height = float(state[_S["log_height"]])
-        if self.tall is None:
-            self.tall = log_height
-        self.tall = max(log_height, self.tall - TALL_DECLINE_PER_S * dt)
         since_seen = now - state[_S["seen_at"]] if state[_S["seen"]] > 0 else SINCE_SEEN_LIMIT_S
-        return np.array([min(since_seen, SINCE_SEEN_LIMIT_S), self.missing, self.tall - log_height])
+        return np.array([min(since_seen, SINCE_SEEN_LIMIT_S), self.missing])
 
 
 def _as_arrays(frames: Sequence[SkeletonFrame]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -131,10 +131,11 @@ def choose_operating_point(
     `youden` (the paper's rule): the threshold by Youden's J (multiclass: micro-F1 of Emergency),
     then the delay by event F1. `event`: threshold and delay together by event F1 (ties to the
     higher frame F1 after the filter), over the Youden threshold and 0.1-0.9; Youden's J favours
-    frame recall, which the delay filter then has to buy back with a long delay."""
+    frame recall, which the delay filter then has to buy back with a long delay. Multiclass models
+    always use the paper's rule (event F1 counts only Emergency events, not Pause)."""
     classes = stream.data.classes
     youden = choose_threshold(scores, target, classes)
-    if rule == "youden":
+    if rule == "youden" or len(classes) != 2:
         return (youden, *choose_delay(stream, youden))
     if rule != "event":
         raise ValueError(f"unknown operating point rule {rule!r}; known: youden, event")
