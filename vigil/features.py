@@ -31,6 +31,7 @@ MIN_KEYPOINTS = 4
 HORIZONS_S: tuple[float, ...] = (0.2, 0.4, 0.8, 1.6, 3.2)
 DELTA_LIMIT = 5.0  # body sizes (or log units): beyond this a change is a tracking glitch
 PEAK_TAUS_S: tuple[float, ...] = (1.5, 4.0)
+MEMORY_FLOOR = 1e-3  # decaying memories below this are 0 (float32-safe for exported trees)
 MISSING_TAU_S = 1.0  # time constant of the decaying share of frames without a usable pose
 SINCE_SEEN_LIMIT_S = 3.0
 _HIPS = [INDEX["mid_hip"], INDEX["r_hip"], INDEX["l_hip"]]
@@ -205,7 +206,10 @@ def _lag_index(timestamps: np.ndarray, now: np.ndarray, horizon: float) -> np.nd
 
 def _peak_step(peaks: np.ndarray, speeds: np.ndarray, dt: float) -> np.ndarray:
     decay = np.exp(-dt / np.asarray(PEAK_TAUS_S))[:, None]
-    return np.maximum(speeds[None, :], peaks * decay)
+    peaks = np.maximum(speeds[None, :], peaks * decay)
+    # Decayed remnants are flushed to 0: a tree split between 1e-20 and 0 would not survive the
+    # float32 ONNX graph.
+    return np.where(np.abs(peaks) < MEMORY_FLOOR, 0.0, peaks)
 
 
 class _Memory:
@@ -217,6 +221,7 @@ class _Memory:
     def step(self, state: np.ndarray, usable: bool, dt: float, now: float) -> np.ndarray:
         keep = float(np.exp(-dt / MISSING_TAU_S))
         self.missing = keep * self.missing + (1.0 - keep) * (0.0 if usable else 1.0)
+        self.missing = round(self.missing, 3) if self.missing >= MEMORY_FLOOR else 0.0
         since_seen = now - state[_S["seen_at"]] if state[_S["seen"]] > 0 else SINCE_SEEN_LIMIT_S
         return np.array([min(since_seen, SINCE_SEEN_LIMIT_S), self.missing])
 
