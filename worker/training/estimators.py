@@ -68,6 +68,11 @@ class ModelSpec:
             )
         else:
             raise ValueError(f"unknown family {self.family!r}")
+        if self.family == "rf":
+            # Trees need no scaling. Without it the ONNX graph compares the very same float32
+            # inputs with the split values; with it, ONNX's float32 scaler rounds differently
+            # from scikit-learn's and a value next to a split can land on the other side.
+            return Pipeline([("model", model)])
         return Pipeline([("scale", StandardScaler()), ("model", model)])
 
 
