@@ -26,11 +26,14 @@ import numpy as np
 
 from vigil.skeleton import INDEX, N_KEYPOINTS, SkeletonFrame
 
-FEATURE_VERSION = 1
+FEATURE_VERSION = 2
 MIN_KEYPOINTS = 4
 HORIZONS_S: tuple[float, ...] = (0.2, 0.4, 0.8, 1.6, 3.2)
 DELTA_LIMIT = 5.0  # body sizes (or log units): beyond this a change is a tracking glitch
 PEAK_TAUS_S: tuple[float, ...] = (1.5, 4.0)
+MEMORY_FLOOR = 1e-3  # decaying memories below this are 0 (float32-safe for exported trees)
+MISSING_TAU_S = 1.0  # time constant of the decaying share of frames without a usable pose
+SINCE_SEEN_LIMIT_S = 3.0
 _HIPS = [INDEX["mid_hip"], INDEX["r_hip"], INDEX["l_hip"]]
 _NECK, _MID_HIP = INDEX["neck"], INDEX["mid_hip"]
 _SHOULDERS, _HIP_PAIR = [INDEX["r_shoulder"], INDEX["l_shoulder"]], [INDEX["r_hip"], INDEX["l_hip"]]
@@ -48,13 +51,18 @@ _STATE = (
     "seen",
     "bottom",
     "seen_at",
+    "visible",
 )
 _S = {name: i for i, name in enumerate(_STATE)}
 _DELTAS = (
-    "d_down", "d_side", "d_logscale", "d_aspect", "d_upright", "d_top", "d_depth", "above_floor"
+    "d_down", "d_side", "d_logscale", "d_aspect", "d_upright", "d_top", "d_depth", "above_floor",
+    "d_visible",
 )  # fmt: skip
 # Downward speeds whose decaying peaks are kept: centre drop, head drop, loss of uprightness.
-_PEAKED = ("d_down", "d_top", "d_upright")
+# Loss of keypoints: a body hitting the floor is often lost by the pose estimator.
+_PEAKED = ("d_down", "d_top", "d_upright", "d_visible")
+# Stream memory: time since the last usable pose and the decaying share of frames without one.
+_MEMORY = ("since_seen", "missing")
 
 
 def _names() -> tuple[str, ...]:
@@ -63,6 +71,7 @@ def _names() -> tuple[str, ...]:
     pose += ["aspect", "upright", "top", "depth", "has_depth", "held"]
     temporal = [f"{d}@{h}" for h in HORIZONS_S for d in _DELTAS]
     temporal += [f"peak_{p}@{tau}" for tau in PEAK_TAUS_S for p in _PEAKED]
+    temporal += list(_MEMORY)
     return tuple(pose + temporal)
 
 
@@ -128,7 +137,7 @@ def _pose_and_state(
     state = np.stack(
         [
             *(centre[:, 0], centre[:, 1], scale, aspect, upright, top, depth_m, has_depth, seen),
-            *(bottom, timestamps),
+            *(bottom, timestamps, count / N_KEYPOINTS),
         ],
         axis=1,
     )
@@ -183,6 +192,7 @@ def _deltas(state_now: np.ndarray, state_then: np.ndarray, horizon: float) -> np
             * state_then[:, _S["has_depth"]],
             # body centre above the lowest keypoint back then (the floor under a standing person)
             (state_then[:, _S["bottom"]] - state_now[:, _S["cy"]]) / ref,
+            state_then[:, _S["visible"]] - state_now[:, _S["visible"]],
         ],
         axis=1,
     )
@@ -196,7 +206,24 @@ def _lag_index(timestamps: np.ndarray, now: np.ndarray, horizon: float) -> np.nd
 
 def _peak_step(peaks: np.ndarray, speeds: np.ndarray, dt: float) -> np.ndarray:
     decay = np.exp(-dt / np.asarray(PEAK_TAUS_S))[:, None]
-    return np.maximum(speeds[None, :], peaks * decay)
+    peaks = np.maximum(speeds[None, :], peaks * decay)
+    # Decayed remnants are flushed to 0: a tree split between 1e-20 and 0 would not survive the
+    # float32 ONNX graph.
+    return np.where(np.abs(peaks) < MEMORY_FLOOR, 0.0, peaks)
+
+
+class _Memory:
+    """Recurrent per-stream quantities (the same step in batch and streaming extraction)."""
+
+    def __init__(self) -> None:
+        self.missing = 0.0
+
+    def step(self, state: np.ndarray, usable: bool, dt: float, now: float) -> np.ndarray:
+        keep = float(np.exp(-dt / MISSING_TAU_S))
+        self.missing = keep * self.missing + (1.0 - keep) * (0.0 if usable else 1.0)
+        self.missing = round(self.missing, 3) if self.missing >= MEMORY_FLOOR else 0.0
+        since_seen = now - state[_S["seen_at"]] if state[_S["seen"]] > 0 else SINCE_SEEN_LIMIT_S
+        return np.array([min(since_seen, SINCE_SEEN_LIMIT_S), self.missing])
 
 
 def _as_arrays(frames: Sequence[SkeletonFrame]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -240,11 +267,13 @@ def extract_arrays(
     peaks = np.zeros((n, len(PEAK_TAUS_S), len(_PEAKED)))
     speeds = temporal[:, _PEAK_SOURCE]
     current = np.zeros((len(PEAK_TAUS_S), len(_PEAKED)))
+    memory, memories = _Memory(), np.zeros((n, len(_MEMORY)))
     for i in range(n):
         dt = timestamps[i] - timestamps[i - 1] if i else 0.0
         current = _peak_step(current, speeds[i], dt)
         peaks[i] = current
-    features = np.concatenate([pose, held, temporal, peaks.reshape(n, -1)], axis=1)
+        memories[i] = memory.step(state[i], bool(usable[i]), dt, float(timestamps[i]))
+    features = np.concatenate([pose, held, temporal, peaks.reshape(n, -1), memories], axis=1)
     return features[:, FEATURE_SETS[feature_set]].astype(np.float32)
 
 
@@ -275,6 +304,7 @@ class FeatureExtractor:
         self._states: list[np.ndarray] = []
         self._last: tuple[np.ndarray, np.ndarray] | None = None
         self._peaks = np.zeros((len(PEAK_TAUS_S), len(_PEAKED)))
+        self._memory = _Memory()
 
     def push(self, frame: SkeletonFrame) -> np.ndarray:
         t = float(frame.timestamp)
@@ -302,7 +332,10 @@ class FeatureExtractor:
         temporal = np.concatenate(temporal, axis=1)
         self._peaks = _peak_step(self._peaks, temporal[0, _PEAK_SOURCE], dt)
         held = (~usable).astype(np.float64)[:, None]
-        features = np.concatenate([pose, held, temporal, self._peaks.reshape(1, -1)], axis=1)
+        memory = self._memory.step(state[0], bool(usable[0]), dt, t)[None]
+        features = np.concatenate(
+            [pose, held, temporal, self._peaks.reshape(1, -1), memory], axis=1
+        )
         return features[0, self.columns_].astype(np.float32)
 
 

@@ -101,3 +101,25 @@ def test_non_finite_coordinates_count_as_missing():
     a, b = extract_sequence([SkeletonFrame(kp)]), extract_sequence([SkeletonFrame(broken)])
     assert np.isfinite(b).all()
     np.testing.assert_array_equal(a, b)
+
+
+def test_stream_memory_counts_time_without_a_pose():
+    standing = np.zeros((N_KEYPOINTS, 3), np.float32)
+    standing[:, 0] = np.linspace(300, 340, N_KEYPOINTS)
+    standing[:, 1] = np.linspace(100, 400, N_KEYPOINTS)
+    standing[:, 2] = 0.9
+    lying = standing.copy()
+    lying[:, 0] = np.linspace(150, 450, N_KEYPOINTS)
+    lying[:, 1] = np.linspace(380, 420, N_KEYPOINTS)
+    lying[4:, 2] = 0.0  # most keypoints lost on the floor
+    nobody = np.zeros_like(standing)
+    poses = [standing] * 10 + [lying] * 5 + [nobody] * 9
+    frames = [SkeletonFrame(k, timestamp=i / 30) for i, k in enumerate(poses)]
+    features = extract_sequence(frames)
+    since, missing, lost = (
+        FEATURE_NAMES.index(n) for n in ("since_seen", "missing", "peak_d_visible@1.5")
+    )
+    assert features[9, since] == 0 and features[9, lost] == 0
+    assert features[14, lost] > 0.5  # most keypoints vanished within 0.4 s
+    assert features[-1, since] == pytest.approx(9 / 30, abs=1e-6)
+    assert features[-1, missing] > features[15, missing] > 0 == features[14, missing]

@@ -19,8 +19,7 @@ from vigil.classes import Decision
 from worker.training.data import FrameData
 from worker.training.selection import (
     StreamScores,
-    choose_delay,
-    choose_threshold,
+    choose_operating_point,
     evaluate_folds,
 )
 from worker.training.splits import grouped_folds
@@ -81,8 +80,10 @@ def select(
     _, params, oof = best
     target = data.target[data.frames_of(sequences)]
     labelled = target >= 0
-    threshold = choose_threshold(oof.scores[labelled], target[labelled], data.classes)
-    delay_s, sweep = choose_delay(oof, threshold)
+    rule = getattr(trainer, "operating_point", "youden")
+    threshold, delay_s, sweep = choose_operating_point(
+        oof, oof.scores[labelled], target[labelled], rule
+    )
     fitted = trainer.fit(data, sequences, params, 1) if refit else None
     return Selected(
         params, threshold, delay_s, grid_scores, sweep, oof, fitted, time.perf_counter() - start

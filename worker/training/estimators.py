@@ -22,6 +22,8 @@ class ModelSpec:
     feature_set: str = "full"
     description: str = ""
     fixed: dict[str, Any] = field(default_factory=dict)
+    # How threshold and delay are chosen (worker.training.selection.choose_operating_point).
+    operating_point: str = "event"
 
     def configurations(self) -> list[dict[str, Any]]:
         keys = list(self.grid)
@@ -66,6 +68,11 @@ class ModelSpec:
             )
         else:
             raise ValueError(f"unknown family {self.family!r}")
+        if self.family == "rf":
+            # Trees need no scaling. Without it the ONNX graph compares the very same float32
+            # inputs with the split values; with it, ONNX's float32 scaler rounds differently
+            # from scikit-learn's and a value next to a split can land on the other side.
+            return Pipeline([("model", model)])
         return Pipeline([("scale", StandardScaler()), ("model", model)])
 
 
@@ -82,6 +89,7 @@ PAPER_SVM = ModelSpec(
     family="svm",
     grid={"degree": [2], "C": [0.5], "gamma_times_1_over_n": [1.0], "class_weight": [None]},
     feature_set="pose",
+    operating_point="youden",
     description="Zachariae et al.: SVM, poly kernel degree 2, C=0.5, gamma=1/n_features, "
     "single-frame pose features",
 )

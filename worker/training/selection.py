@@ -120,6 +120,35 @@ def choose_delay(stream: StreamScores, threshold: float) -> tuple[float, dict]:
     return float(DELAY_GRID_S[best]), sweep
 
 
+JOINT_THRESHOLDS = tuple(round(0.1 * k, 1) for k in range(1, 10))
+
+
+def choose_operating_point(
+    stream: StreamScores, scores: np.ndarray, target: np.ndarray, rule: str = "youden"
+) -> tuple[float, float, dict]:
+    """(threshold, delay_s, delay sweep) on training predictions.
+
+    `youden` (the paper's rule): the threshold by Youden's J (multiclass: micro-F1 of Emergency),
+    then the delay by event F1. `event`: threshold and delay together by event F1 (ties to the
+    higher frame F1 after the filter), over the Youden threshold and 0.1-0.9; Youden's J favours
+    frame recall, which the delay filter then has to buy back with a long delay. Multiclass models
+    always use the paper's rule (event F1 counts only Emergency events, not Pause)."""
+    classes = stream.data.classes
+    youden = choose_threshold(scores, target, classes)
+    if rule == "youden" or len(classes) != 2:
+        return (youden, *choose_delay(stream, youden))
+    if rule != "event":
+        raise ValueError(f"unknown operating point rule {rule!r}; known: youden, event")
+    best = None
+    for threshold in sorted({youden, *JOINT_THRESHOLDS}):
+        delay_s, sweep = choose_delay(stream, threshold)
+        k = int(np.argmin(np.abs(np.asarray(sweep["delay_s"]) - delay_s)))
+        key = (sweep["event_f1"][k], sweep["frame_f1_filtered"][k], -delay_s)
+        if best is None or key > best[0]:
+            best = (key, float(threshold), delay_s, sweep)
+    return best[1], best[2], {**best[3], "threshold": best[1], "youden_threshold": youden}
+
+
 def evaluate(stream: StreamScores, threshold: float, delay_s: float) -> dict:
     return evaluate_folds([(stream, threshold, delay_s)])
 

@@ -52,6 +52,8 @@ class _Probabilities(nn.Module):
 class TemporalTrainer:
     """Trainer protocol (see trainers.py) for TemporalCNN; one measured configuration."""
 
+    operating_point = "event"  # see worker.training.selection.choose_operating_point
+
     def __init__(
         self,
         name: str = "tcn",

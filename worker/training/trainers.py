@@ -36,6 +36,7 @@ class SklearnTrainer:
     def __init__(self, spec: ModelSpec, seed: int = 0) -> None:
         self.spec, self.seed = spec, seed
         self.name, self.feature_set = spec.name, spec.feature_set
+        self.operating_point = spec.operating_point
         self.columns_ = FEATURE_SETS[spec.feature_set]
 
     def configurations(self) -> list[dict[str, Any]]:
