@@ -52,6 +52,18 @@ def stop(children: list[subprocess.Popen]) -> None:
             os.killpg(child.pid, signal.SIGKILL)
 
 
+def default_model_is_current() -> bool:
+    """A default model exists and was trained with this code's features."""
+    from vigil.features import FEATURE_VERSION
+    from vigil.model_file import read_manifest
+
+    try:
+        manifest, _ = read_manifest(MODEL_DIR / "manifest.json")
+    except (OSError, ValueError):
+        return False
+    return manifest.feature_version == FEATURE_VERSION
+
+
 def _terminate(signum, frame) -> None:
     raise KeyboardInterrupt  # SIGTERM stops the children exactly as Ctrl-C does
 
@@ -61,9 +73,9 @@ def main() -> int:
     VAR.mkdir(exist_ok=True)
     step("applying database migrations", "-m", "backend.cli", "migrate")
     step("creating demo users and robots", "-m", "backend.cli", "seed-demo", "--robots", "3")
-    if not (MODEL_DIR / "manifest.json").exists():
+    if not default_model_is_current():
         step(
-            "training the default walking model on URFD (first run only)",
+            "training the default walking model on URFD (first run, or after a feature change)",
             "-m", "worker.training.cli", "train-default", "--out", str(MODEL_DIR),
         )  # fmt: skip
     step(
