@@ -75,3 +75,10 @@ def encode_depth(depth: np.ndarray) -> bytes:
 
 def decode_depth(blob: bytes) -> np.ndarray:
     return np.frombuffer(blob, dtype="<f4").copy()
+
+
+def depth_to_json(blob: bytes | None) -> list[float | None] | None:
+    """A stored depth blob as JSON values: metres, null where unknown (JSON has no NaN)."""
+    if blob is None:
+        return None
+    return [None if np.isnan(v) else float(v) for v in decode_depth(blob)]

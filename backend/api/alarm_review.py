@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import math
 from datetime import datetime, timedelta
 
 from fastapi import APIRouter, HTTPException, Query, status
@@ -23,7 +22,7 @@ from backend.models import Frame, Video
 from backend.models._types import utcnow
 from backend.models.alarms import AlarmKind, Verdict
 from backend.models.users import Role, User
-from vigil.skeleton import decode_depth, decode_keypoints
+from vigil.skeleton import decode_keypoints, depth_to_json
 
 router = APIRouter(prefix="/api", tags=["alarm review"])
 
@@ -40,9 +39,7 @@ def _ward_of(user: User, ward: str | None) -> str | None:
 
 
 def _replay_frame(frame: Frame) -> ReplayFrameOut:
-    depth = None
-    if frame.depth is not None:
-        depth = [None if math.isnan(v) else float(v) for v in decode_depth(frame.depth)]
+    depth = depth_to_json(frame.depth)
     return ReplayFrameOut(
         seq=frame.seq,
         index=frame.index,

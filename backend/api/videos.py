@@ -1,4 +1,3 @@
-import math
 from datetime import datetime
 
 from fastapi import APIRouter, HTTPException, Query, status
@@ -8,7 +7,7 @@ from sqlalchemy import select
 from backend.deps import MAX_DB_INT, CurrentUser, DbId, SessionDep
 from backend.models.videos import Frame, Split, Video
 from vigil.classes import Decision, TransportMode
-from vigil.skeleton import decode_depth, decode_keypoints
+from vigil.skeleton import decode_keypoints, depth_to_json
 
 router = APIRouter(prefix="/api/videos", tags=["videos"])
 
@@ -87,9 +86,7 @@ def get_video(video_id: DbId, session: SessionDep, user: CurrentUser) -> VideoOu
 
 
 def _frame_out(frame: Frame) -> FrameOut:
-    depth = None
-    if frame.depth is not None:
-        depth = [None if math.isnan(v) else float(v) for v in decode_depth(frame.depth)]
+    depth = depth_to_json(frame.depth)
     return FrameOut(
         index=frame.index,
         ts=frame.ts,
