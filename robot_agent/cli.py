@@ -54,6 +54,7 @@ RUN_FLAGS = {
     "--depth-dir": "depth_dir",
     "--depth-scale-mm": "depth_scale_mm",
     "--crop": "crop",
+    "--camera-mount": "camera_mount",
     "--scenario": "scenario",
     "--patient": "patient",
     "--location": "location",

@@ -18,6 +18,7 @@ from pydantic_settings import (
 )
 
 from vigil.classes import TransportMode
+from vigil.floor import CameraMount
 
 ENV_PREFIX = "VIGIL_ROBOT_"
 DEFAULT_VAR = Path("var")
@@ -28,6 +29,17 @@ class SourceKind(StrEnum):
     REPLAY = "replay"  # a URFD keypoint file or a Vigil export
     OPENPOSE = "openpose"  # a directory of OpenPose JSON files (+ optional depth PNGs)
     MEDIAPIPE = "mediapipe"  # a video file or camera index through MediaPipe pose
+
+
+def parse_camera_mount(text: str) -> CameraMount:
+    """``"fx,fy,cx,cy,height_m,pitch_deg"`` -> CameraMount (ValueError naming what is wrong)."""
+    try:
+        values = [float(v) for v in text.split(",")]
+    except ValueError as error:
+        raise ValueError("expected numbers fx,fy,cx,cy,height_m,pitch_deg") from error
+    if len(values) != 6:
+        raise ValueError(f"expected 6 numbers fx,fy,cx,cy,height_m,pitch_deg, got {len(values)}")
+    return CameraMount(*values)
 
 
 class ConfigError(Exception):
@@ -62,6 +74,11 @@ class AgentSettings(BaseSettings):
     )
     crop: str | None = Field(
         default=None, description="mediapipe: x,y,width,height of the frame to use"
+    )
+    camera_mount: str | None = Field(
+        default=None,
+        description="depth camera over the floor: fx,fy,cx,cy,height_m,pitch_deg (pixels of the "
+        "keypoints; metres; degrees down); gives frames floor measures",
     )
     speed: float = Field(
         default=1.0, ge=0, description="replay speed (1 = real time, 0 = as fast as possible)"
@@ -108,6 +125,17 @@ class AgentSettings(BaseSettings):
         if not value.startswith(("ws://", "wss://")):
             raise ValueError("must start with ws:// or wss://")
         return value
+
+    @field_validator("camera_mount")
+    @classmethod
+    def _mount(cls, value: str | None) -> str | None:
+        if value is not None:
+            parse_camera_mount(value)
+        return value
+
+    @property
+    def mount(self) -> CameraMount | None:
+        return parse_camera_mount(self.camera_mount) if self.camera_mount else None
 
     @field_validator("log_level")
     @classmethod

@@ -81,7 +81,7 @@ def with_depth(
 ) -> SkeletonFrame:
     """A copy of ``frame`` whose depth is sampled from ``depth_image`` (keypoints unchanged)."""
     depth = sample_depth(depth_image, frame.keypoints, scale_mm, window, keypoint_image_size)
-    return SkeletonFrame(frame.keypoints, depth, frame.timestamp)
+    return SkeletonFrame(frame.keypoints, depth, frame.timestamp, frame.floor)
 
 
 def people_with_depth(
@@ -99,4 +99,7 @@ def people_with_depth(
     depth = sample_depth(
         observation.depth_image, keypoints, observation.depth_scale_mm, window, keypoint_image_size
     )
-    return [SkeletonFrame(p.keypoints, d, p.timestamp) for p, d in zip(people, depth, strict=True)]
+    return [
+        SkeletonFrame(p.keypoints, d, p.timestamp, p.floor)
+        for p, d in zip(people, depth, strict=True)
+    ]

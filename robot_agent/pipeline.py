@@ -23,6 +23,7 @@ from robot_agent.outbox import Outbox, Priority
 from robot_agent.sources.base import Observation
 from robot_agent.tracking import PatientTracker as TrackingPatientTracker
 from vigil.classes import Decision, TransportMode
+from vigil.floor import CameraMount, floor_measures
 from vigil.protocol import FrameRecord, TransportEnd, TransportStart
 from vigil.runtime import Classification, FrameClassifier
 from vigil.skeleton import SkeletonFrame, empty_keypoints
@@ -80,6 +81,7 @@ class Pipeline:
         tracker: PatientTracker | None = None,
         depth_sampler: DepthSampler | None = None,
         ground_truth_fallback: bool = False,
+        camera_mount: CameraMount | None = None,
     ) -> None:
         self.outbox = outbox
         self.mode = TransportMode(mode)
@@ -88,6 +90,7 @@ class Pipeline:
         self.tracker = tracker if tracker is not None else TrackingPatientTracker()
         self.depth_sampler = depth_sampler if depth_sampler is not None else sample_depth
         self.ground_truth_fallback = ground_truth_fallback
+        self.camera_mount = camera_mount
         self.transport_id: str | None = None
         self._transport_started = 0.0
         self._clock_offset: float | None = None  # wall time minus source time
@@ -186,7 +189,10 @@ class Pipeline:
                 depth = self.depth_sampler(
                     observation.depth_image, patient.keypoints, observation.depth_scale_mm
                 )
-            frame = SkeletonFrame(patient.keypoints, depth, observation.timestamp)
+            floor = patient.floor
+            if self.camera_mount is not None and np.isnan(floor).all():
+                floor = floor_measures(patient.keypoints, depth, self.camera_mount)
+            frame = SkeletonFrame(patient.keypoints, depth, observation.timestamp, floor)
         self._history.append(frame)
         shadow = self.shadow.classify(frame) if self.shadow is not None else None
         classification = None
@@ -220,11 +226,13 @@ class Pipeline:
     ) -> str:
         keypoints = np.nan_to_num(frame.keypoints, nan=0.0, posinf=0.0, neginf=0.0)
         depth = [_finite_or_none(d) for d in frame.depth.tolist()]
+        floor = frame.floor.tolist()
         fields: dict = {
             "ts": wall_ts,
             "transport_id": self.transport_id,
             "keypoints": keypoints.tolist(),
             "depth": None if all(d is None for d in depth) else depth,
+            "floor": None if np.isnan(frame.floor).all() else [_finite_or_none(v) for v in floor],
             "decision": None if decision is None else decision.value,
         }
         if classification is not None:

@@ -71,6 +71,7 @@ def build_robot(settings: AgentSettings) -> RobotAgent:
         settings.mode,
         classifier,
         ground_truth_fallback=settings.source == SourceKind.GENERATED,
+        camera_mount=settings.mount,
     )
     # A camera paces itself; recorded, generated and video frames are paced by the agent.
     camera = settings.source == SourceKind.MEDIAPIPE and (settings.source_path or "").isdigit()

@@ -3,7 +3,10 @@
 Pose part (single frame): keypoints centred on the hips and divided by the skeleton's bounding-box
 diagonal (scale invariant), the keypoint confidences (a missing keypoint is an explicit 0 there,
 its coordinates are 0 and never mistaken for a real position), uprightness of the torso, bounding
-box aspect, head height, and depth in metres with a has-depth flag (0 where unknown).
+box aspect, head height, and depth in metres with a has-depth flag (0 where unknown). Where the
+frame carries floor measures (vigil.floor: the body's top and centre height above the floor, the
+share of it near the floor), those too, with a has-floor flag: a fall ends on the floor, a
+deliberate lie-down usually on a bed, and the depth camera sees the difference directly.
 
 Temporal part: how fast the body got where it is. For horizons of 0.2-1.6 s, the change of body
 centre height, horizontal position, size, aspect, uprightness, head height and depth since the
@@ -12,7 +15,8 @@ decaying peaks (time constants 1.5 s and 4 s) of the downward speeds, so that a 
 remembered while the person lies still afterwards. That is what separates a fall from lying down
 on purpose, which looks the same in a single frame. `above_floor` is the body centre's height
 above the lowest keypoint of the earlier frame (the floor line under a standing person): a fall
-ends on the floor, a deliberate lie-down usually on a bed.
+ends on the floor, a deliberate lie-down usually on a bed. With floor measures, the drops of the
+top and centre height above the floor (metres) join the changes and their decaying peaks.
 
 Frames with too few keypoints (fewer than MIN_KEYPOINTS; e.g. the pose estimator found nobody)
 repeat the last usable pose with zero motion and set the `held` flag: the decision holds.
@@ -24,9 +28,9 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from vigil.skeleton import INDEX, N_KEYPOINTS, SkeletonFrame
+from vigil.skeleton import INDEX, N_FLOOR, N_KEYPOINTS, SkeletonFrame
 
-FEATURE_VERSION = 2
+FEATURE_VERSION = 3
 MIN_KEYPOINTS = 4
 HORIZONS_S: tuple[float, ...] = (0.2, 0.4, 0.8, 1.6, 3.2)
 DELTA_LIMIT = 5.0  # body sizes (or log units): beyond this a change is a tracking glitch
@@ -52,15 +56,18 @@ _STATE = (
     "bottom",
     "seen_at",
     "visible",
+    "floor_top",
+    "floor_centre",
+    "has_floor",
 )
 _S = {name: i for i, name in enumerate(_STATE)}
 _DELTAS = (
     "d_down", "d_side", "d_logscale", "d_aspect", "d_upright", "d_top", "d_depth", "above_floor",
-    "d_visible",
+    "d_visible", "d_floor_top", "d_floor_centre",
 )  # fmt: skip
 # Downward speeds whose decaying peaks are kept: centre drop, head drop, loss of uprightness.
 # Loss of keypoints: a body hitting the floor is often lost by the pose estimator.
-_PEAKED = ("d_down", "d_top", "d_upright", "d_visible")
+_PEAKED = ("d_down", "d_top", "d_upright", "d_visible", "d_floor_top", "d_floor_centre")
 # Stream memory: time since the last usable pose and the decaying share of frames without one.
 _MEMORY = ("since_seen", "missing")
 
@@ -72,24 +79,29 @@ def _names() -> tuple[str, ...]:
     temporal = [f"{d}@{h}" for h in HORIZONS_S for d in _DELTAS]
     temporal += [f"peak_{p}@{tau}" for tau in PEAK_TAUS_S for p in _PEAKED]
     temporal += list(_MEMORY)
-    return tuple(pose + temporal)
+    floor = ["floor_top", "floor_centre", "near_floor", "has_floor"]
+    return tuple(pose + temporal + floor)
 
 
 FEATURE_NAMES: tuple[str, ...] = _names()
 N_POSE = N_KEYPOINTS * 3 + 6
 FEATURE_SETS: dict[str, np.ndarray] = {
     "full": np.arange(len(FEATURE_NAMES)),
-    "pose": np.arange(N_POSE),  # single-frame features only, as in the paper
+    "pose": np.arange(N_POSE),  # single-frame keypoint features only, as in the paper
+    # For cameras without a known pose over the floor: everything but the floor measures.
+    "keypoints": np.array([i for i, name in enumerate(FEATURE_NAMES) if "floor" not in name]),
 }
+#: Feature sets whose models need floor measures in the frames (vigil.floor).
+NEEDS_FLOOR = frozenset({"full"})
 _MAX_HORIZON = max(HORIZONS_S)
 _PEAK_SOURCE = [HORIZONS_S.index(0.4) * len(_DELTAS) + _DELTAS.index(p) for p in _PEAKED]
 
 
 def _pose_and_state(
-    keypoints: np.ndarray, depth: np.ndarray, timestamps: np.ndarray
+    keypoints: np.ndarray, depth: np.ndarray, floor: np.ndarray, timestamps: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(n, 25, 3), (n, 25) -> pose features (n, N_POSE - 1) without `held`, state (n, len(_STATE)),
-    and a usable-frame mask."""
+    """(n, 25, 3), (n, 25), (n, 3) -> pose features (n, N_POSE - 1 + N_FLOOR + 1) without `held`,
+    state (n, len(_STATE)), and a usable-frame mask."""
     n = keypoints.shape[0]
     conf = keypoints[:, :, 2].astype(np.float64)
     xy = keypoints[:, :, :2].astype(np.float64)
@@ -128,8 +140,17 @@ def _pose_and_state(
     has_depth = (n_depth > 0).astype(np.float64)
 
     rel = np.where(present[..., None], (xy - centre[:, None, :]) / scale[:, None, None], 0.0)
+    floor = floor.astype(np.float64)
+    has_floor = np.isfinite(floor).all(axis=1)
+    floor = np.where(has_floor[:, None], floor, 0.0)
     pose = np.concatenate(
-        [rel.reshape(n, -1), conf, np.stack([aspect, upright, top, depth_m, has_depth], axis=1)],
+        [
+            rel.reshape(n, -1),
+            conf,
+            np.stack([aspect, upright, top, depth_m, has_depth], axis=1),
+            floor,
+            has_floor[:, None],
+        ],
         axis=1,
     )
     seen = usable.astype(np.float64)
@@ -138,6 +159,7 @@ def _pose_and_state(
         [
             *(centre[:, 0], centre[:, 1], scale, aspect, upright, top, depth_m, has_depth, seen),
             *(bottom, timestamps, count / N_KEYPOINTS),
+            *(floor[:, 0], floor[:, 1], has_floor),
         ],
         axis=1,
     )
@@ -179,6 +201,7 @@ def _deltas(state_now: np.ndarray, state_then: np.ndarray, horizon: float) -> np
     pace = np.minimum(1.0, 1.5 * horizon / np.maximum(elapsed, 1e-9))[:, None]
     ref = np.maximum(state_then[:, _S["scale"]], state_now[:, _S["scale"]])
     both_seen = (state_then[:, _S["seen"]] * state_now[:, _S["seen"]])[:, None]
+    both_floor = state_then[:, _S["has_floor"]] * state_now[:, _S["has_floor"]]
     deltas = np.stack(
         [
             (state_now[:, _S["cy"]] - state_then[:, _S["cy"]]) / ref,
@@ -193,6 +216,8 @@ def _deltas(state_now: np.ndarray, state_then: np.ndarray, horizon: float) -> np
             # body centre above the lowest keypoint back then (the floor under a standing person)
             (state_then[:, _S["bottom"]] - state_now[:, _S["cy"]]) / ref,
             state_then[:, _S["visible"]] - state_now[:, _S["visible"]],
+            (state_then[:, _S["floor_top"]] - state_now[:, _S["floor_top"]]) * both_floor,
+            (state_then[:, _S["floor_centre"]] - state_now[:, _S["floor_centre"]]) * both_floor,
         ],
         axis=1,
     )
@@ -226,11 +251,12 @@ class _Memory:
         return np.array([min(since_seen, SINCE_SEEN_LIMIT_S), self.missing])
 
 
-def _as_arrays(frames: Sequence[SkeletonFrame]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _as_arrays(frames: Sequence[SkeletonFrame]):
     keypoints = np.stack([f.keypoints for f in frames]).astype(np.float32)
     depth = np.stack([f.depth for f in frames]).astype(np.float32)
+    floor = np.stack([f.floor for f in frames]).astype(np.float32)
     timestamps = np.array([f.timestamp for f in frames], np.float64)
-    return keypoints, depth, timestamps
+    return keypoints, depth, timestamps, floor
 
 
 def _check_time(timestamps: np.ndarray, previous: float | None) -> None:
@@ -245,17 +271,23 @@ def extract_arrays(
     depth: np.ndarray | None,
     timestamps: np.ndarray,
     feature_set: str = "full",
+    floor: np.ndarray | None = None,
 ) -> np.ndarray:
-    """Vectorised features of one stream: (n, 25, 3), (n, 25) or None, (n,) -> (n, d)."""
+    """Vectorised features of one stream: keypoints (n, 25, 3), depth (n, 25) or None,
+    timestamps (n,), floor measures (n, 3) or None -> (n, d)."""
     keypoints = np.asarray(keypoints, np.float32)
     n = keypoints.shape[0]
     if depth is None:
         depth = np.full((n, N_KEYPOINTS), np.nan, np.float32)
+    if floor is None:
+        floor = np.full((n, N_FLOOR), np.nan, np.float32)
     timestamps = np.asarray(timestamps, np.float64)
     _check_time(timestamps, None)
     if n == 0:
         return np.zeros((0, len(FEATURE_SETS[feature_set])), np.float32)
-    pose, state, usable = _pose_and_state(keypoints, np.asarray(depth, np.float32), timestamps)
+    pose, state, usable = _pose_and_state(
+        keypoints, np.asarray(depth, np.float32), np.asarray(floor, np.float32), timestamps
+    )
     pose, state = _hold(pose, state, usable, None)
     held = (~usable).astype(np.float64)[:, None]
     temporal = []
@@ -273,16 +305,21 @@ def extract_arrays(
         current = _peak_step(current, speeds[i], dt)
         peaks[i] = current
         memories[i] = memory.step(state[i], bool(usable[i]), dt, float(timestamps[i]))
-    features = np.concatenate([pose, held, temporal, peaks.reshape(n, -1), memories], axis=1)
+    features = _assemble(pose, held, temporal, peaks.reshape(n, -1), memories)
     return features[:, FEATURE_SETS[feature_set]].astype(np.float32)
+
+
+def _assemble(pose, held, temporal, peaks, memories) -> np.ndarray:
+    keypoint_pose, floor = pose[:, : N_POSE - 1], pose[:, N_POSE - 1 :]
+    return np.concatenate([keypoint_pose, held, temporal, peaks, memories, floor], axis=1)
 
 
 def extract_sequence(frames: Sequence[SkeletonFrame], feature_set: str = "full") -> np.ndarray:
     """Features of a whole stream at once; identical to pushing the frames one by one."""
     if not frames:
         return np.zeros((0, len(FEATURE_SETS[feature_set])), np.float32)
-    keypoints, depth, timestamps = _as_arrays(frames)
-    return extract_arrays(keypoints, depth, timestamps, feature_set)
+    keypoints, depth, timestamps, floor = _as_arrays(frames)
+    return extract_arrays(keypoints, depth, timestamps, feature_set, floor)
 
 
 class FeatureExtractor:
@@ -312,6 +349,7 @@ class FeatureExtractor:
         pose, state, usable = _pose_and_state(
             frame.keypoints[None].astype(np.float32),
             frame.depth[None].astype(np.float32),
+            frame.floor[None].astype(np.float32),
             np.array([t]),
         )
         pose, state = _hold(pose, state, usable, self._last)
@@ -333,9 +371,7 @@ class FeatureExtractor:
         self._peaks = _peak_step(self._peaks, temporal[0, _PEAK_SOURCE], dt)
         held = (~usable).astype(np.float64)[:, None]
         memory = self._memory.step(state[0], bool(usable[0]), dt, t)[None]
-        features = np.concatenate(
-            [pose, held, temporal, self._peaks.reshape(1, -1), memory], axis=1
-        )
+        features = _assemble(pose, held, temporal, self._peaks.reshape(1, -1), memory)
         return features[0, self.columns_].astype(np.float32)
 
 

@@ -23,7 +23,7 @@ from pydantic import (
 )
 
 from vigil.classes import Decision, TransportMode
-from vigil.skeleton import N_KEYPOINTS
+from vigil.skeleton import N_FLOOR, N_KEYPOINTS
 
 PROTOCOL_VERSION = 1
 MAX_MESSAGE_BYTES = 1_000_000
@@ -78,7 +78,8 @@ class ShadowDecision(_Message):
 
 
 class FrameRecord(_Message):
-    """One classified frame. keypoints: 25 x [x, y, confidence]; depth: 25 metres or null.
+    """One classified frame. keypoints: 25 x [x, y, confidence]; depth: 25 metres or null;
+    floor: the 3 floor measures or null.
 
     Lengths and finiteness are checked by pydantic-core constraints (not Python validators):
     this is the ingest hot path.
@@ -91,6 +92,10 @@ class FrameRecord(_Message):
     # JSON has no NaN: unknown depth travels as null.
     depth: list[FiniteFloat | None] | None = Field(
         default=None, min_length=N_KEYPOINTS, max_length=N_KEYPOINTS
+    )
+    # Floor measures (vigil.skeleton.FLOOR_FIELDS); absent when the robot has no camera mount.
+    floor: list[FiniteFloat | None] | None = Field(
+        default=None, min_length=N_FLOOR, max_length=N_FLOOR
     )
     decision: Decision | None = None
     scores: dict[Decision, FiniteFloat] = Field(default_factory=dict)

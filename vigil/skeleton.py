@@ -1,4 +1,5 @@
-"""The canonical skeleton: OpenPose BODY_25 keypoints (x, y, confidence) plus depth per keypoint."""
+"""The canonical skeleton: OpenPose BODY_25 keypoints (x, y, confidence) plus depth per keypoint,
+and, where the depth camera's pose over the floor is known, the body's height above the floor."""
 
 from __future__ import annotations
 
@@ -20,6 +21,18 @@ BODY_25: tuple[str, ...] = (
 N_KEYPOINTS = len(BODY_25)
 INDEX = {name: i for i, name in enumerate(BODY_25)}
 
+#: Floor measures of a person, from depth and the camera's mounting over the floor (vigil.floor):
+#: height of the body's top above the floor, height of its centre, and the share of the body
+#: within FLOOR_NEAR_M of the floor. NaN where unknown (no depth, or the camera pose unknown).
+FLOOR_FIELDS: tuple[str, ...] = ("top_height_m", "centre_height_m", "near_floor_share")
+N_FLOOR = len(FLOOR_FIELDS)
+FLOOR_NEAR_M = 0.4
+
+
+def no_floor() -> np.ndarray:
+    return np.full(N_FLOOR, np.nan, np.float32)
+
+
 #: Bones for drawing: pairs of keypoint indices.
 BONES: tuple[tuple[int, int], ...] = (
     (1, 0), (0, 15), (15, 17), (0, 16), (16, 18),
@@ -36,11 +49,13 @@ class SkeletonFrame:
     keypoints: (25, 3) float32, x and y in image units (pixels or normalised), confidence 0..1;
     a missing keypoint has confidence 0 (its x, y are meaningless, never real zeros).
     depth: (25,) float32 metres, NaN where unknown.
+    floor: (3,) float32 floor measures (FLOOR_FIELDS), NaN where unknown.
     """
 
     keypoints: np.ndarray
     depth: np.ndarray = field(default_factory=lambda: np.full(N_KEYPOINTS, np.nan, np.float32))
     timestamp: float = 0.0
+    floor: np.ndarray = field(default_factory=no_floor)
 
     def __post_init__(self) -> None:
         self.keypoints = np.asarray(self.keypoints, dtype=np.float32)
@@ -49,6 +64,9 @@ class SkeletonFrame:
             raise ValueError(f"keypoints must have shape (25, 3), got {self.keypoints.shape}")
         if self.depth.shape != (N_KEYPOINTS,):
             raise ValueError(f"depth must have shape (25,), got {self.depth.shape}")
+        self.floor = np.asarray(self.floor, dtype=np.float32)
+        if self.floor.shape != (N_FLOOR,):
+            raise ValueError(f"floor must have shape ({N_FLOOR},), got {self.floor.shape}")
 
     @property
     def present(self) -> np.ndarray:
@@ -82,3 +100,19 @@ def depth_to_json(blob: bytes | None) -> list[float | None] | None:
     if blob is None:
         return None
     return [None if np.isnan(v) else float(v) for v in decode_depth(blob)]
+
+
+def encode_floor(floor: np.ndarray) -> bytes | None:
+    """Compact storage: 3 little-endian float32 (12 bytes); None when nothing is known."""
+    floor = np.asarray(floor, dtype="<f4")
+    return None if np.isnan(floor).all() else np.ascontiguousarray(floor).tobytes()
+
+
+def decode_floor(blob: bytes | None) -> np.ndarray:
+    return no_floor() if blob is None else np.frombuffer(blob, dtype="<f4").copy()
+
+
+def floor_to_json(blob: bytes | None) -> list[float | None] | None:
+    if blob is None:
+        return None
+    return [None if np.isnan(v) else float(v) for v in decode_floor(blob)]

@@ -25,7 +25,8 @@ from enum import StrEnum
 import numpy as np
 
 from vigil.classes import MODE_CLASSES, Decision, TransportMode
-from vigil.skeleton import INDEX, N_KEYPOINTS, SkeletonFrame
+from vigil.floor import CameraMount, floor_measures_many
+from vigil.skeleton import INDEX, N_FLOOR, N_KEYPOINTS, SkeletonFrame
 from vigil.taxonomy import DEFAULT_TAXONOMY, Taxonomy
 
 
@@ -39,6 +40,7 @@ class GeneratedSequence:
     timestamps: np.ndarray  # (n,)
     fine_labels: tuple[str, ...]
     generated: bool = True
+    floor: np.ndarray | None = None  # (n, 3) floor measures (vigil.floor), NaN where unknown
 
 
 def class_targets(
@@ -55,6 +57,11 @@ IMAGE_WIDTH, IMAGE_HEIGHT = 640, 480
 FOCAL_PX = 525.0  # Kinect v1 colour/depth focal length at 640x480
 CAMERA_HEIGHT_M = 1.0
 CAMERA_TILT_RAD = math.radians(6.0)  # looking slightly down
+#: The generated robot's depth camera, so generated frames carry floor measures (vigil.floor).
+CAMERA_MOUNT = CameraMount(
+    fx=FOCAL_PX, fy=FOCAL_PX, cx=IMAGE_WIDTH / 2, cy=IMAGE_HEIGHT / 2,
+    height_m=CAMERA_HEIGHT_M, pitch_deg=math.degrees(CAMERA_TILT_RAD),
+)  # fmt: skip
 MIN_VISIBLE_KEYPOINTS = 5
 MARKER_SIZE_M = 0.09  # ArUco marker worn on the patient's chest
 
@@ -634,15 +641,17 @@ class GeneratedTransport:
         n = self.n_frames
         keypoints = np.zeros((n, N_KEYPOINTS, 3), np.float32)
         depth = np.full((n, N_KEYPOINTS), np.nan, np.float32)
+        floor = np.full((n, N_FLOOR), np.nan, np.float32)
         for t, frame in enumerate(self.patient_frames):
             if frame is not None:
-                keypoints[t], depth[t] = frame.keypoints, frame.depth
+                keypoints[t], depth[t], floor[t] = frame.keypoints, frame.depth, frame.floor
         return GeneratedSequence(
             name or f"gen-{self.locomotion.value}-seed{self.seed}",
             keypoints,
             depth,
             np.arange(n) / self.fps,
             tuple(self.labels),
+            floor=floor,
         )
 
 
@@ -811,8 +820,10 @@ def generate_transport(
     for idx in order:
         keypoints, depth = rendered[idx]
         visible = (keypoints[:, :, 2] > 0).sum(-1) >= MIN_VISIBLE_KEYPOINTS
+        floor = floor_measures_many(keypoints, depth, CAMERA_MOUNT)
         people.append([
-            SkeletonFrame(keypoints[t], depth[t], timestamp=t / FPS) if visible[t] else None
+            SkeletonFrame(keypoints[t], depth[t], timestamp=t / FPS, floor=floor[t])
+            if visible[t] else None
             for t in range(n)
         ])  # fmt: skip
     patient_index = int(np.flatnonzero(order == 0)[0])

@@ -145,7 +145,10 @@ class UrfdReplaySource:
             pacer.wait(ts)
             depth_path = self.depth_rows.get(i)
             depth_image = read_depth_png(depth_path) if depth_path is not None else None
-            people = [SkeletonFrame(keypoints, timestamp=ts)] if seq.detected[i] else []
+            floor = seq.floor[i]  # URFD's official depth features (vigil.datasets.urfd)
+            people = (
+                [SkeletonFrame(keypoints, timestamp=ts, floor=floor)] if seq.detected[i] else []
+            )
             yield Observation(
                 timestamp=ts,
                 people=people,

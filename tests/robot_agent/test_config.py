@@ -34,6 +34,9 @@ def test_file_then_environment_then_flags(tmp_path, monkeypatch):
         ("", {"VIGIL_ROBOT_MODE": "flying"}, {}, "mode"),
         ("", {}, {"backend_url": "http://host/ws/robot"}, "backend_url: must start with ws://"),
         ("", {}, {"backoff_initial_s": "9", "backoff_max_s": "1"}, "backoff_max_s"),
+        ('camera_mount = "525,525,320,240"\n', {}, {}, "camera_mount: .*expected 6 numbers"),
+        ("", {"VIGIL_ROBOT_CAMERA_MOUNT": "525,525,320,240,0,5"}, {}, "camera_mount: .*height_m"),
+        ("", {}, {"camera_mount": "a,b,c,d,e,f"}, "camera_mount: .*expected numbers"),
     ],
 )
 def test_bad_values_name_the_field(tmp_path, monkeypatch, toml, env, flags, field):
@@ -88,3 +91,12 @@ def test_console_script_reports_bad_environment_value():
     )
     assert result.returncode == 2
     assert "bad configuration: heartbeat_s" in result.stderr
+
+
+def test_a_camera_mount_is_read_into_its_geometry(tmp_path):
+    config = tmp_path / "robot.toml"
+    config.write_text('camera_mount = "570.3, 570.3, 319.5, 239.5, 1.1, 12"\n')
+    mount = load_settings(config).mount
+    assert (mount.fx, mount.cy, mount.height_m, mount.pitch_deg) == (570.3, 239.5, 1.1, 12.0)
+    config.write_text("")
+    assert load_settings(config).mount is None

@@ -13,6 +13,7 @@ from robot_agent.pipeline import GROUND_TRUTH_VERSION, Pipeline
 from robot_agent.sources.base import Observation
 from robot_agent.sources.simulator import SimulatorSource
 from vigil.classes import TransportMode
+from vigil.floor import CameraMount
 from vigil.protocol import FrameRecord
 from vigil.runtime import FrameClassifier
 from vigil.skeleton import N_KEYPOINTS, SkeletonFrame
@@ -100,6 +101,37 @@ def test_depth_is_sampled_from_the_depth_image_at_the_patients_keypoints(tmp_pat
     assert frame["depth"][0] == pytest.approx(2.5)
     assert frame["depth"][5] is None
     assert frame["decision"] is None and "model_version" not in frame
+
+
+def test_with_a_camera_mount_frames_carry_floor_measures_from_the_sampled_depth(tmp_path):
+    mount = CameraMount(fx=100, fy=100, cx=80, cy=60, height_m=1.0, pitch_deg=0.0)
+    outbox = Outbox(tmp_path / "o.sqlite")
+    pipeline = Pipeline(outbox, TransportMode.WALKING, camera_mount=mount)
+    keypoints = np.zeros((N_KEYPOINTS, 3), np.float32)
+    # A level camera 1 m up, everything 2.5 m away: image row v lies (v - 60) * 2.5 / 100 m
+    # below the camera.
+    keypoints[:, 0], keypoints[:, 1], keypoints[:, 2] = 80, np.linspace(20, 100, N_KEYPOINTS), 1
+    depth_image = np.full((120, 160), 2500, np.uint16)
+    person = SkeletonFrame(keypoints, timestamp=0.0)
+    pipeline.process(Observation(0.0, [person], depth_image=depth_image, depth_scale_mm=1.0))
+    pipeline.process(Observation(0.1, [person]))  # no depth image: nothing to measure
+    with_depth, without = frames_of(outbox)
+    heights = 1.0 - (keypoints[:, 1] - 60) * 2.5 / 100
+    assert with_depth["floor"] == pytest.approx(
+        [heights.max(), heights.mean(), np.mean(heights < 0.4)], abs=1e-4
+    )
+    assert without["floor"] is None
+
+
+def test_floor_measures_a_source_knows_travel_unchanged(tmp_path):
+    outbox = Outbox(tmp_path / "o.sqlite")
+    pipeline = Pipeline(outbox, TransportMode.WALKING)
+    keypoints = np.zeros((N_KEYPOINTS, 3), np.float32)
+    keypoints[:, 0], keypoints[:, 1], keypoints[:, 2] = 50, np.arange(N_KEYPOINTS), 1
+    person = SkeletonFrame(keypoints, timestamp=0.0, floor=[0.45, 0.2, np.nan])
+    pipeline.process(Observation(0.0, [person]))
+    (frame,) = frames_of(outbox)
+    assert frame["floor"][:2] == pytest.approx([0.45, 0.2]) and frame["floor"][2] is None
 
 
 def test_nobody_in_view_still_sends_a_frame_without_keypoints(tmp_path):

@@ -26,7 +26,26 @@ def test_streaming_equals_batch_exactly_on_real_sequences(sequences):
             streamed = np.stack([extractor.push(f) for f in frames])
             assert np.array_equal(batch, streamed), (seq.name, feature_set)
             assert np.isfinite(batch).all()
-    assert batch.shape[1] == len(FEATURE_SETS["pose"])
+            assert batch.shape[1] == len(FEATURE_SETS[feature_set])
+
+
+def test_floor_measures_enter_only_the_sets_that_declare_them(sequences):
+    fall = sequences[0]
+    frames = fall.frames()
+    blind = [SkeletonFrame(f.keypoints, f.depth, f.timestamp) for f in frames]  # floor unknown
+    names = np.array(FEATURE_NAMES)
+    has_floor = list(FEATURE_NAMES).index("has_floor")
+    with_floor, without = extract_sequence(frames), extract_sequence(blind)
+    assert with_floor[:, has_floor].min() == 1.0 and without[:, has_floor].max() == 0.0
+    floor_columns = np.array(["floor" in n for n in names])
+    assert not np.array_equal(with_floor[:, floor_columns], without[:, floor_columns])
+    assert np.array_equal(with_floor[:, ~floor_columns], without[:, ~floor_columns])
+    for feature_set in ("pose", "keypoints"):
+        assert np.array_equal(
+            extract_sequence(frames, feature_set), extract_sequence(blind, feature_set)
+        )
+    # The fall ends on the floor: the top drops by more than half a metre within 1.6 s somewhere.
+    assert with_floor[:, list(FEATURE_NAMES).index("d_floor_top@1.6")].max() > 0.5
 
 
 def test_streaming_equals_batch_with_irregular_timestamps_and_depth(sequences):

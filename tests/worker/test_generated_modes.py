@@ -39,12 +39,12 @@ def test_wheelchair_mode_trains_end_to_end_with_three_classes(tmp_path):
     transport = generate_transport(
         "wheelchair", seed=99, duration_s=8, events=["slumped_unconscious_wheelchair"]
     )
-    keypoints, depth, _ = patient_arrays(transport)
+    keypoints, depth, _, floor = patient_arrays(transport)
     from vigil.skeleton import SkeletonFrame
 
     out = [
-        runtime.classify(SkeletonFrame(k, d, t / transport.fps))
-        for t, (k, d) in enumerate(zip(keypoints, depth, strict=True))
+        runtime.classify(SkeletonFrame(k, d, t / transport.fps, f))
+        for t, (k, d, f) in enumerate(zip(keypoints, depth, floor, strict=True))
     ]
     assert set(out[0].scores) == {Decision.NORMAL, Decision.EMERGENCY, Decision.PAUSE}
     truth = transport.decisions(TransportMode.WHEELCHAIR)

@@ -8,6 +8,11 @@ training and scoring, but stay in the stream so time passes for the delay filter
 Frames with detected = 0 (the pose estimator found nobody) have all keypoints missing. They stay
 in the stream: the feature extractor repeats the last seen pose for them (see vigil.features),
 so the decision holds; they are left out of training and count in scoring with that held decision.
+
+Floor measures come from the official per-frame depth features (labels/urfall-cam0-*.csv, joined
+on the official frame index): H (top above the floor) and D (centroid above the floor) in mm
+become metres, P40 (share of the silhouette within 40 cm of the floor) stays a share. They are
+NaN where the official files have no row for a frame (the same 409 ADL frames without a label).
 """
 
 from __future__ import annotations
@@ -27,6 +32,7 @@ from vigil.skeleton import SkeletonFrame
 FPS = 30.0
 IMAGE_SIZE = (640.0, 480.0)
 KEYPOINTS_FILE = "keypoints/urfd_movenet13.csv.gz"
+LABEL_FILES = ("labels/urfall-cam0-falls.csv", "labels/urfall-cam0-adls.csv")
 UNLABELLED = -1
 NORMAL, EMERGENCY = 0, 1  # indices into MODE_CLASSES[WALKING]
 
@@ -53,6 +59,7 @@ class Sequence:
     urfd_label: np.ndarray  # (n,) -1, 0, 1, or NaN where the official files have no label
     target: np.ndarray  # (n,) NORMAL, EMERGENCY or UNLABELLED
     detected: np.ndarray  # (n,) bool
+    floor: np.ndarray  # (n, 3) floor measures from the official depth features, NaN if unknown
 
     @property
     def is_fall(self) -> bool:
@@ -63,8 +70,8 @@ class Sequence:
 
     def frames(self) -> list[SkeletonFrame]:
         return [
-            SkeletonFrame(keypoints=k, timestamp=float(t))
-            for k, t in zip(self.keypoints, self.timestamps, strict=True)
+            SkeletonFrame(keypoints=k, timestamp=float(t), floor=f)
+            for k, t, f in zip(self.keypoints, self.timestamps, self.floor, strict=True)
         ]
 
     def first_emergency_time(self) -> float | None:
@@ -83,13 +90,31 @@ def target_for(sequence: str, urfd_label: np.ndarray) -> np.ndarray:
 
 
 def data_sha256(directory: Path | str | None = None) -> str:
-    path = Path(directory or default_dir()) / KEYPOINTS_FILE
-    return hashlib.sha256(path.read_bytes()).hexdigest()
+    digest = hashlib.sha256()
+    for name in (KEYPOINTS_FILE, *LABEL_FILES):
+        digest.update((Path(directory or default_dir()) / name).read_bytes())
+    return digest.hexdigest()
+
+
+def _floor_features(directory: Path) -> dict[tuple[str, int], tuple[float, float, float]]:
+    """(sequence, official frame) -> (H m, D m, P40) from the official label files."""
+    floor = {}
+    for name in LABEL_FILES:
+        path = directory / name
+        if not path.exists():
+            raise FileNotFoundError(f"URFD labels not found at {path} (set VIGIL_URFD_DIR)")
+        with path.open(newline="") as handle:
+            for row in csv.reader(handle):
+                sequence, frame = row[0], int(row[1])
+                height, centre, near = float(row[8]), float(row[9]), float(row[10])
+                floor[(sequence, frame)] = (height / 1000.0, centre / 1000.0, near)
+    return floor
 
 
 def load(directory: Path | str | None = None, names: list[str] | None = None) -> list[Sequence]:
     """All sequences (or those named), in the order fall-01..fall-30, adl-01..adl-40."""
-    path = Path(directory or default_dir()) / KEYPOINTS_FILE
+    directory = Path(directory or default_dir())
+    path = directory / KEYPOINTS_FILE
     if not path.exists():
         raise FileNotFoundError(f"URFD keypoints not found at {path} (set VIGIL_URFD_DIR)")
     rows: dict[str, list[list[str]]] = {}
@@ -100,6 +125,8 @@ def load(directory: Path | str | None = None, names: list[str] | None = None) ->
         xy_columns = [column[f"{kp}_{axis}"] for kp in MOVENET13 for axis in ("x", "y")]
         for row in reader:
             rows.setdefault(row[column["sequence"]], []).append(row)
+    floor_of = _floor_features(directory)
+    missing_floor = (np.nan, np.nan, np.nan)
     wanted = names if names is not None else sorted(rows, key=_sequence_order)
     sequences = []
     for name in wanted:
@@ -117,6 +144,10 @@ def load(directory: Path | str | None = None, names: list[str] | None = None) ->
         xy = np.array([[float(r[i]) for i in xy_columns] for r in seq_rows], np.float32)
         keypoints = movenet13_to_body25(xy.reshape(-1, 13, 2), IMAGE_SIZE)
         keypoints[~detected] = 0.0
+        floor = np.array(
+            [floor_of.get((name, int(r[column["image_frame"]])), missing_floor) for r in seq_rows],
+            np.float32,
+        )
         sequences.append(
             Sequence(
                 name=name,
@@ -125,6 +156,7 @@ def load(directory: Path | str | None = None, names: list[str] | None = None) ->
                 urfd_label=label,
                 target=target_for(name, label),
                 detected=detected,
+                floor=floor,
             )
         )
     return sequences

@@ -54,7 +54,7 @@ def from_urfd(
     sequences = urfd.load(directory, names)
     feats, targets, groups, times, usable = [], [], [], [], []
     for i, seq in enumerate(sequences):
-        feats.append(extract_arrays(seq.keypoints, None, seq.timestamps, feature_set))
+        feats.append(extract_arrays(seq.keypoints, None, seq.timestamps, feature_set, seq.floor))
         targets.append(seq.target)
         groups.append(np.full(len(seq), i))
         times.append(seq.timestamps)

@@ -9,7 +9,6 @@ import numpy as np
 
 from vigil.classes import MODE_CLASSES, Decision, TransportMode
 from vigil.features import extract_arrays
-from vigil.skeleton import N_KEYPOINTS
 from vigil.synthetic import EVENTS_BY_LOCOMOTION, GeneratedTransport, Locomotion, generate_transport
 from worker.training.data import FrameData
 
@@ -41,17 +40,13 @@ def generate_for_mode(
     return transports
 
 
-def patient_arrays(transport: GeneratedTransport) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Keypoints (n, 25, 3), depth (n, 25), usable (n,); frames where the patient is not seen
-    are empty (all keypoints missing), as a pose estimator would report nobody."""
-    n = transport.n_frames
-    keypoints = np.zeros((n, N_KEYPOINTS, 3), np.float32)
-    depth = np.full((n, N_KEYPOINTS), np.nan, np.float32)
-    usable = np.zeros(n, bool)
-    for t, frame in enumerate(transport.patient_frames):
-        if frame is not None:
-            keypoints[t], depth[t], usable[t] = frame.keypoints, frame.depth, True
-    return keypoints, depth, usable
+def patient_arrays(transport: GeneratedTransport):
+    """Keypoints (n, 25, 3), depth (n, 25), usable (n,), floor measures (n, 3); frames where the
+    patient is not seen are empty (all keypoints missing), as a pose estimator would report
+    nobody."""
+    sequence = transport.patient_sequence()
+    usable = np.array([frame is not None for frame in transport.patient_frames])
+    return sequence.keypoints, sequence.depth, usable, sequence.floor
 
 
 DEFAULT_REPEATS = {TransportMode.WHEELCHAIR: 4, TransportMode.COMBINED: 2, TransportMode.WALKING: 2}
@@ -68,9 +63,9 @@ def generated_frames(
     feats, targets, groups, times, usable_all, positive, names = [], [], [], [], [], [], []
     digest = hashlib.sha256()
     for i, transport in enumerate(transports):
-        keypoints, depth, usable = patient_arrays(transport)
+        keypoints, depth, usable, floor = patient_arrays(transport)
         timestamps = np.arange(transport.n_frames) / transport.fps
-        feats.append(extract_arrays(keypoints, depth, timestamps))
+        feats.append(extract_arrays(keypoints, depth, timestamps, floor=floor))
         target = np.array([classes.index(d) for d in transport.decisions(mode)])
         targets.append(target)
         groups.append(np.full(len(target), i))
