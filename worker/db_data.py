@@ -21,7 +21,7 @@ from backend.models.videos import Frame, Split, Video
 from vigil.classes import MODE_CLASSES, Decision, TransportMode
 from vigil.datasets import urfd
 from vigil.features import extract_arrays
-from vigil.skeleton import decode_depth, decode_keypoints, encode_keypoints
+from vigil.skeleton import decode_depth, decode_floor, decode_keypoints, encode_keypoints
 from vigil.taxonomy import DEFAULT_TAXONOMY
 from worker.training.data import FrameData
 
@@ -144,7 +144,7 @@ def frame_data(
     feats, targets, groups, times, usable, positive, generated = [], [], [], [], [], [], False
     for i, video in enumerate(videos):
         rows = session.execute(
-            select(Frame.index, Frame.ts, Frame.keypoints, Frame.depth)
+            select(Frame.index, Frame.ts, Frame.keypoints, Frame.depth, Frame.floor)
             .where(Frame.video_id == video.id)
             .order_by(Frame.index)
         ).all()
@@ -157,6 +157,7 @@ def frame_data(
                       np.full(keypoints.shape[1], np.nan, np.float32) for r in rows])
             if has_depth else None
         )  # fmt: skip
+        floor = np.stack([decode_floor(r.floor) for r in rows])
         ts = np.array([r.ts for r in rows], np.float64)
         ts = ts - ts[0]
         index_of = {r.index: j for j, r in enumerate(rows)}
@@ -183,7 +184,7 @@ def frame_data(
         digest.update(json.dumps([video.name, len(rows)]).encode())
         digest.update(keypoints.tobytes())
         digest.update(target.tobytes())
-        feats.append(extract_arrays(keypoints, depth, ts, feature_set))
+        feats.append(extract_arrays(keypoints, depth, ts, feature_set, floor))
         targets.append(target)
         groups.append(np.full(len(rows), i))
         times.append(ts)

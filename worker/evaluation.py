@@ -69,7 +69,8 @@ def measure_latency(model_dir: Path, data: FrameData | None = None, n: int = LAT
         keypoints = np.zeros((25, 3), np.float32)
         keypoints[:, :2] = rng.uniform(100, 400, (25, 2))
         keypoints[:, 2] = 0.9
-        frames.append(SkeletonFrame(keypoints=keypoints, timestamp=i / 30.0))
+        floor = [rng.uniform(0.2, 1.8), rng.uniform(0.1, 1.0), rng.uniform(0, 1)]
+        frames.append(SkeletonFrame(keypoints=keypoints, timestamp=i / 30.0, floor=floor))
     for frame in frames[:20]:  # warm-up
         runtime.classify(frame)
     runtime.reset()

@@ -497,7 +497,7 @@ def view_3d(
     video = segments.get_video(session, video_id)
     if frame >= video.frame_count:
         raise LabellingError(f"frame: {frame} is outside 0..{video.frame_count - 1}")
-    indices, keypoints, depth = video_frames(session, video)
+    indices, keypoints, depth, _ = video_frames(session, video)
     result = request.app.state.viewer3d.show(
         video.name, indices, keypoints, depth, video.intrinsics, frame
     )

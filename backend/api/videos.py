@@ -7,7 +7,7 @@ from sqlalchemy import select
 from backend.deps import MAX_DB_INT, CurrentUser, DbId, SessionDep
 from backend.models.videos import Frame, Split, Video
 from vigil.classes import Decision, TransportMode
-from vigil.skeleton import decode_keypoints, depth_to_json
+from vigil.skeleton import decode_keypoints, depth_to_json, floor_to_json
 
 router = APIRouter(prefix="/api/videos", tags=["videos"])
 
@@ -40,6 +40,7 @@ class FrameOut(BaseModel):
     seq: int | None
     keypoints: list[list[float]]
     depth: list[float | None] | None
+    floor: list[float | None] | None
     decision: Decision | None
     scores: dict[str, float] | None
     model_version: str | None
@@ -93,6 +94,7 @@ def _frame_out(frame: Frame) -> FrameOut:
         seq=frame.seq,
         keypoints=decode_keypoints(frame.keypoints).tolist(),
         depth=depth,
+        floor=floor_to_json(frame.floor),
         decision=frame.decision,
         scores=frame.scores,
         model_version=frame.model_version,

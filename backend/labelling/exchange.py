@@ -19,7 +19,7 @@ from backend.models.annotations import AnnotationSegment, SegmentSource, Segment
 from backend.models.videos import Split, Video
 from vigil.classes import TransportMode
 from vigil.formats.coco import coco17_to_body25
-from vigil.skeleton import N_KEYPOINTS
+from vigil.skeleton import N_FLOOR, N_KEYPOINTS
 
 
 def _video_from_meta(meta: dict, name: str | None) -> Video:
@@ -81,14 +81,25 @@ def import_json(session: Session, document: dict, name: str | None = None) -> Vi
             ],
             np.float32,
         )
+        floor = np.array(
+            [
+                [np.nan if v is None else v for v in f["floor"]]
+                if f.get("floor") is not None
+                else [np.nan] * N_FLOOR
+                for f in frames
+            ],
+            np.float32,
+        )
         timestamps = [float(f["ts"]) for f in frames]
     except (KeyError, TypeError, ValueError) as error:
         raise LabellingError(f"frames: malformed frame ({error})") from error
     if keypoints.shape[1:] != (N_KEYPOINTS, 3) or depth.shape[1:] != (N_KEYPOINTS,):
         raise LabellingError("frames: keypoints must be 25 x 3 and depth 25 numbers per frame")
+    if floor.shape[1:] != (N_FLOOR,):
+        raise LabellingError(f"frames: floor must be {N_FLOOR} numbers or nulls per frame")
     if min(indices) < 0 or len(set(indices)) != len(indices):
         raise LabellingError("frames: indices must be unique and not negative")
-    add_video(session, video, keypoints, timestamps, depth, indices)
+    add_video(session, video, keypoints, timestamps, depth, indices, floor)
     for segment in document.get("segments") or []:
         try:
             status = SegmentStatus(segment.get("status", "accepted"))

@@ -69,7 +69,7 @@ def _number(value: float) -> float | None:
 
 
 def export_json(session: Session, video: Video, statuses=(SegmentStatus.ACCEPTED,)) -> dict:
-    indices, keypoints, depth = video_frames(session, video)
+    indices, keypoints, depth, floor = video_frames(session, video)
     timestamps = frame_timestamps(session, video.id)
     segments = _segments(session, video, statuses)
     names = usernames(
@@ -86,6 +86,7 @@ def export_json(session: Session, video: Video, statuses=(SegmentStatus.ACCEPTED
                 "ts": timestamps[int(index)],
                 "keypoints": np.round(keypoints[i].astype(np.float64), 6).tolist(),
                 "depth": None if np.all(np.isnan(depth[i])) else [_number(v) for v in depth[i]],
+                "floor": None if np.all(np.isnan(floor[i])) else [_number(v) for v in floor[i]],
             }
             for i, index in enumerate(indices)
         ],
@@ -113,7 +114,7 @@ def export_coco(session: Session, video: Video, statuses=(SegmentStatus.ACCEPTED
     Visibility 2 for a detected keypoint, 0 for a missing one (BODY_25 confidence is dropped)."""
     taxonomy = load_taxonomy(session)
     labels = _per_frame(session, video, statuses)
-    indices, keypoints, _ = video_frames(session, video)
+    indices, keypoints, _, _ = video_frames(session, video)
     images, annotations = [], []
     for i, index in enumerate(indices):
         index = int(index)

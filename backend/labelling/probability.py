@@ -18,7 +18,13 @@ from sqlalchemy.orm import Session
 
 from backend.models.videos import Frame, Video
 from vigil.classes import Decision
-from vigil.skeleton import SkeletonFrame, decode_keypoints
+from vigil.skeleton import (
+    N_KEYPOINTS,
+    SkeletonFrame,
+    decode_depth,
+    decode_floor,
+    decode_keypoints,
+)
 
 log = logging.getLogger("vigil.labelling")
 
@@ -111,16 +117,20 @@ def _stored_lane(session: Session, video: Video) -> Lane | None:
 
 def _computed_lane(session: Session, video: Video, classifier) -> Lane:
     rows = session.execute(
-        select(Frame.index, Frame.ts, Frame.keypoints)
+        select(Frame.index, Frame.ts, Frame.keypoints, Frame.depth, Frame.floor)
         .where(Frame.video_id == video.id)
         .order_by(Frame.index)
     ).all()
     classifier.reset()
     probability: list[float | None] = [None] * video.frame_count
     emergency = classifier.manifest.classes.index(Decision.EMERGENCY)
-    for index, ts, blob in rows:
-        scores = classifier.scores(SkeletonFrame(decode_keypoints(blob), timestamp=ts))
-        probability[index] = float(scores[emergency])
+    no_depth = np.full(N_KEYPOINTS, np.nan, np.float32)
+    for index, ts, blob, depth, floor in rows:
+        depth = no_depth if depth is None else decode_depth(depth)
+        frame = SkeletonFrame(decode_keypoints(blob), depth, ts, decode_floor(floor))
+        scores = classifier.scores(frame)
+        # ONNX sums tree votes in float32: 1.0000001 is a certain 1.
+        probability[index] = min(max(float(scores[emergency]), 0.0), 1.0)
     threshold = float(classifier.manifest.threshold)
     return Lane(
         "model",

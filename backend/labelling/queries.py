@@ -11,7 +11,7 @@ from sqlalchemy.orm import Session
 from backend.models.annotations import AnnotationSegment, SegmentStatus
 from backend.models.users import User
 from backend.models.videos import Frame, Video
-from vigil.skeleton import N_KEYPOINTS, decode_depth, decode_keypoints
+from vigil.skeleton import N_FLOOR, N_KEYPOINTS, decode_depth, decode_floor, decode_keypoints
 
 LIVE = tuple(s for s in SegmentStatus if s != SegmentStatus.DELETED)
 
@@ -31,10 +31,13 @@ def video_segments(
     )
 
 
-def video_frames(session: Session, video: Video) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(indices, keypoints (n, 25, 3), depth (n, 25) NaN where unknown) of a whole video."""
+def video_frames(
+    session: Session, video: Video
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(indices, keypoints (n, 25, 3), depth (n, 25), floor (n, 3)) of a whole video, NaN where
+    unknown."""
     rows = session.execute(
-        select(Frame.index, Frame.keypoints, Frame.depth)
+        select(Frame.index, Frame.keypoints, Frame.depth, Frame.floor)
         .where(Frame.video_id == video.id)
         .order_by(Frame.index)
     ).all()
@@ -44,7 +47,8 @@ def video_frames(session: Session, video: Video) -> tuple[np.ndarray, np.ndarray
     for i, row in enumerate(rows):
         if row[2] is not None:
             depth[i] = decode_depth(row[2])
-    return indices, keypoints, depth
+    floor = np.stack([decode_floor(r[3]) for r in rows]) if rows else np.zeros((0, N_FLOOR))
+    return indices, keypoints, depth, floor
 
 
 def frame_timestamps(session: Session, video_id: int) -> dict[int, float]:

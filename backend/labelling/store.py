@@ -10,7 +10,7 @@ from sqlalchemy.orm import Session
 
 from backend.labelling.errors import Conflict, LabellingError
 from backend.models.videos import Frame, Video
-from vigil.skeleton import encode_depth, encode_keypoints
+from vigil.skeleton import encode_depth, encode_floor, encode_keypoints
 
 MAX_FRAMES = 10_000_000  # about 3.8 days at 30 frames/s: far more than any recording
 
@@ -26,8 +26,10 @@ def add_video(
     timestamps: Sequence[float],
     depth: np.ndarray | None = None,
     indices: Sequence[int] | None = None,
+    floor: np.ndarray | None = None,
 ) -> Video:
-    """keypoints (n, 25, 3); depth (n, 25) metres with NaN for unknown, or None."""
+    """keypoints (n, 25, 3); depth (n, 25) metres with NaN for unknown, or None; floor (n, 3)
+    floor measures with NaN for unknown, or None."""
     if video_by_name(session, video.name) is not None:
         raise Conflict(f"name: a video called {video.name!r} already exists")
     indices = list(range(len(keypoints))) if indices is None else [int(i) for i in indices]
@@ -50,6 +52,7 @@ def add_video(
                 "ts": float(ts),
                 "keypoints": encode_keypoints(keypoints[i]),
                 "depth": frame_depth,
+                "floor": None if floor is None else encode_floor(floor[i]),
             }
         )
     if rows:

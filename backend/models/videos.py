@@ -49,7 +49,8 @@ class Video(Base):
 
 
 class Frame(Base):
-    """One classified skeleton frame; keypoints and depth as little-endian float32 blobs."""
+    """One classified skeleton frame; keypoints, depth and floor measures as little-endian
+    float32 blobs."""
 
     __tablename__ = "frames"
     __table_args__ = (
@@ -66,6 +67,7 @@ class Frame(Base):
     seq: Mapped[int | None] = mapped_column()
     keypoints: Mapped[bytes] = mapped_column(LargeBinary)
     depth: Mapped[bytes | None] = mapped_column(LargeBinary)
+    floor: Mapped[bytes | None] = mapped_column(LargeBinary)  # vigil.skeleton.encode_floor
     decision: Mapped[Decision | None] = mapped_column(String(16))
     scores: Mapped[dict | None] = mapped_column(JSON)
     model_version: Mapped[str | None] = mapped_column(String(64))

@@ -32,7 +32,7 @@ import numpy as np
 from robot_agent.sources.base import Observation
 from robot_agent.sources.pacing import Pacer
 from vigil.datasets import urfd
-from vigil.skeleton import N_KEYPOINTS, SkeletonFrame
+from vigil.skeleton import N_FLOOR, N_KEYPOINTS, SkeletonFrame, no_floor
 
 URFD_DEPTH_SCALE_MM = 6000 / 65535  # fall sequences (ADL: 7000 / 65535)
 URFD_ADL_DEPTH_SCALE_MM = 7000 / 65535
@@ -205,7 +205,9 @@ class VigilExportSource:
         self.labels = labels
         self.speed = speed
 
-    def _frame(self, frame: dict, where: str) -> tuple[int, float, np.ndarray, np.ndarray]:
+    def _frame(
+        self, frame: dict, where: str
+    ) -> tuple[int, float, np.ndarray, np.ndarray, np.ndarray]:
         if not isinstance(frame, dict):
             raise SourceError(f"{where}: must be an object")
         index = _field(frame, "index", where, int)
@@ -226,17 +228,26 @@ class VigilExportSource:
             depth_arr = np.array([np.nan if v is None else v for v in depth], np.float32)
             if depth_arr.shape != (N_KEYPOINTS,):
                 raise SourceError(f"{where}.depth: must hold 25 numbers or nulls")
-        return index, float(ts), keypoints, depth_arr
+        floor = frame.get("floor")
+        floor_arr = no_floor()
+        if floor is not None:
+            try:
+                floor_arr = np.array([np.nan if v is None else v for v in floor], np.float32)
+            except (TypeError, ValueError) as error:
+                raise SourceError(f"{where}.floor: not numbers") from error
+            if floor_arr.shape != (N_FLOOR,):
+                raise SourceError(f"{where}.floor: must hold {N_FLOOR} numbers or nulls")
+        return index, float(ts), keypoints, depth_arr, floor_arr
 
     def __len__(self) -> int:
         return len(self.frames)
 
     def __iter__(self) -> Iterator[Observation]:
         pacer = Pacer(self.speed)
-        for index, ts, keypoints, depth in self.frames:
+        for index, ts, keypoints, depth, floor in self.frames:
             pacer.wait(ts)
             seen = bool((keypoints[:, 2] > 0).any())
-            people = [SkeletonFrame(keypoints, depth, ts)] if seen else []
+            people = [SkeletonFrame(keypoints, depth, ts, floor)] if seen else []
             yield Observation(
                 timestamp=ts,
                 people=people,

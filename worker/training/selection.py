@@ -108,7 +108,7 @@ def choose_delay(stream: StreamScores, threshold: float) -> tuple[float, dict]:
         [event_f1(d, m, f) for d, m, f in zip(detected, missed, false_alarm, strict=True)]
     )
     f1_frame = f1_from_counts(tp, fp, fn)
-    order = np.lexsort((DELAY_GRID_S, -f1_frame, -f1_event))
+    order = np.lexsort((-f1_frame, DELAY_GRID_S, -f1_event))
     best = int(order[0])
     sweep = {
         "delay_s": DELAY_GRID_S.tolist(),

@@ -123,6 +123,7 @@ def import_urfd(
             sequence.timestamps,
             depth=depth,
             indices=indices,
+            floor=sequence.floor,
         )
         official = [
             None if np.isnan(value) or not labels else LABEL_MAP[kind][int(value)]

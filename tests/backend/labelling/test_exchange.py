@@ -39,6 +39,7 @@ def test_json_round_trip_reproduces_frames_and_segments(client, urfd_videos, ann
     )
     second = _export(client, annotator, copy_id, "json").json()
     assert second["frames"] == first["frames"]
+    assert first["frames"][0]["floor"][0] > 1.5  # URFD's standing person, top above the floor
 
     def strip(segs):
         return [(s["first_frame"], s["last_frame"], s["label_key"], s["status"]) for s in segs]
