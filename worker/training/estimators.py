@@ -7,7 +7,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-from sklearn.ensemble import RandomForestClassifier
+from sklearn.ensemble import HistGradientBoostingClassifier, RandomForestClassifier
 from sklearn.neural_network import MLPClassifier
 from sklearn.pipeline import Pipeline
 from sklearn.preprocessing import StandardScaler
@@ -66,9 +66,18 @@ class ModelSpec:
                 n_jobs=2,
                 random_state=seed,
             )
+        elif self.family == "gbt":
+            model = HistGradientBoostingClassifier(
+                max_iter=params["max_iter"],
+                learning_rate=params["learning_rate"],
+                max_leaf_nodes=params["max_leaf_nodes"],
+                l2_regularization=params["l2_regularization"],
+                early_stopping=False,
+                random_state=seed,
+            )
         else:
             raise ValueError(f"unknown family {self.family!r}")
-        if self.family == "rf":
+        if self.family in ("rf", "gbt"):
             # Trees need no scaling. Without it the ONNX graph compares the very same float32
             # inputs with the split values; with it, ONNX's float32 scaler rounds differently
             # from scikit-learn's and a value next to a split can land on the other side.
@@ -127,4 +136,15 @@ RF = ModelSpec(
     },
     description="Random forest, pose + temporal features",
 )
-SPECS: dict[str, ModelSpec] = {s.name: s for s in (PAPER_SVM, SVM, MLP, RF)}
+GBT = ModelSpec(
+    name="gbt",
+    family="gbt",
+    grid={
+        "max_iter": [100, 200],
+        "learning_rate": [0.1],
+        "max_leaf_nodes": [15, 31],
+        "l2_regularization": [0.0, 1.0],
+    },
+    description="Gradient-boosted trees (histogram), pose + temporal features",
+)
+SPECS: dict[str, ModelSpec] = {s.name: s for s in (PAPER_SVM, SVM, MLP, RF, GBT)}

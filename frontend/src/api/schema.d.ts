@@ -1361,6 +1361,8 @@ export interface components {
             keypoints: number[][];
             /** Depth */
             depth: (number | null)[] | null;
+            /** Floor */
+            floor: (number | null)[] | null;
             decision: components["schemas"]["Decision"] | null;
             /** Scores */
             scores: {
