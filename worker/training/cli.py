@@ -1,7 +1,7 @@
 """vigil-train: train, evaluate and export detection models.
 
   python -m worker.training.cli train-default --out DIR   # the default walking model, < 1 min
-  python -m worker.training.cli train --out DIR [--models svm-paper,svm,mlp,rf,tcn]
+  python -m worker.training.cli train --out DIR [--models svm-paper,svm,mlp,rf,gbt,tcn]
       [--mode walking|wheelchair|combined]   # wheelchair/combined train on GENERATED data
 
 Writes DIR/<mode>/report.json, report.md, plots/*.png and models/<name>/{model.onnx,manifest.json}.
@@ -73,7 +73,7 @@ def make_trainers(names: list[str]):
     return trainers
 
 
-ALL_MODELS = "svm-paper,svm,mlp,rf,tcn"
+ALL_MODELS = "svm-paper,svm,mlp,rf,gbt,tcn"
 MULTI = "mlp,rf,tcn"
 
 
