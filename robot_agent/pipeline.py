@@ -23,6 +23,7 @@ from robot_agent.outbox import Outbox, Priority
 from robot_agent.sources.base import Observation
 from robot_agent.tracking import PatientTracker as TrackingPatientTracker
 from vigil.classes import Decision, TransportMode
+from vigil.features import NEEDS_FLOOR
 from vigil.floor import CameraMount, floor_measures
 from vigil.protocol import FrameRecord, TransportEnd, TransportStart
 from vigil.runtime import Classification, FrameClassifier
@@ -91,6 +92,7 @@ class Pipeline:
         self.depth_sampler = depth_sampler if depth_sampler is not None else sample_depth
         self.ground_truth_fallback = ground_truth_fallback
         self.camera_mount = camera_mount
+        self._floor_warned = False
         self.transport_id: str | None = None
         self._transport_started = 0.0
         self._clock_offset: float | None = None  # wall time minus source time
@@ -112,6 +114,7 @@ class Pipeline:
         if self.transport_id is not None:
             self.end_transport(ts)
         self.transport_id = transport_id
+        self._floor_warned = False
         self._transport_started = ts
         self._clock_offset = None
         self._last_ts = None
@@ -175,6 +178,23 @@ class Pipeline:
             log.info("shadow model %s stopped", self.shadow.manifest.version)
         self.shadow = classifier
 
+    def _check_floor(self, frame: SkeletonFrame) -> None:
+        """Say once per transport when the model needs floor measures the robot cannot give."""
+        classifier = self.classifier
+        if (
+            self._floor_warned
+            or classifier is None
+            or classifier.manifest.feature_set not in NEEDS_FLOOR
+            or not np.isnan(frame.floor).all()
+        ):
+            return
+        self._floor_warned = True
+        log.warning(
+            "model %s uses floor measures but this frame has none (no camera_mount, no depth, "
+            "or too few keypoints with depth): its decisions rest on the keypoints alone",
+            classifier.manifest.version,
+        )
+
     # --- frames ----------------------------------------------------------------------------
     def process(self, observation: Observation) -> FrameResult:
         if self._last_ts is not None and observation.timestamp < self._last_ts:
@@ -193,6 +213,7 @@ class Pipeline:
             if self.camera_mount is not None and np.isnan(floor).all():
                 floor = floor_measures(patient.keypoints, depth, self.camera_mount)
             frame = SkeletonFrame(patient.keypoints, depth, observation.timestamp, floor)
+            self._check_floor(frame)
         self._history.append(frame)
         shadow = self.shadow.classify(frame) if self.shadow is not None else None
         classification = None

@@ -179,3 +179,41 @@ def test_a_shadow_model_decides_beside_the_model_and_travels_with_the_frame(tmp_
     pipeline.set_shadow(None)
     pipeline.process(observations[-1])
     assert "shadow" not in frames_of(outbox)[-1]
+
+
+def test_a_model_that_needs_floor_measures_says_so_once_per_transport_when_none_come(
+    tmp_path, caplog
+):
+    from worker.training.cross_validation import select
+    from worker.training.data import from_urfd
+    from worker.training.estimators import ModelSpec
+    from worker.training.publish import publish
+    from worker.training.trainers import SklearnTrainer
+
+    names = ["fall-02", "fall-03", "adl-01", "adl-02"]
+    data = from_urfd(None, names)
+    spec = ModelSpec("rf-floor", "rf", {"n_estimators": [5], "max_depth": [4],
+                     "min_samples_leaf": [5], "max_features": [0.3]})  # fmt: skip
+    trainer = SklearnTrainer(spec)
+    selected = select(trainer, data, np.arange(len(names)), n_inner=2, stride=4)
+    publish(trainer, selected, data, tmp_path / "model", version="rf-floor-1")
+    pipeline = Pipeline(
+        Outbox(tmp_path / "o.sqlite"), TransportMode.WALKING,
+        FrameClassifier.from_dir(tmp_path / "model"),
+    )  # fmt: skip
+    keypoints = np.zeros((N_KEYPOINTS, 3), np.float32)
+    keypoints[:, 0], keypoints[:, 1], keypoints[:, 2] = 50, np.arange(N_KEYPOINTS) * 8, 1
+    warnings = []
+    for transport in ("t-1", "t-2"):
+        pipeline.start_transport(transport, ts=1_700_000_000.0)
+        with caplog.at_level("WARNING", logger="robot_agent.pipeline"):
+            for i in range(3):
+                person = SkeletonFrame(keypoints, timestamp=float(i))
+                pipeline.process(Observation(float(i), [person]))
+            with_floor = SkeletonFrame(keypoints, timestamp=3.0, floor=[1.7, 0.9, 0.1])
+            pipeline.process(Observation(3.0, [with_floor]))
+        warnings.append([r for r in caplog.records if "uses floor measures" in r.message])
+        caplog.clear()
+        pipeline.end_transport(1_700_000_100.0)
+    assert [len(w) for w in warnings] == [1, 1]
+    assert "rf-floor-1" in warnings[0][0].getMessage()
