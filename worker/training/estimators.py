@@ -147,4 +147,12 @@ GBT = ModelSpec(
     },
     description="Gradient-boosted trees (histogram), pose + temporal features",
 )
-SPECS: dict[str, ModelSpec] = {s.name: s for s in (PAPER_SVM, SVM, MLP, RF, GBT)}
+GBT_KEYPOINTS = ModelSpec(
+    name="gbt-keypoints",
+    family="gbt",
+    grid=GBT.grid,
+    feature_set="keypoints",
+    description="Gradient-boosted trees without floor measures, for robots whose depth camera "
+    "has no calibrated mount",
+)
+SPECS: dict[str, ModelSpec] = {s.name: s for s in (PAPER_SVM, SVM, MLP, RF, GBT, GBT_KEYPOINTS)}
