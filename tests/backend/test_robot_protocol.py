@@ -301,6 +301,7 @@ def test_frames_written_by_another_replica_meanwhile_are_neither_duplicated_nor_
     """The writer keeps robot and video rows between flushes; when another replica wrote for
     the same robot in between, the conflict is detected and the batch retried on fresh rows."""
     from backend.ingest import service
+    from backend.ingest.received import compact_all
 
     with client.websocket_connect("/ws/robot") as ws:
         hello(ws, robot, ROBOT_TOKEN)
@@ -309,7 +310,9 @@ def test_frames_written_by_another_replica_meanwhile_are_neither_duplicated_nor_
         )
         assert send_frames(ws, 0, 1) == {"type": "ack", "seq": 1}
         with transaction(session_factory) as session:  # "replica B" stores 2 and 3
-            service.store_frames(session, session.get(Robot, robot), [frame(2), frame(3)])
+            service.store_frames(
+                session, session.get(Robot, robot), compact_all([frame(2), frame(3)])
+            )
         assert send_frames(ws, 2, 3, 4, 5) == {"type": "ack", "seq": 5}
     with session_factory() as session:
         rows = session.execute(select(Frame.seq, Frame.index).order_by(Frame.seq)).all()
