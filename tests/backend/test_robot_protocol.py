@@ -277,6 +277,25 @@ def test_unstorable_text_is_a_bad_message_not_a_server_error(client, robot, othe
         assert send_frames(good, 0) == {"type": "ack", "seq": 0}
 
 
+@pytest.mark.parametrize("field", ["seq", "delay_ms"])
+def test_integer_beyond_the_column_is_refused_not_wrapped(client, robot, session_factory, field):
+    """PostgreSQL's frames.seq and delay_ms are 32-bit; the binary COPY must not store the low
+    bits of a larger value (2**32 + 5 as 5). SQLite's integers are 64-bit: stored as sent."""
+    value = 2**32 + 5
+    with client.websocket_connect("/ws/robot") as ws:
+        hello(ws, robot, ROBOT_TOKEN)
+        ws.send_text(frames_message(**{field: value}))
+        if client.app.state.engine.dialect.name == "postgresql":
+            code, reason = closed_with(ws)
+            assert code == protocol.CLOSE_BAD_MESSAGE and "cannot be stored" in reason
+        else:
+            ack = json.loads(ws.receive_text())
+            assert ack == {"type": "ack", "seq": value if field == "seq" else 100}
+    with session_factory() as session:
+        stored = session.scalars(select(getattr(Frame, field))).all()
+    assert stored == ([] if client.app.state.engine.dialect.name == "postgresql" else [value])
+
+
 def test_metrics_count_frames_ack_latency_open_alarms_and_robots(client, robot, make_account):
     engineer = make_account(Role.ENGINEER, ward=None)
     with client.websocket_connect("/ws/robot") as ws:
