@@ -7,11 +7,12 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
 
-from sqlalchemy import bindparam, select, update
+from sqlalchemy import select
 from sqlalchemy.orm import Session
 
 from backend.alarms.service import DecisionEvidence, fold_evidence, raise_or_update
 from backend.ingest.bulk import insert_frame_rows
+from backend.ingest.bulk_update import update_rows
 from backend.ingest.received import ROW_TAIL_START, ReceivedFrame
 from backend.models._types import utcnow
 from backend.models.alarms import Alarm, AlarmKind, AlarmState
@@ -167,49 +168,28 @@ class IngestContext:
         return self
 
     def write_back(self, session: Session) -> None:
-        """One executemany per table for the columns the flush changed."""
-        connection = session.connection()
+        """One bulk update per table for the columns the flush changed."""
         robots = [r for r in self.robots.values() if r is not None and r.last_seen_at]
-        if robots:
-            table = Robot.__table__
-            connection.execute(
-                update(table)
-                .where(table.c.id == bindparam("_id"))
-                .values(last_seq=bindparam("_last_seq"), last_seen_at=bindparam("_seen")),
-                [{"_id": r.id, "_last_seq": r.last_seq, "_seen": r.last_seen_at} for r in robots],
-            )
-            models = [r for r in robots if r.running_model_changed]
-            if models:
-                connection.execute(
-                    update(table)
-                    .where(table.c.id == bindparam("_id"))
-                    .values(running_model_version=bindparam("_model")),
-                    [{"_id": r.id, "_model": r.running_model_version} for r in models],
-                )
+        robot_table = Robot.__table__
+        update_rows(session, robot_table, ("id", "last_seq", "last_seen_at"),
+                    [(r.id, r.last_seq, r.last_seen_at) for r in robots])  # fmt: skip
+        update_rows(session, robot_table, ("id", "running_model_version"),
+                    [(r.id, r.running_model_version) for r in robots
+                     if r.running_model_changed])  # fmt: skip
         videos = [
             v for v in self.videos.values()
             if isinstance(v, VideoState) and v.frame_count != v.initial_count
         ]  # fmt: skip
-        if videos:
-            table = Video.__table__
-            connection.execute(
-                update(table).where(table.c.id == bindparam("_id"))
-                .values(frame_count=bindparam("_count")),
-                [{"_id": v.id, "_count": v.frame_count} for v in videos],
-            )  # fmt: skip
-            for video in videos:
-                video.initial_count = video.frame_count
+        update_rows(session, Video.__table__, ("id", "frame_count"),
+                    [(v.id, v.frame_count) for v in videos])  # fmt: skip
+        for video in videos:
+            video.initial_count = video.frame_count
         transports = [
             t for t in self.transports.values()
             if isinstance(t, TransportState) and t.last_frame_at is not None
         ]  # fmt: skip
-        if transports:
-            table = Transport.__table__
-            connection.execute(
-                update(table).where(table.c.id == bindparam("_id"))
-                .values(last_frame_at=bindparam("_at")),
-                [{"_id": t.id, "_at": t.last_frame_at} for t in transports],
-            )  # fmt: skip
+        update_rows(session, Transport.__table__, ("id", "last_frame_at"),
+                    [(t.id, t.last_frame_at) for t in transports])  # fmt: skip
         for robot in robots:
             robot.last_seen_at = None
             robot.running_model_changed = False
