@@ -30,6 +30,7 @@ from backend.api import (
 )
 from backend.db import make_engine, make_session_factory
 from backend.deps import CurrentUser
+from backend.gc_tuning import collector_tuned_for_ingest
 from backend.ingest import robot_ws
 from backend.ingest.registry import RobotRegistry
 from backend.ingest.writer import FrameWriter
@@ -83,7 +84,8 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         monitor.start()
         reconcile = asyncio.create_task(model_push.reconcile_forever(app))
         try:
-            yield
+            with collector_tuned_for_ingest():
+                yield
         finally:
             reconcile.cancel()
             await monitor.stop()

@@ -15,7 +15,7 @@ from sqlalchemy.exc import DataError
 from starlette.concurrency import run_in_threadpool
 
 from backend.db import transaction
-from backend.ingest import service
+from backend.ingest import received, service
 from backend.registry import push as model_push
 from vigil import protocol
 from vigil.protocol import Hello, Welcome
@@ -161,10 +161,12 @@ async def robot_socket(websocket: WebSocket) -> None:
         writer = state.writer
         while True:
             message = await receive_message(websocket)
-            received = time.perf_counter()
+            received_at = time.perf_counter()
             if isinstance(message, Hello):
                 raise CloseConnection(protocol.CLOSE_BAD_MESSAGE, "hello sent twice")
-            await writer.submit(connection, message, received)
+            if isinstance(message, protocol.FrameBatch):
+                message = received.from_batch(message)
+            await writer.submit(connection, message, received_at)
     except CloseConnection as close:
         log.warning("closing robot connection: %s (%s)", close.reason, close.code)
         if connection is not None:

@@ -3,26 +3,24 @@ that robot decisions raise. The caller commits; acknowledgements go out only aft
 
 from __future__ import annotations
 
-import json
-import struct
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
-from itertools import chain
 
-from sqlalchemy import bindparam, select, update
+from sqlalchemy import select
 from sqlalchemy.orm import Session
 
 from backend.alarms.service import DecisionEvidence, fold_evidence, raise_or_update
 from backend.ingest.bulk import insert_frame_rows
+from backend.ingest.bulk_update import update_rows
+from backend.ingest.received import ROW_TAIL_START, ReceivedFrame
 from backend.models._types import utcnow
 from backend.models.alarms import Alarm, AlarmKind, AlarmState
 from backend.models.robots import Robot, Transport
 from backend.models.videos import Frame, Video
 from backend.security import robot_token_matches
 from vigil.classes import Decision, TransportMode
-from vigil.protocol import FrameRecord, Hello, TransportEnd, TransportStart
-from vigil.skeleton import N_KEYPOINTS
+from vigil.protocol import Hello, TransportEnd, TransportStart
 
 ALARM_KIND_OF_DECISION = {Decision.EMERGENCY: AlarmKind.EMERGENCY, Decision.PAUSE: AlarmKind.PAUSE}
 
@@ -170,49 +168,28 @@ class IngestContext:
         return self
 
     def write_back(self, session: Session) -> None:
-        """One executemany per table for the columns the flush changed."""
-        connection = session.connection()
+        """One bulk update per table for the columns the flush changed."""
         robots = [r for r in self.robots.values() if r is not None and r.last_seen_at]
-        if robots:
-            table = Robot.__table__
-            connection.execute(
-                update(table)
-                .where(table.c.id == bindparam("_id"))
-                .values(last_seq=bindparam("_last_seq"), last_seen_at=bindparam("_seen")),
-                [{"_id": r.id, "_last_seq": r.last_seq, "_seen": r.last_seen_at} for r in robots],
-            )
-            models = [r for r in robots if r.running_model_changed]
-            if models:
-                connection.execute(
-                    update(table)
-                    .where(table.c.id == bindparam("_id"))
-                    .values(running_model_version=bindparam("_model")),
-                    [{"_id": r.id, "_model": r.running_model_version} for r in models],
-                )
+        robot_table = Robot.__table__
+        update_rows(session, robot_table, ("id", "last_seq", "last_seen_at"),
+                    [(r.id, r.last_seq, r.last_seen_at) for r in robots])  # fmt: skip
+        update_rows(session, robot_table, ("id", "running_model_version"),
+                    [(r.id, r.running_model_version) for r in robots
+                     if r.running_model_changed])  # fmt: skip
         videos = [
             v for v in self.videos.values()
             if isinstance(v, VideoState) and v.frame_count != v.initial_count
         ]  # fmt: skip
-        if videos:
-            table = Video.__table__
-            connection.execute(
-                update(table).where(table.c.id == bindparam("_id"))
-                .values(frame_count=bindparam("_count")),
-                [{"_id": v.id, "_count": v.frame_count} for v in videos],
-            )  # fmt: skip
-            for video in videos:
-                video.initial_count = video.frame_count
+        update_rows(session, Video.__table__, ("id", "frame_count"),
+                    [(v.id, v.frame_count) for v in videos])  # fmt: skip
+        for video in videos:
+            video.initial_count = video.frame_count
         transports = [
             t for t in self.transports.values()
             if isinstance(t, TransportState) and t.last_frame_at is not None
         ]  # fmt: skip
-        if transports:
-            table = Transport.__table__
-            connection.execute(
-                update(table).where(table.c.id == bindparam("_id"))
-                .values(last_frame_at=bindparam("_at")),
-                [{"_id": t.id, "_at": t.last_frame_at} for t in transports],
-            )  # fmt: skip
+        update_rows(session, Transport.__table__, ("id", "last_frame_at"),
+                    [(t.id, t.last_frame_at) for t in transports])  # fmt: skip
         for robot in robots:
             robot.last_seen_at = None
             robot.running_model_changed = False
@@ -288,30 +265,6 @@ class IngestResult:
     new_alarm_ids: set[int] = field(default_factory=set)
 
 
-_KEYPOINTS = struct.Struct(f"<{N_KEYPOINTS * 3}f")
-_DEPTH = struct.Struct(f"<{N_KEYPOINTS}f")
-_NAN = float("nan")
-
-
-def pack_keypoints(keypoints: list[list[float]]) -> bytes:
-    """Same bytes as vigil.skeleton.encode_keypoints (25 x 3 little-endian float32), without
-    building a numpy array per frame."""
-    return _KEYPOINTS.pack(*chain.from_iterable(keypoints))
-
-
-def pack_depth(depth: list[float | None] | None) -> bytes | None:
-    """Same bytes as vigil.skeleton.encode_depth; null (unknown) becomes NaN."""
-    if depth is None:
-        return None
-    return _DEPTH.pack(*(_NAN if v is None else v for v in depth))
-
-
-def _scores_json(scores: dict) -> str | None:
-    if not scores:
-        return None
-    return json.dumps({str(k): v for k, v in scores.items()})
-
-
 def _existing_seqs(
     session: Session, robot: Robot | RobotState, seqs: list[int], context: IngestContext
 ) -> set[int]:
@@ -329,7 +282,7 @@ def _existing_seqs(
 def store_frames(
     session: Session,
     robot: Robot | RobotState,
-    frames: Sequence[FrameRecord],
+    frames: Sequence[ReceivedFrame],
     context: IngestContext | None = None,
 ) -> IngestResult:
     """Store the frames not stored yet and raise or update the alarms their decisions call for.
@@ -341,7 +294,7 @@ def store_frames(
     context = context or IngestContext()
     seqs = [f.seq for f in frames]
     existing = _existing_seqs(session, robot, seqs, context)
-    fresh: dict[int, FrameRecord] = {}
+    fresh: dict[int, ReceivedFrame] = {}
     for frame in frames:
         if frame.seq not in existing:
             fresh.setdefault(frame.seq, frame)
@@ -361,26 +314,8 @@ def store_frames(
             video = videos[key] = _video_for(session, robot, transport, context)
             if transport is not None:
                 transport.last_frame_at = now
-        shadow = frame.shadow
-        decision = frame.decision
         rows.append(
-            (
-                video.id,
-                video.frame_count,
-                frame.ts,
-                robot.id,
-                frame.seq,
-                pack_keypoints(frame.keypoints),
-                pack_depth(frame.depth),
-                decision.value if decision else None,
-                _scores_json(frame.scores),
-                frame.model_version,
-                frame.threshold,
-                frame.delay_ms,
-                shadow.decision.value if shadow else None,
-                _scores_json(shadow.scores) if shadow else None,
-                shadow.model_version if shadow else None,
-            )
+            (video.id, video.frame_count, frame.ts, robot.id, frame.seq) + frame[ROW_TAIL_START:]
         )
         pending.add(frame.seq)
         video.frame_count += 1

@@ -22,13 +22,14 @@ from sqlalchemy.orm import Session, sessionmaker
 from backend.alarms.schemas import AlarmOut
 from backend.db import transaction
 from backend.ingest import service
+from backend.ingest.received import ReceivedFrame, ReceivedFrames
 from backend.metrics import Metrics
 from vigil import protocol
-from vigil.protocol import FrameBatch, Heartbeat, TransportEnd, TransportStart
+from vigil.protocol import Heartbeat, TransportEnd, TransportStart
 
 log = logging.getLogger(__name__)
 
-RobotWork = FrameBatch | TransportStart | TransportEnd | Heartbeat
+RobotWork = ReceivedFrames | TransportStart | TransportEnd | Heartbeat
 CACHE_SECONDS = 5.0
 
 
@@ -59,7 +60,7 @@ class Job:
 
     @property
     def frame_count(self) -> int:
-        return len(self.message.frames) if isinstance(self.message, FrameBatch) else 0
+        return len(self.message.frames) if isinstance(self.message, ReceivedFrames) else 0
 
 
 @dataclass
@@ -226,7 +227,7 @@ class FrameWriter:
         alarming: set[str] = set()
         for job in jobs:
             robot_id = job.link.robot_id
-            if isinstance(job.message, FrameBatch):
+            if isinstance(job.message, ReceivedFrames):
                 for f in job.message.frames:
                     streams.add((robot_id, f.transport_id))
                     if f.decision in service.ALARM_KIND_OF_DECISION:
@@ -236,7 +237,7 @@ class FrameWriter:
         context.preload(session, streams, alarming)
         touched = {}
         # Consecutive frame batches of one connection become one store_frames call.
-        run: list[protocol.FrameRecord] = []
+        run: list[ReceivedFrame] = []
         run_link: RobotLink | None = None
 
         def store_run() -> None:
@@ -254,7 +255,7 @@ class FrameWriter:
 
         for job in sorted(jobs, key=lambda j: id(j.link)):  # stable: keeps each robot's order
             message = job.message
-            if isinstance(message, FrameBatch):
+            if isinstance(message, ReceivedFrames):
                 if run_link is not None and run_link is not job.link:
                     store_run()
                 run_link = job.link

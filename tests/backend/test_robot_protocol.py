@@ -277,6 +277,25 @@ def test_unstorable_text_is_a_bad_message_not_a_server_error(client, robot, othe
         assert send_frames(good, 0) == {"type": "ack", "seq": 0}
 
 
+@pytest.mark.parametrize("field", ["seq", "delay_ms"])
+def test_integer_beyond_the_column_is_refused_not_wrapped(client, robot, session_factory, field):
+    """PostgreSQL's frames.seq and delay_ms are 32-bit; the binary COPY must not store the low
+    bits of a larger value (2**32 + 5 as 5). SQLite's integers are 64-bit: stored as sent."""
+    value = 2**32 + 5
+    with client.websocket_connect("/ws/robot") as ws:
+        hello(ws, robot, ROBOT_TOKEN)
+        ws.send_text(frames_message(**{field: value}))
+        if client.app.state.engine.dialect.name == "postgresql":
+            code, reason = closed_with(ws)
+            assert code == protocol.CLOSE_BAD_MESSAGE and "cannot be stored" in reason
+        else:
+            ack = json.loads(ws.receive_text())
+            assert ack == {"type": "ack", "seq": value if field == "seq" else 100}
+    with session_factory() as session:
+        stored = session.scalars(select(getattr(Frame, field))).all()
+    assert stored == ([] if client.app.state.engine.dialect.name == "postgresql" else [value])
+
+
 def test_metrics_count_frames_ack_latency_open_alarms_and_robots(client, robot, make_account):
     engineer = make_account(Role.ENGINEER, ward=None)
     with client.websocket_connect("/ws/robot") as ws:
@@ -301,6 +320,7 @@ def test_frames_written_by_another_replica_meanwhile_are_neither_duplicated_nor_
     """The writer keeps robot and video rows between flushes; when another replica wrote for
     the same robot in between, the conflict is detected and the batch retried on fresh rows."""
     from backend.ingest import service
+    from backend.ingest.received import compact_all
 
     with client.websocket_connect("/ws/robot") as ws:
         hello(ws, robot, ROBOT_TOKEN)
@@ -309,7 +329,9 @@ def test_frames_written_by_another_replica_meanwhile_are_neither_duplicated_nor_
         )
         assert send_frames(ws, 0, 1) == {"type": "ack", "seq": 1}
         with transaction(session_factory) as session:  # "replica B" stores 2 and 3
-            service.store_frames(session, session.get(Robot, robot), [frame(2), frame(3)])
+            service.store_frames(
+                session, session.get(Robot, robot), compact_all([frame(2), frame(3)])
+            )
         assert send_frames(ws, 2, 3, 4, 5) == {"type": "ack", "seq": 5}
     with session_factory() as session:
         rows = session.execute(select(Frame.seq, Frame.index).order_by(Frame.seq)).all()
