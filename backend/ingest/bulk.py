@@ -17,7 +17,8 @@ from sqlalchemy.orm import Session
 # the Python str again, as a JSON string.
 _FRAME_COLUMN_TYPES = (
     ("video_id", "int4"), ("index", "int4"), ("ts", "float8"), ("robot_id", "varchar"),
-    ("seq", "int4"), ("keypoints", "bytea"), ("depth", "bytea"), ("decision", "varchar"),
+    ("seq", "int4"), ("keypoints", "bytea"), ("depth", "bytea"), ("floor", "bytea"),
+    ("decision", "varchar"),
     ("scores", "text"), ("model_version", "varchar"), ("threshold", "float8"),
     ("delay_ms", "int4"), ("shadow_decision", "varchar"), ("shadow_scores", "text"),
     ("shadow_model_version", "varchar"),

@@ -15,10 +15,11 @@ from typing import NamedTuple
 
 from vigil.classes import Decision
 from vigil.protocol import FrameBatch, FrameRecord
-from vigil.skeleton import N_KEYPOINTS
+from vigil.skeleton import N_FLOOR, N_KEYPOINTS
 
 _KEYPOINTS = struct.Struct(f"<{N_KEYPOINTS * 3}f")
 _DEPTH = struct.Struct(f"<{N_KEYPOINTS}f")
+_FLOOR = struct.Struct(f"<{N_FLOOR}f")
 _NAN = float("nan")
 
 
@@ -30,6 +31,7 @@ class ReceivedFrame(NamedTuple):
     transport_id: str | None
     keypoints: bytes
     depth: bytes | None
+    floor: bytes | None
     decision: str | None
     scores: str | None
     model_version: str | None
@@ -63,6 +65,13 @@ def pack_depth(depth: list[float | None] | None) -> bytes | None:
     return _DEPTH.pack(*(_NAN if v is None else v for v in depth))
 
 
+def pack_floor(floor: list[float | None] | None) -> bytes | None:
+    """Same bytes as vigil.skeleton.encode_floor; null (unknown) becomes NaN."""
+    if floor is None or all(v is None for v in floor):
+        return None
+    return _FLOOR.pack(*(_NAN if v is None else v for v in floor))
+
+
 def scores_json(scores: dict[Decision, float]) -> str | None:
     """The text json.dumps gives for validated scores (plain keys, finite floats), faster."""
     if not scores:
@@ -79,6 +88,7 @@ def compact(frame: FrameRecord) -> ReceivedFrame:
         frame.transport_id,
         pack_keypoints(frame.keypoints),
         pack_depth(frame.depth),
+        pack_floor(frame.floor),
         decision.value if decision else None,
         scores_json(frame.scores),
         frame.model_version,

@@ -21,6 +21,7 @@ def frame(seq: int, decision: str = "normal", transport: str = "t-1") -> FrameRe
         transport_id=transport,
         keypoints=keypoints,
         depth=[2.0] * 24 + [None],
+        floor=[1.5, 0.75, None],
         decision=decision,
         scores={"normal": 0.1, "emergency": 0.9} if decision == "emergency" else {"normal": 0.9},
         model_version="m-1",

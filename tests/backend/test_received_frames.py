@@ -11,7 +11,13 @@ from backend.ingest.bulk import FRAME_COLUMNS
 from backend.ingest.received import ROW_TAIL_START, ReceivedFrame, compact, scores_json
 from vigil.classes import Decision
 from vigil.protocol import FrameRecord, ShadowDecision
-from vigil.skeleton import decode_depth, decode_keypoints, encode_depth, encode_keypoints
+from vigil.skeleton import (
+    decode_depth,
+    decode_keypoints,
+    encode_depth,
+    encode_floor,
+    encode_keypoints,
+)
 
 
 def record(**changes) -> FrameRecord:
@@ -44,6 +50,9 @@ def test_blobs_are_the_canonical_skeleton_encoding():
     depth = np.array([np.nan if v is None else v for v in frame.depth], np.float32)
     assert stored.depth == encode_depth(depth)
     assert np.isnan(decode_depth(stored.depth)[-2:]).all()
+    with_floor = compact(record(floor=[1.25, 0.5, None]))
+    assert with_floor.floor == encode_floor(np.array([1.25, 0.5, np.nan], np.float32))
+    assert compact(record(floor=[None, None, None])).floor is None
 
 
 def test_scalars_and_decisions_are_kept_as_sent():
@@ -60,7 +69,7 @@ def test_scalars_and_decisions_are_kept_as_sent():
 
 def test_optional_parts_missing():
     stored = compact(record(depth=None, decision=None, scores={}, threshold=None))
-    assert stored.depth is None
+    assert stored.depth is None and stored.floor is None
     assert stored.decision is None and stored.scores is None and stored.threshold is None
     assert stored.shadow_decision is stored.shadow_scores is stored.shadow_model_version is None
 

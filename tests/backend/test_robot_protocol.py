@@ -99,6 +99,12 @@ BAD_MESSAGES = [
         id="26-depths",
     ),  # fmt: skip
     pytest.param(
+        frames_message(floor=[1.0, 0.5]),
+        protocol.CLOSE_BAD_MESSAGE,
+        "frames.0.floor",
+        id="2-floor-measures",
+    ),  # fmt: skip
+    pytest.param(
         frames_message(decision="panic"),
         protocol.CLOSE_BAD_MESSAGE,
         "frames.0.decision",
@@ -245,6 +251,7 @@ def test_frames_are_stored_compactly_and_readable_by_range(
         stored = session.scalars(select(Frame).order_by(Frame.index)).all()
         assert {len(f.keypoints) for f in stored} == {25 * 3 * 4}
         assert {len(f.depth) for f in stored} == {25 * 4}
+        assert {len(f.floor) for f in stored} == {3 * 4}
         video_id = stored[0].video_id
     response = client.get(
         f"/api/videos/{video_id}/frames", params={"start": 3, "end": 5}, headers=annotator.headers
@@ -256,6 +263,7 @@ def test_frames_are_stored_compactly_and_readable_by_range(
     sent = frame(4)
     assert np.allclose(frames[1]["keypoints"], sent.keypoints)
     assert frames[1]["depth"][:24] == [2.0] * 24 and frames[1]["depth"][24] is None
+    assert frames[1]["floor"] == [1.5, 0.75, None]
     assert frames[1]["scores"] == {"normal": 0.9}
 
 
