@@ -43,8 +43,11 @@ GOAL_MEDIAPIPE_FPS = 15.0
 
 
 def ensure_model() -> Path:
-    if not (MODEL_DIR / "manifest.json").exists():
-        print("training the default walking model on URFD (first run only)", flush=True)
+    from scripts.run_all import default_model_is_current
+
+    if not default_model_is_current():
+        print("training the default walking model on URFD (none yet, or older features)",
+              flush=True)  # fmt: skip
         subprocess.run([sys.executable, "-m", "worker.training.cli", "train-default", "--out",
                         str(MODEL_DIR)], cwd=REPO, check=True)  # fmt: skip
     return MODEL_DIR
