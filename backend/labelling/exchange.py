@@ -62,6 +62,34 @@ def _add_segments(
     ]
 
 
+def _numbers(frames: list, key: str, shape: tuple[int, ...], optional: bool) -> np.ndarray:
+    """frames[i][key] of every frame as float32 (n, *shape); an optional field may be missing
+    or null (all NaN) and hold nulls (NaN). Each error names the frame and the field."""
+    out = np.full((len(frames), *shape), np.nan, np.float32)
+    for i, frame in enumerate(frames):
+        value = frame.get(key) if isinstance(frame, dict) else None
+        if value is None:
+            if optional:
+                continue
+            raise LabellingError(f"frames[{i}].{key}: missing")
+        try:
+            row = np.array(
+                [np.nan if v is None else v for v in value] if optional else value, np.float64
+            )
+        except (TypeError, ValueError) as error:
+            raise LabellingError(f"frames[{i}].{key}: not numbers ({error})") from error
+        if row.shape != shape:
+            raise LabellingError(f"frames[{i}].{key}: must have shape {list(shape)}")
+        # Beyond float32's range a number would be stored as an infinity JSON cannot carry.
+        limit = np.finfo(np.float32).max
+        if np.isinf(row).any() or (np.abs(row[np.isfinite(row)]) > limit).any():
+            raise LabellingError(f"frames[{i}].{key}: numbers must lie within float32 range")
+        if not optional and np.isnan(row).any():
+            raise LabellingError(f"frames[{i}].{key}: must be numbers, not null")
+        out[i] = row
+    return out
+
+
 def import_json(session: Session, document: dict, name: str | None = None) -> Video:
     if document.get("format") != JSON_FORMAT:
         raise LabellingError(f"format: expected {JSON_FORMAT!r}, got {document.get('format')!r}")
@@ -71,32 +99,12 @@ def import_json(session: Session, document: dict, name: str | None = None) -> Vi
         raise LabellingError("frames: must be a non-empty list")
     try:
         indices = [int(f["index"]) for f in frames]
-        keypoints = np.array([f["keypoints"] for f in frames], np.float32)
-        depth = np.array(
-            [
-                [np.nan if v is None else v for v in f["depth"]]
-                if f.get("depth") is not None
-                else [np.nan] * N_KEYPOINTS
-                for f in frames
-            ],
-            np.float32,
-        )
-        floor = np.array(
-            [
-                [np.nan if v is None else v for v in f["floor"]]
-                if f.get("floor") is not None
-                else [np.nan] * N_FLOOR
-                for f in frames
-            ],
-            np.float32,
-        )
         timestamps = [float(f["ts"]) for f in frames]
     except (KeyError, TypeError, ValueError) as error:
         raise LabellingError(f"frames: malformed frame ({error})") from error
-    if keypoints.shape[1:] != (N_KEYPOINTS, 3) or depth.shape[1:] != (N_KEYPOINTS,):
-        raise LabellingError("frames: keypoints must be 25 x 3 and depth 25 numbers per frame")
-    if floor.shape[1:] != (N_FLOOR,):
-        raise LabellingError(f"frames: floor must be {N_FLOOR} numbers or nulls per frame")
+    keypoints = _numbers(frames, "keypoints", (N_KEYPOINTS, 3), optional=False)
+    depth = _numbers(frames, "depth", (N_KEYPOINTS,), optional=True)
+    floor = _numbers(frames, "floor", (N_FLOOR,), optional=True)
     if min(indices) < 0 or len(set(indices)) != len(indices):
         raise LabellingError("frames: indices must be unique and not negative")
     add_video(session, video, keypoints, timestamps, depth, indices, floor)

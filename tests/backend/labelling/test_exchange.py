@@ -97,6 +97,11 @@ def test_bad_import_files_are_refused_and_store_nothing(client, urfd_videos, ann
         client, annotator, "csv", "video,frame,ts,label_key\nnope,0,0,walking\n"
     )
     assert unknown_video.status_code == 422 and "nope" in unknown_video.json()["detail"]
+    for field, value in (("floor", [1e300, 0.5, None]), ("floor", [1.0]), ("depth", [1e39] * 25)):
+        document = _export(client, annotator, urfd_videos["fall-01"], "json").json()
+        document["frames"][3][field] = value
+        refused = _import(client, annotator, "json", json.dumps(document), name="overflow")
+        assert refused.status_code == 422 and field in refused.json()["detail"]
     assert len(client.get(f"{API}/videos", headers=annotator.headers).json()) == before
 
 
