@@ -85,11 +85,15 @@ def _names() -> tuple[str, ...]:
 
 FEATURE_NAMES: tuple[str, ...] = _names()
 N_POSE = N_KEYPOINTS * 3 + 6
+#: The features made from floor measures (`above_floor@h` is made from keypoints, not these).
+FLOOR_FEATURES = frozenset(
+    name for name in FEATURE_NAMES if "floor_" in name or name in ("near_floor", "has_floor")
+)
 FEATURE_SETS: dict[str, np.ndarray] = {
     "full": np.arange(len(FEATURE_NAMES)),
     "pose": np.arange(N_POSE),  # single-frame keypoint features only, as in the paper
     # For cameras without a known pose over the floor: everything but the floor measures.
-    "keypoints": np.array([i for i, name in enumerate(FEATURE_NAMES) if "floor" not in name]),
+    "keypoints": np.array([i for i, n in enumerate(FEATURE_NAMES) if n not in FLOOR_FEATURES]),
 }
 #: Feature sets whose models need floor measures in the frames (vigil.floor).
 NEEDS_FLOOR = frozenset({"full"})

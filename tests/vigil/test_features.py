@@ -5,6 +5,7 @@ from vigil.datasets import urfd
 from vigil.features import (
     FEATURE_NAMES,
     FEATURE_SETS,
+    FLOOR_FEATURES,
     FeatureExtractor,
     extract_sequence,
     window_index,
@@ -37,7 +38,9 @@ def test_floor_measures_enter_only_the_sets_that_declare_them(sequences):
     has_floor = list(FEATURE_NAMES).index("has_floor")
     with_floor, without = extract_sequence(frames), extract_sequence(blind)
     assert with_floor[:, has_floor].min() == 1.0 and without[:, has_floor].max() == 0.0
-    floor_columns = np.array(["floor" in n for n in names])
+    floor_columns = np.array([n in FLOOR_FEATURES for n in names])
+    assert len(FLOOR_FEATURES) == 4 + 2 * 5 + 2 * 2  # values + flag, drops, peaks
+    assert "above_floor@0.4" in names[FEATURE_SETS["keypoints"]]  # made from keypoints
     assert not np.array_equal(with_floor[:, floor_columns], without[:, floor_columns])
     assert np.array_equal(with_floor[:, ~floor_columns], without[:, ~floor_columns])
     for feature_set in ("pose", "keypoints"):
