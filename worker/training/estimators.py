@@ -145,7 +145,7 @@ GBT = ModelSpec(
         "max_leaf_nodes": [15, 31],
         "l2_regularization": [0.0, 1.0],
     },
-    description="Gradient-boosted trees (histogram), pose + temporal features",
+    description="Gradient-boosted trees (histogram), pose, temporal and floor features",
 )
 GBT_KEYPOINTS = ModelSpec(
     name="gbt-keypoints",
