@@ -159,6 +159,24 @@ def _alarm_latency() -> str | None:
     )
 
 
+def _floor_measures() -> str | None:
+    data = _load("floor_measures.json")
+    if data is None:
+        return None
+    rows = [
+        [name, field["mean_difference"], field["rms_difference"]]
+        for name, field in data["fields"].items()
+    ]
+    mount = data["fitted_mount"]
+    return (
+        "**Floor measures from keypoints** (`make bench-floor` → "
+        f"`bench/results/floor_measures.json`, {data['data']}): keypoint-based (vigil.floor, depth "
+        "sampled as on the robot) minus URFD's silhouette-based measures, with the camera's "
+        f"height ({mount['height_m']} m) and pitch ({mount['pitch_deg']}°) fitted to these "
+        "frames.\n\n" + _table(["measure", "mean difference", "rms difference"], rows)
+    )
+
+
 def _labelling() -> str | None:
     data = _load("labelling.json")
     if data is None:
@@ -203,7 +221,15 @@ def _registry() -> str | None:
     return text
 
 
-BENCH_SECTIONS = (_detection, _ingest, _robot, _alarm_latency, _labelling, _registry)
+BENCH_SECTIONS = (
+    _detection,
+    _floor_measures,
+    _ingest,
+    _robot,
+    _alarm_latency,
+    _labelling,
+    _registry,
+)
 
 
 def bench_section() -> str:
