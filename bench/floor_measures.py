@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 from scipy.optimize import least_squares
 
+from backend.labelling.importers.urfd import KINECT_INTRINSICS
 from robot_agent.depth import sample_depth
 from robot_agent.sources.replay import URFD_DEPTH_SCALE_MM, read_depth_png, urfd_image_frames
 from vigil.datasets import urfd
@@ -28,7 +29,6 @@ from vigil.floor import CameraMount, floor_measures
 from vigil.skeleton import FLOOR_FIELDS
 
 RESULTS = Path(__file__).resolve().parent / "results" / "floor_measures.json"
-KINECT = {"fx": 525.0, "fy": 525.0, "cx": 319.5, "cy": 239.5}
 SEQUENCE = "fall-01"
 
 
@@ -52,7 +52,7 @@ def measure(directory: Path) -> dict:
     pairs = paired_frames(directory)
 
     def predicted(params) -> np.ndarray:
-        mount = CameraMount(**KINECT, height_m=params[0], pitch_deg=params[1])
+        mount = CameraMount(**KINECT_INTRINSICS, height_m=params[0], pitch_deg=params[1])
         return np.stack([floor_measures(k, d, mount) for _, k, d, _ in pairs])
 
     official = np.stack([f for *_, f in pairs])

@@ -97,9 +97,11 @@ def decode_depth(blob: bytes) -> np.ndarray:
 
 def depth_to_json(blob: bytes | None) -> list[float | None] | None:
     """A stored depth blob as JSON values: metres, null where unknown (JSON has no NaN)."""
-    if blob is None:
-        return None
-    return [None if np.isnan(v) else float(v) for v in decode_depth(blob)]
+    return None if blob is None else _json_values(decode_depth(blob))
+
+
+def _json_values(values: np.ndarray) -> list[float | None]:
+    return [None if np.isnan(v) else float(v) for v in values]
 
 
 def encode_floor(floor: np.ndarray) -> bytes | None:
@@ -113,6 +115,4 @@ def decode_floor(blob: bytes | None) -> np.ndarray:
 
 
 def floor_to_json(blob: bytes | None) -> list[float | None] | None:
-    if blob is None:
-        return None
-    return [None if np.isnan(v) else float(v) for v in decode_floor(blob)]
+    return None if blob is None else _json_values(decode_floor(blob))

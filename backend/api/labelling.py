@@ -23,6 +23,7 @@ from backend.labelling.queries import (
     usernames,
     video_frames,
     video_segments,
+    videos_matching,
 )
 from backend.labelling.review import review_queue
 from backend.labelling.rgb import FrameCache, JpegCache, blur_head, crop, encode_jpeg
@@ -135,17 +136,11 @@ def list_videos(
     source: str | None = None,
     unreviewed: bool | None = Query(default=None, description="has segments awaiting review"),
 ) -> list[LabellingVideoOut]:
-    query = select(Video).order_by(Video.name)
-    if mode is not None:
-        query = query.where(Video.mode == mode)
-    if split is not None:
-        query = query.where(Video.split == split)
-    if person is not None:
-        query = query.where(Video.person == person)
-    if source is not None:
-        query = query.where(Video.source == source)
     progress = progress_by_video(session)
-    out = [_video_out(v, progress.get(v.id, {})) for v in session.scalars(query)]
+    out = [
+        _video_out(v, progress.get(v.id, {}))
+        for v in videos_matching(session, mode, split, source, person)
+    ]
     if unreviewed is not None:
         out = [v for v in out if (v.unreviewed > 0) == unreviewed]
     return out

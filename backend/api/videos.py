@@ -5,6 +5,7 @@ from pydantic import BaseModel, ConfigDict
 from sqlalchemy import select
 
 from backend.deps import MAX_DB_INT, CurrentUser, DbId, SessionDep
+from backend.labelling.queries import videos_matching
 from backend.models.videos import Frame, Split, Video
 from vigil.classes import Decision, TransportMode
 from vigil.skeleton import decode_keypoints, depth_to_json, floor_to_json
@@ -64,14 +65,7 @@ def list_videos(
     split: Split | None = None,
     source: str | None = None,
 ) -> list[VideoOut]:
-    query = select(Video).order_by(Video.name)
-    if mode is not None:
-        query = query.where(Video.mode == mode)
-    if split is not None:
-        query = query.where(Video.split == split)
-    if source is not None:
-        query = query.where(Video.source == source)
-    return [_video_out(v) for v in session.scalars(query)]
+    return [_video_out(v) for v in videos_matching(session, mode, split, source)]
 
 
 def _video(session: SessionDep, video_id: int) -> Video:

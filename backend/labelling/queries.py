@@ -10,10 +10,28 @@ from sqlalchemy.orm import Session
 
 from backend.models.annotations import AnnotationSegment, SegmentStatus
 from backend.models.users import User
-from backend.models.videos import Frame, Video
+from backend.models.videos import Frame, Split, Video
+from vigil.classes import TransportMode
 from vigil.skeleton import N_FLOOR, N_KEYPOINTS, decode_depth, decode_floor, decode_keypoints
 
 LIVE = tuple(s for s in SegmentStatus if s != SegmentStatus.DELETED)
+
+
+def videos_matching(
+    session: Session,
+    mode: TransportMode | None = None,
+    split: Split | None = None,
+    source: str | None = None,
+    person: str | None = None,
+) -> list[Video]:
+    """Videos by name, narrowed by whichever filters are given."""
+    query = select(Video).order_by(Video.name)
+    for column, value in (
+        (Video.mode, mode), (Video.split, split), (Video.source, source), (Video.person, person)
+    ):  # fmt: skip
+        if value is not None:
+            query = query.where(column == value)
+    return list(session.scalars(query))
 
 
 def video_segments(

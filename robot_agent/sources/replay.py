@@ -32,7 +32,7 @@ import numpy as np
 from robot_agent.sources.base import Observation
 from robot_agent.sources.pacing import Pacer
 from vigil.datasets import urfd
-from vigil.skeleton import N_FLOOR, N_KEYPOINTS, SkeletonFrame, no_floor
+from vigil.skeleton import N_FLOOR, N_KEYPOINTS, SkeletonFrame
 
 URFD_DEPTH_SCALE_MM = 6000 / 65535  # fall sequences (ADL: 7000 / 65535)
 URFD_ADL_DEPTH_SCALE_MM = 7000 / 65535
@@ -160,6 +160,20 @@ class UrfdReplaySource:
             )
 
 
+def _numbers_or_nulls(frame: dict, key: str, length: int, where: str) -> np.ndarray:
+    """An optional list of `length` numbers or nulls (NaN); all NaN when absent or null."""
+    values = frame.get(key)
+    if values is None:
+        return np.full(length, np.nan, np.float32)
+    try:
+        array = np.array([np.nan if v is None else v for v in values], np.float32)
+    except (TypeError, ValueError) as error:
+        raise SourceError(f"{where}.{key}: not numbers") from error
+    if array.shape != (length,):
+        raise SourceError(f"{where}.{key}: must hold {length} numbers or nulls")
+    return array
+
+
 def _field(document: dict, key: str, where: str, kind: type | tuple[type, ...]):
     if key not in document:
         raise SourceError(f"{where}: missing field {key!r}")
@@ -221,23 +235,9 @@ class VigilExportSource:
             raise SourceError(f"{where}.keypoints: not numbers") from error
         if keypoints.shape != (N_KEYPOINTS, 3) or not np.isfinite(keypoints).all():
             raise SourceError(f"{where}.keypoints: must be 25 finite [x, y, confidence]")
-        depth = frame.get("depth")
-        if depth is None:
-            depth_arr = np.full(N_KEYPOINTS, np.nan, np.float32)
-        else:
-            depth_arr = np.array([np.nan if v is None else v for v in depth], np.float32)
-            if depth_arr.shape != (N_KEYPOINTS,):
-                raise SourceError(f"{where}.depth: must hold 25 numbers or nulls")
-        floor = frame.get("floor")
-        floor_arr = no_floor()
-        if floor is not None:
-            try:
-                floor_arr = np.array([np.nan if v is None else v for v in floor], np.float32)
-            except (TypeError, ValueError) as error:
-                raise SourceError(f"{where}.floor: not numbers") from error
-            if floor_arr.shape != (N_FLOOR,):
-                raise SourceError(f"{where}.floor: must hold {N_FLOOR} numbers or nulls")
-        return index, float(ts), keypoints, depth_arr, floor_arr
+        depth = _numbers_or_nulls(frame, "depth", N_KEYPOINTS, where)
+        floor = _numbers_or_nulls(frame, "floor", N_FLOOR, where)
+        return index, float(ts), keypoints, depth, floor
 
     def __len__(self) -> int:
         return len(self.frames)
