@@ -18,6 +18,12 @@ above the lowest keypoint of the earlier frame (the floor line under a standing 
 ends on the floor, a deliberate lie-down usually on a bed. With floor measures, the drops of the
 top and centre height above the floor (metres) join the changes and their decaying peaks.
 
+Limb geometry (feature version 4): knee and hip bend, thigh and shank direction, and the lean of
+the shoulders over the ankles, each with a has-flag, and their changes over every horizon.
+Crouching or sitting down fast folds the knees and hips while the body stays over its feet; a fall
+tips the body over with the legs straight. Without them a quick crouch raised the same short burst
+of Emergency scores as the first instants of a fall (docs/detection.md).
+
 Frames with too few keypoints (fewer than MIN_KEYPOINTS; e.g. the pose estimator found nobody)
 repeat the last usable pose with zero motion and set the `held` flag: the decision holds.
 """
@@ -30,7 +36,7 @@ import numpy as np
 
 from vigil.skeleton import INDEX, N_FLOOR, N_KEYPOINTS, SkeletonFrame
 
-FEATURE_VERSION = 3
+FEATURE_VERSION = 4
 MIN_KEYPOINTS = 4
 HORIZONS_S: tuple[float, ...] = (0.2, 0.4, 0.8, 1.6, 3.2)
 DELTA_LIMIT = 5.0  # body sizes (or log units): beyond this a change is a tracking glitch
@@ -41,6 +47,16 @@ SINCE_SEEN_LIMIT_S = 3.0
 _HIPS = [INDEX["mid_hip"], INDEX["r_hip"], INDEX["l_hip"]]
 _NECK, _MID_HIP = INDEX["neck"], INDEX["mid_hip"]
 _SHOULDERS, _HIP_PAIR = [INDEX["r_shoulder"], INDEX["l_shoulder"]], [INDEX["r_hip"], INDEX["l_hip"]]
+_ANKLES = [INDEX["r_ankle"], INDEX["l_ankle"]]
+_LEGS = tuple(
+    (INDEX[f"{side}_shoulder"], INDEX[f"{side}_hip"], INDEX[f"{side}_knee"], INDEX[f"{side}_ankle"])
+    for side in ("r", "l")
+)
+# Limb geometry (image plane; each the mean over the sides where its keypoints are present):
+# knee and hip bend (0 straight, 2 folded), thigh and shank pointing down (1 vertical, 0
+# horizontal), lean of the shoulders-over-ankles line (1 upright). Crouching and sitting fold the
+# knees and hips while the body stays upright over the feet; a fall tips the straight body over.
+LIMBS = ("knee_bend", "hip_bend", "thigh_down", "shank_down", "lean")
 
 # Per-frame scalar quantities tracked over time (columns of the "state" array).
 _STATE = (
@@ -59,12 +75,24 @@ _STATE = (
     "floor_top",
     "floor_centre",
     "has_floor",
+    *LIMBS,
+    *(f"has_{limb}" for limb in LIMBS),
 )
 _S = {name: i for i, name in enumerate(_STATE)}
+_LIMB_STATE = slice(_S[LIMBS[0]], _S[LIMBS[-1]] + 1)
+_LIMB_SEEN = slice(_S[f"has_{LIMBS[0]}"], _S[f"has_{LIMBS[-1]}"] + 1)
 _DELTAS = (
     "d_down", "d_side", "d_logscale", "d_aspect", "d_upright", "d_top", "d_depth", "above_floor",
-    "d_visible", "d_floor_top", "d_floor_centre",
+    "d_visible", "d_floor_top", "d_floor_centre", *(f"d_{limb}" for limb in LIMBS),
 )  # fmt: skip
+# Limbs change shape within a second; their changes over longer horizons only added noise.
+LIMB_HORIZON_LIMIT_S = 0.8
+_HORIZON_COLUMNS = {
+    h: np.array(
+        [i for i, d in enumerate(_DELTAS) if h <= LIMB_HORIZON_LIMIT_S or d[2:] not in LIMBS]
+    )
+    for h in HORIZONS_S
+}
 # Downward speeds whose decaying peaks are kept: centre drop, head drop, loss of uprightness.
 # Loss of keypoints: a body hitting the floor is often lost by the pose estimator.
 _PEAKED = ("d_down", "d_top", "d_upright", "d_visible", "d_floor_top", "d_floor_centre")
@@ -76,15 +104,17 @@ def _names() -> tuple[str, ...]:
     pose = [f"{axis}_{i}" for i in range(N_KEYPOINTS) for axis in ("x", "y")]
     pose += [f"conf_{i}" for i in range(N_KEYPOINTS)]
     pose += ["aspect", "upright", "top", "depth", "has_depth", "held"]
-    temporal = [f"{d}@{h}" for h in HORIZONS_S for d in _DELTAS]
+    temporal = [f"{_DELTAS[i]}@{h}" for h in HORIZONS_S for i in _HORIZON_COLUMNS[h]]
     temporal += [f"peak_{p}@{tau}" for tau in PEAK_TAUS_S for p in _PEAKED]
     temporal += list(_MEMORY)
+    limbs = [*LIMBS, *(f"has_{limb}" for limb in LIMBS)]
     floor = ["floor_top", "floor_centre", "near_floor", "has_floor"]
-    return tuple(pose + temporal + floor)
+    return tuple(pose + temporal + limbs + floor)
 
 
 FEATURE_NAMES: tuple[str, ...] = _names()
 N_POSE = N_KEYPOINTS * 3 + 6
+N_LIMB = 2 * len(LIMBS)  # values and has-flags
 #: The features made from floor measures (`above_floor@h` is made from keypoints, not these).
 FLOOR_FEATURES = frozenset(
     name for name in FEATURE_NAMES if "floor_" in name or name in ("near_floor", "has_floor")
@@ -98,14 +128,17 @@ FEATURE_SETS: dict[str, np.ndarray] = {
 #: Feature sets whose models need floor measures in the frames (vigil.floor).
 NEEDS_FLOOR = frozenset({"full"})
 _MAX_HORIZON = max(HORIZONS_S)
-_PEAK_SOURCE = [HORIZONS_S.index(0.4) * len(_DELTAS) + _DELTAS.index(p) for p in _PEAKED]
+_PEAK_SOURCE = [
+    FEATURE_NAMES.index(f"{p}@0.4") - FEATURE_NAMES.index(f"{_DELTAS[0]}@{HORIZONS_S[0]}")
+    for p in _PEAKED
+]
 
 
 def _pose_and_state(
     keypoints: np.ndarray, depth: np.ndarray, floor: np.ndarray, timestamps: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(n, 25, 3), (n, 25), (n, 3) -> pose features (n, N_POSE - 1 + N_FLOOR + 1) without `held`,
-    state (n, len(_STATE)), and a usable-frame mask."""
+    """(n, 25, 3), (n, 25), (n, 3) -> pose features (n, N_POSE - 1 + N_LIMB + N_FLOOR + 1) without
+    `held`, state (n, len(_STATE)), and a usable-frame mask."""
     n = keypoints.shape[0]
     conf = keypoints[:, :, 2].astype(np.float64)
     xy = keypoints[:, :, :2].astype(np.float64)
@@ -144,6 +177,7 @@ def _pose_and_state(
     has_depth = (n_depth > 0).astype(np.float64)
 
     rel = np.where(present[..., None], (xy - centre[:, None, :]) / scale[:, None, None], 0.0)
+    limbs, limbs_seen = _limbs(xy, present)
     floor = floor.astype(np.float64)
     has_floor = np.isfinite(floor).all(axis=1)
     floor = np.where(has_floor[:, None], floor, 0.0)
@@ -152,6 +186,8 @@ def _pose_and_state(
             rel.reshape(n, -1),
             conf,
             np.stack([aspect, upright, top, depth_m, has_depth], axis=1),
+            limbs,
+            limbs_seen,
             floor,
             has_floor[:, None],
         ],
@@ -164,10 +200,45 @@ def _pose_and_state(
             *(centre[:, 0], centre[:, 1], scale, aspect, upright, top, depth_m, has_depth, seen),
             *(bottom, timestamps, count / N_KEYPOINTS),
             *(floor[:, 0], floor[:, 1], has_floor),
+            *limbs.T,
+            *limbs_seen.T,
         ],
         axis=1,
     )
     return pose, state, usable
+
+
+def _cos(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    norms = np.sqrt((a**2).sum(axis=-1) * (b**2).sum(axis=-1))
+    return (a * b).sum(axis=-1) / np.maximum(norms, 1e-9)
+
+
+def _down(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """How far the segment a -> b points down the image: 1 straight down, 0 horizontal."""
+    v = b - a
+    return v[..., 1] / np.maximum(np.sqrt((v**2).sum(axis=-1)), 1e-9)
+
+
+def _limbs(xy: np.ndarray, present: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(n, 25, 2), (n, 25) -> LIMBS values (n, 5) (0 where unknown) and their has-flags (n, 5)."""
+    values, seen = [], []
+    for shoulder, hip, knee, ankle in _LEGS:
+        s, h, k, a = (xy[:, j] for j in (shoulder, hip, knee, ankle))
+        ps, ph, pk, pa = (present[:, j] for j in (shoulder, hip, knee, ankle))
+        values.append(
+            np.stack([1 + _cos(h - k, a - k), 1 + _cos(s - h, k - h), _down(h, k), _down(k, a)], 1)
+        )
+        seen.append(np.stack([ph & pk & pa, ps & ph & pk, ph & pk, pk & pa], 1))
+    values, seen = np.stack(values), np.stack(seen)  # (sides, n, 4)
+    count = seen.sum(axis=0)
+    per_leg = np.where(seen, values, 0.0).sum(axis=0) / np.maximum(count, 1)
+    shoulders_ok = present[:, _SHOULDERS].all(axis=1)
+    ankles_ok = present[:, _ANKLES].all(axis=1)
+    lean = -_down(xy[:, _ANKLES].mean(axis=1), xy[:, _SHOULDERS].mean(axis=1))
+    lean_ok = shoulders_ok & ankles_ok
+    has = np.concatenate([count > 0, lean_ok[:, None]], axis=1)
+    limbs = np.concatenate([per_leg, lean[:, None]], axis=1)
+    return np.where(has, limbs, 0.0), has.astype(np.float64)
 
 
 def _point(xy, present, index, pair) -> tuple[np.ndarray, np.ndarray]:
@@ -222,6 +293,11 @@ def _deltas(state_now: np.ndarray, state_then: np.ndarray, horizon: float) -> np
             state_then[:, _S["visible"]] - state_now[:, _S["visible"]],
             (state_then[:, _S["floor_top"]] - state_now[:, _S["floor_top"]]) * both_floor,
             (state_then[:, _S["floor_centre"]] - state_now[:, _S["floor_centre"]]) * both_floor,
+            *(
+                (state_now[:, _LIMB_STATE] - state_then[:, _LIMB_STATE])
+                * state_now[:, _LIMB_SEEN]
+                * state_then[:, _LIMB_SEEN]
+            ).T,
         ],
         axis=1,
     )
@@ -297,7 +373,7 @@ def extract_arrays(
     temporal = []
     for horizon in HORIZONS_S:
         then = _lag_index(timestamps, timestamps, horizon)
-        delta = _deltas(state, state[then], horizon)
+        delta = _deltas(state, state[then], horizon)[:, _HORIZON_COLUMNS[horizon]]
         temporal.append(np.where(usable[:, None], delta, 0.0))
     temporal = np.concatenate(temporal, axis=1)
     peaks = np.zeros((n, len(PEAK_TAUS_S), len(_PEAKED)))
@@ -314,8 +390,9 @@ def extract_arrays(
 
 
 def _assemble(pose, held, temporal, peaks, memories) -> np.ndarray:
-    keypoint_pose, floor = pose[:, : N_POSE - 1], pose[:, N_POSE - 1 :]
-    return np.concatenate([keypoint_pose, held, temporal, peaks, memories, floor], axis=1)
+    keypoint_pose, limbs = pose[:, : N_POSE - 1], pose[:, N_POSE - 1 : N_POSE - 1 + N_LIMB]
+    floor = pose[:, N_POSE - 1 + N_LIMB :]
+    return np.concatenate([keypoint_pose, held, temporal, peaks, memories, limbs, floor], axis=1)
 
 
 def extract_sequence(frames: Sequence[SkeletonFrame], feature_set: str = "full") -> np.ndarray:
@@ -369,7 +446,7 @@ class FeatureExtractor:
         temporal = []
         for horizon in HORIZONS_S:
             then = self._states[int(_lag_index(times, now, horizon)[0])]
-            delta = _deltas(state, then[None], horizon)
+            delta = _deltas(state, then[None], horizon)[:, _HORIZON_COLUMNS[horizon]]
             temporal.append(np.where(usable[:, None], delta, 0.0))
         temporal = np.concatenate(temporal, axis=1)
         self._peaks = _peak_step(self._peaks, temporal[0, _PEAK_SOURCE], dt)

@@ -10,7 +10,7 @@ from vigil.features import (
     extract_sequence,
     window_index,
 )
-from vigil.skeleton import N_KEYPOINTS, SkeletonFrame
+from vigil.skeleton import INDEX, N_KEYPOINTS, SkeletonFrame
 
 
 @pytest.fixture(scope="module")
@@ -145,3 +145,65 @@ def test_stream_memory_counts_time_without_a_pose():
     assert features[14, lost] > 0.5  # most keypoints vanished within 0.4 s
     assert features[-1, since] == pytest.approx(9 / 30, abs=1e-6)
     assert features[-1, missing] > features[15, missing] > 0 == features[14, missing]
+
+
+def _person(knee_xy, ankle_xy, shoulders_y=100.0) -> np.ndarray:
+    """A front-facing person: shoulders, hips at y=200, knees and ankles where given (per side)."""
+    kp = np.zeros((N_KEYPOINTS, 3), np.float32)
+    for side, dx in (("r", -20.0), ("l", 20.0)):
+        kp[INDEX[f"{side}_shoulder"]] = (300 + dx, shoulders_y, 0.9)
+        kp[INDEX[f"{side}_hip"]] = (300 + dx, 200, 0.9)
+        kp[INDEX[f"{side}_knee"]] = (300 + dx + knee_xy[0], knee_xy[1], 0.9)
+        kp[INDEX[f"{side}_ankle"]] = (300 + dx + ankle_xy[0], ankle_xy[1], 0.9)
+    kp[INDEX["neck"]] = (300, shoulders_y, 0.9)
+    kp[INDEX["mid_hip"]] = (300, 200, 0.9)
+    return kp
+
+
+def _limb_features(kp) -> dict[str, float]:
+    features = extract_sequence([SkeletonFrame(kp)])[0]
+    return {name: float(features[FEATURE_NAMES.index(name)]) for name in FEATURE_NAMES}
+
+
+def test_limb_geometry_tells_straight_legs_from_a_crouch():
+    standing = _limb_features(_person(knee_xy=(0, 300), ankle_xy=(0, 400)))
+    assert standing["knee_bend"] == pytest.approx(0, abs=1e-6)
+    assert standing["hip_bend"] == pytest.approx(0, abs=1e-6)
+    assert standing["thigh_down"] == pytest.approx(1) and standing["shank_down"] == pytest.approx(1)
+    assert standing["lean"] == pytest.approx(1)
+    # Crouching: thighs forward and horizontal, shanks back down, torso still upright.
+    crouch = _limb_features(_person(knee_xy=(80, 200), ankle_xy=(80, 300)))
+    assert crouch["knee_bend"] == pytest.approx(1, abs=1e-6)  # a right angle
+    assert crouch["hip_bend"] == pytest.approx(1, abs=1e-6)
+    assert crouch["thigh_down"] == pytest.approx(0, abs=1e-6)
+    assert crouch["lean"] > 0.9
+    # Tipped over with straight legs (a fall): legs straight, the body far from upright.
+    tipped = _person(knee_xy=(100, 230), ankle_xy=(200, 260), shoulders_y=170)
+    tipped[[INDEX["r_shoulder"], INDEX["l_shoulder"], INDEX["neck"]], 0] -= 100
+    fallen = _limb_features(tipped)
+    assert fallen["knee_bend"] < 0.1 and fallen["lean"] < 0.5
+
+
+def test_limb_geometry_without_its_keypoints_is_flagged_unknown():
+    kp = _person(knee_xy=(80, 200), ankle_xy=(80, 300))
+    kp[[INDEX["r_knee"], INDEX["l_knee"]], 2] = 0  # knees not found
+    features = _limb_features(kp)
+    for limb in ("knee_bend", "hip_bend", "thigh_down", "shank_down"):
+        assert features[f"has_{limb}"] == 0 and features[limb] == 0
+    assert features["has_lean"] == 1
+    kp[INDEX["l_knee"], 2] = 0.8  # one side is enough
+    assert _limb_features(kp)["has_knee_bend"] == 1
+
+
+def test_limb_changes_cover_short_horizons_only():
+    names = set(FEATURE_NAMES)
+    assert {"d_knee_bend@0.2", "d_lean@0.8"} <= names
+    assert "d_lean@1.6" not in names and "d_down@1.6" in names
+    # a crouch within 0.4 s shows as knee bend gained over 0.4 s
+    standing = _person(knee_xy=(0, 300), ankle_xy=(0, 400))
+    crouch = _person(knee_xy=(80, 200), ankle_xy=(80, 300))
+    frames = [SkeletonFrame(standing, timestamp=i / 30) for i in range(15)]
+    frames += [SkeletonFrame(crouch, timestamp=(15 + i) / 30) for i in range(3)]
+    features = extract_sequence(frames)
+    assert features[-1, FEATURE_NAMES.index("d_knee_bend@0.4")] == pytest.approx(1, abs=1e-5)
+    assert features[14, FEATURE_NAMES.index("d_knee_bend@0.4")] == 0
