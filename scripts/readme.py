@@ -218,6 +218,15 @@ def _registry() -> str | None:
             f"{gold['adl_false_alarms']} of {gold['adl_total']} daily-activity recordings "
             f"alarming, frame recall {_fmt(gold['frame_recall'])}, F1 {_fmt(gold['frame_f1'])}."
         )
+        failed = [c for c in retrain.get("gate", {}).get("checks", []) if not c["passed"]]
+        if failed:
+            text += (
+                " The promotion gate refused it: "
+                + "; ".join(f"{c['name']}: {c['detail']}" for c in failed)
+                + "."
+            )
+        elif retrain.get("gate"):
+            text += " It passed the promotion gate."
     return text
 
 
