@@ -19,10 +19,10 @@ ends on the floor, a deliberate lie-down usually on a bed. With floor measures, 
 top and centre height above the floor (metres) join the changes and their decaying peaks.
 
 Limb geometry (feature version 4): knee and hip bend, thigh and shank direction, and the lean of
-the shoulders over the ankles, each with a has-flag, and their changes over every horizon.
-Crouching or sitting down fast folds the knees and hips while the body stays over its feet; a fall
-tips the body over with the legs straight. Without them a quick crouch raised the same short burst
-of Emergency scores as the first instants of a fall (docs/detection.md).
+the shoulders over the ankles, each with a has-flag, and their changes over 0.2-0.8 s. Bending
+over to pick something up folds the hips over straight knees, sitting down folds both while the
+body stays over its feet, and in URFD's falls the knees buckle as the body drops and leans: the
+centre and floor heights alone drop alike in all of them (docs/detection.md).
 
 Frames with too few keypoints (fewer than MIN_KEYPOINTS; e.g. the pose estimator found nobody)
 repeat the last usable pose with zero motion and set the `held` flag: the decision holds.
@@ -54,8 +54,8 @@ _LEGS = tuple(
 )
 # Limb geometry (image plane; each the mean over the sides where its keypoints are present):
 # knee and hip bend (0 straight, 2 folded), thigh and shank pointing down (1 vertical, 0
-# horizontal), lean of the shoulders-over-ankles line (1 upright). Crouching and sitting fold the
-# knees and hips while the body stays upright over the feet; a fall tips the straight body over.
+# horizontal), lean of the shoulders-over-ankles line (1 upright): how the body folds as it goes
+# down, which the heights alone do not tell.
 LIMBS = ("knee_bend", "hip_bend", "thigh_down", "shank_down", "lean")
 
 # Per-frame scalar quantities tracked over time (columns of the "state" array).

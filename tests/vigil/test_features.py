@@ -177,7 +177,7 @@ def test_limb_geometry_tells_straight_legs_from_a_crouch():
     assert crouch["hip_bend"] == pytest.approx(1, abs=1e-6)
     assert crouch["thigh_down"] == pytest.approx(0, abs=1e-6)
     assert crouch["lean"] > 0.9
-    # Tipped over with straight legs (a fall): legs straight, the body far from upright.
+    # Tipped over with straight legs: the body far from upright over its feet.
     tipped = _person(knee_xy=(100, 230), ankle_xy=(200, 260), shoulders_y=170)
     tipped[[INDEX["r_shoulder"], INDEX["l_shoulder"], INDEX["neck"]], 0] -= 100
     fallen = _limb_features(tipped)
