@@ -221,8 +221,8 @@ def _registry() -> str | None:
         failed = [c for c in retrain.get("gate", {}).get("checks", []) if not c["passed"]]
         if failed:
             text += (
-                " The promotion gate refused it: "
-                + "; ".join(f"{c['name']}: {c['detail']}" for c in failed)
+                " The promotion gate refused it; failed: "
+                + "; ".join(f"{c['name']} ({c['detail']})" for c in failed)
                 + "."
             )
         elif retrain.get("gate"):

@@ -87,9 +87,10 @@ _DELTAS = (
 )  # fmt: skip
 # Limbs change shape within a second; their changes over longer horizons only added noise.
 LIMB_HORIZON_LIMIT_S = 0.8
+_LIMB_DELTAS = frozenset(f"d_{limb}" for limb in LIMBS)
 _HORIZON_COLUMNS = {
     h: np.array(
-        [i for i, d in enumerate(_DELTAS) if h <= LIMB_HORIZON_LIMIT_S or d[2:] not in LIMBS]
+        [i for i, d in enumerate(_DELTAS) if h <= LIMB_HORIZON_LIMIT_S or d not in _LIMB_DELTAS]
     )
     for h in HORIZONS_S
 }
