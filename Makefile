@@ -9,7 +9,7 @@ FRONTEND_STAMP := frontend/node_modules/.installed
 PYTEST_ARGS ?=
 
 .PHONY: run test test-python test-sqlite test-postgresql test-frontend test-browser setup \
-	frontend chromium lint format bench-detection bench-fall-onset bench-floor bench-ingest bench-robot \
+	frontend chromium lint format bench-detection bench-detection-splits bench-fall-onset bench-floor bench-ingest bench-robot \
 	bench-labelling bench-registry bench-alarm-latency readme screenshots clean
 
 setup: $(STAMP) frontend
@@ -52,6 +52,9 @@ format: $(STAMP)
 
 bench-detection: $(STAMP)
 	$(PY) -m bench.detection
+
+bench-detection-splits: $(STAMP)
+	$(PY) -m bench.detection_splits
 
 bench-fall-onset: $(STAMP)
 	$(PY) -m bench.fall_onset

@@ -112,6 +112,38 @@ def _detection() -> str | None:
     return text
 
 
+def _detection_splits() -> str | None:
+    data = _load("detection_urfd_splits.json")
+    if data is None:
+        return None
+    rows = [
+        [
+            s["seed"], s["frame_recall"], s["frame_f1"], s["falls_detected"], s["falls_total"],
+            s["adl_false_alarms"], s["adl_total"], s["median_time_to_alarm_s"],
+        ]
+        for s in data["splits"]
+    ]  # fmt: skip
+    text = (
+        f"**The same on other splits** (`make bench-detection-splits` → "
+        f"`bench/results/detection_urfd_splits.json`, {data['data']}): {data['model']}, the same "
+        f"nested {data['folds']}-fold cross-validation with the sequences dealt into folds by "
+        f"other seeds (seed 0 is the table above).\n\n"
+    )
+    return text + _table(
+        [
+            "split seed",
+            "frame recall",
+            "frame F1",
+            "falls detected",
+            "of",
+            "ADL false alarms",
+            "of",
+            "median time to alarm (s)",
+        ],  # fmt: skip
+        rows,
+    )
+
+
 def _ingest() -> str | None:
     data = _load("ingest.json")
     if data is None:
@@ -232,6 +264,7 @@ def _registry() -> str | None:
 
 BENCH_SECTIONS = (
     _detection,
+    _detection_splits,
     _floor_measures,
     _ingest,
     _robot,

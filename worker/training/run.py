@@ -34,6 +34,12 @@ TABLE_COLUMNS = (
 )
 
 
+# Inner folds of the grid search and the training-frame stride of its fits (the final refit of
+# every fold uses every frame).
+INNER_FOLDS = 3
+TRAIN_STRIDE = 3
+
+
 def rank_key(row: dict) -> tuple:
     """Best model: most falls detected minus sequences with a false alarm, then frame F1."""
     return (row["falls_detected"] - row["adl_false_alarms"], row["frame_f1"])
@@ -51,8 +57,8 @@ def _train_all(
     trainers: list[Trainer],
     out_dir: Path,
     n_folds: int = 5,
-    n_inner: int = 3,
-    stride: int = 3,
+    n_inner: int = INNER_FOLDS,
+    stride: int = TRAIN_STRIDE,
     progress: bool = True,
 ) -> dict:
     out_dir = Path(out_dir)
