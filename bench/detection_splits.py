@@ -25,6 +25,7 @@ from pathlib import Path
 import numpy as np
 from threadpoolctl import threadpool_limits
 
+from worker.training.cli import make_trainers
 from worker.training.cross_validation import cross_validate
 from worker.training.data import from_urfd
 from worker.training.run import INNER_FOLDS, TRAIN_STRIDE
@@ -47,8 +48,6 @@ CURVE_DELAYS_S = tuple(round(0.05 * k, 2) for k in range(2, 17))  # 0.1 .. 0.8 s
 
 
 def _one_split(model: str, seed: int, urfd_dir: Path | None) -> dict:
-    from worker.training.cli import make_trainers
-
     with threadpool_limits(limits=1):
         data = from_urfd(urfd_dir)
         cv = cross_validate(
@@ -108,6 +107,10 @@ def measure(
     }
 
 
+def _seconds(value: float | None) -> str:
+    return "–" if value is None else f"{value:.2f}"
+
+
 def markdown_tables(result: dict) -> str:
     """The tables of docs/detection.md, generated from detection_urfd_splits.json."""
     lines = [
@@ -123,7 +126,7 @@ def markdown_tables(result: dict) -> str:
             f"| {s['seed']} | {s['frame_recall']:.3f} | {s['frame_f1']:.3f} "
             f"| {s['falls_detected']}/{s['falls_total']} "
             f"| {s['adl_false_alarms']}/{s['adl_total']} "
-            f"| {s['median_time_to_alarm_s']:.2f} | {chosen} |"
+            f"| {_seconds(s['median_time_to_alarm_s'])} | {chosen} |"
         )
     curve = result["operating_curve"]
     points = {(p["threshold"], p["delay_ms"]): p for p in curve["points"]}
@@ -143,7 +146,8 @@ def markdown_tables(result: dict) -> str:
     ]
     for d in delays:
         cells = [
-            f"{p['falls_detected']}, {p['adl_false_alarms']}, {p['median_time_to_alarm_s']:.2f}"
+            f"{p['falls_detected']}, {p['adl_false_alarms']}, "
+            + _seconds(p["median_time_to_alarm_s"])
             for p in (points[t, d] for t in thresholds)
         ]
         lines.append(f"| {d} | " + " | ".join(cells) + " |")
@@ -168,6 +172,10 @@ def main(argv: list[str] | None = None) -> int:
         seeds = tuple(int(s) for s in args.seeds.split(","))
     except ValueError:
         parser.error(f"--seeds: expected comma-separated integers, got {args.seeds!r}")
+    try:
+        make_trainers([args.model])
+    except ValueError as error:
+        parser.error(str(error).replace("--models", "--model"))
     result = measure(args.model, seeds, args.urfd_dir, args.workers)
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text(json.dumps(result, indent=2, default=_jsonable) + "\n")

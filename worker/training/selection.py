@@ -207,6 +207,17 @@ def evaluate_folds(folds: list[tuple[StreamScores, float, float]]) -> dict:
     }
 
 
+CURVE_KEYS = (
+    "falls_detected",
+    "falls_total",
+    "adl_false_alarms",
+    "adl_total",
+    "median_time_to_alarm_s",
+    "frame_recall",
+    "frame_f1",
+)
+
+
 def operating_curve(
     streams: list[StreamScores], thresholds, delays_s
 ) -> list[dict[str, float | int | None]]:
@@ -227,17 +238,6 @@ def operating_curve(
                 }
             )
     return rows
-
-
-CURVE_KEYS = (
-    "falls_detected",
-    "falls_total",
-    "adl_false_alarms",
-    "adl_total",
-    "median_time_to_alarm_s",
-    "frame_recall",
-    "frame_f1",
-)
 
 
 def _time_to_stable(stream: StreamScores, filtered: np.ndarray, e: int) -> list[float]:
