@@ -27,7 +27,7 @@ from threadpoolctl import threadpool_limits
 
 from worker.training.cli import make_trainers
 from worker.training.cross_validation import cross_validate
-from worker.training.data import from_urfd
+from worker.training.data import from_urfd, with_emergency_lead
 from worker.training.run import INNER_FOLDS, TRAIN_STRIDE
 from worker.training.selection import StreamScores, operating_curve
 
@@ -47,9 +47,11 @@ CURVE_THRESHOLDS = (0.1, 0.2, 0.3, 0.4, 0.5)
 CURVE_DELAYS_S = tuple(round(0.05 * k, 2) for k in range(2, 17))  # 0.1 .. 0.8 s
 
 
-def _one_split(model: str, seed: int, urfd_dir: Path | None) -> dict:
+def _one_split(model: str, seed: int, urfd_dir: Path | None, lead_s: float) -> dict:
     with threadpool_limits(limits=1):
         data = from_urfd(urfd_dir)
+        if lead_s:
+            data = with_emergency_lead(data, lead_s)
         cv = cross_validate(
             make_trainers([model])[0], data, FOLDS, INNER_FOLDS, TRAIN_STRIDE, seed=seed
         )
@@ -66,10 +68,14 @@ def measure(
     seeds: tuple[int, ...] = (0, 1, 2, 3, 4),
     urfd_dir: Path | None = None,
     workers: int = 2,
+    emergency_lead_s: float = 0.0,
 ) -> dict:
     start = time.perf_counter()
+    n = len(seeds)
     with ProcessPoolExecutor(max_workers=workers) as pool:
-        splits = list(pool.map(_one_split, [model] * len(seeds), seeds, [urfd_dir] * len(seeds)))
+        splits = list(
+            pool.map(_one_split, [model] * n, seeds, [urfd_dir] * n, [emergency_lead_s] * n)
+        )
     data = from_urfd(urfd_dir)
     streams = [
         StreamScores(data, sequences, scores)
@@ -85,6 +91,9 @@ def measure(
         "model": model,
         "folds": FOLDS,
         "inner_folds": INNER_FOLDS,
+        # Models fitted to Emergency starting this much before the labelled frames (evaluation,
+        # thresholds and delays on the labels): worker.training.data.with_emergency_lead.
+        "emergency_lead_s": emergency_lead_s,
         "seeds": list(seeds),
         "splits": splits,
         "summary": {
@@ -160,6 +169,12 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--seeds", default="0,1,2,3,4", help="comma-separated split seeds")
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--urfd-dir", type=Path, default=None)
+    parser.add_argument(
+        "--emergency-lead-s",
+        type=float,
+        default=0.0,
+        help="fit the models to Emergency starting this many seconds before the labelled frames",
+    )
     parser.add_argument("--out", type=Path, default=RESULTS)
     parser.add_argument(
         "--table", action="store_true", help="only print the Markdown tables of an existing --out"
@@ -176,7 +191,9 @@ def main(argv: list[str] | None = None) -> int:
         make_trainers([args.model])
     except ValueError as error:
         parser.error(str(error).replace("--models", "--model"))
-    result = measure(args.model, seeds, args.urfd_dir, args.workers)
+    if not args.emergency_lead_s >= 0:
+        parser.error(f"--emergency-lead-s: must be >= 0, got {args.emergency_lead_s}")
+    result = measure(args.model, seeds, args.urfd_dir, args.workers, args.emergency_lead_s)
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text(json.dumps(result, indent=2, default=_jsonable) + "\n")
     print(json.dumps({k: result[k] for k in ("model", "seeds", "summary", "seconds")}, indent=2))

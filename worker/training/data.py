@@ -2,13 +2,14 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
-from vigil.classes import MODE_CLASSES, TransportMode
+from vigil.classes import MODE_CLASSES, Decision, TransportMode
 from vigil.datasets import urfd
 from vigil.features import extract_arrays
+from vigil.policy import TIME_EPSILON
 
 
 @dataclass(frozen=True)
@@ -25,10 +26,17 @@ class FrameData:
     mode: TransportMode
     data_sha256: str
     generated: bool = False
+    # What the models are fitted to, where it differs from `target` (which thresholds, delays and
+    # every evaluation use): see with_emergency_lead.
+    training_target: np.ndarray | None = None
 
     @property
     def classes(self):
         return MODE_CLASSES[self.mode]
+
+    @property
+    def fit_target(self) -> np.ndarray:
+        return self.target if self.training_target is None else self.training_target
 
     @property
     def trainable(self) -> np.ndarray:
@@ -46,6 +54,24 @@ class FrameData:
         starts = np.concatenate([[0], bounds])
         ends = np.concatenate([bounds, [len(self.group)]])
         return [slice(int(a), int(b)) for a, b in zip(starts, ends, strict=True)]
+
+
+def with_emergency_lead(data: FrameData, lead_s: float) -> FrameData:
+    """A copy whose models are fitted to Emergency starting `lead_s` earlier: the Normal frames
+    within `lead_s` before each start of an Emergency run are fitted as Emergency. Thresholds,
+    delays and evaluation keep the labelled targets."""
+    if not lead_s >= 0:
+        raise ValueError(f"emergency lead must be >= 0 s, got {lead_s!r}")
+    e, normal = data.classes.index(Decision.EMERGENCY), data.classes.index(Decision.NORMAL)
+    fit = data.target.copy()
+    for rows in data.sequence_slices():
+        target, times = data.target[rows], data.timestamps[rows]
+        index = np.arange(len(target))
+        starts = np.flatnonzero((target == e) & np.r_[True, target[:-1] != e])
+        for k in starts:
+            early = (index < k) & (times >= times[k] - lead_s - TIME_EPSILON) & (target == normal)
+            fit[rows.start + index[early]] = e
+    return replace(data, training_target=fit)
 
 
 def from_urfd(

@@ -98,7 +98,7 @@ class TemporalTrainer:
         features, index = self._inputs(data)
         # 30 frames/s are redundant for a window model: every other frame is plenty.
         rows = training_rows(data, sequences, max(stride, 2))
-        target = torch.from_numpy(data.target[rows].astype(np.int64))
+        target = torch.from_numpy(data.fit_target[rows].astype(np.int64))
         model = TemporalCNN(
             features.shape[1], len(data.classes), params["channels"], params["dropout"]
         )

@@ -46,7 +46,7 @@ class SklearnTrainer:
         rows = training_rows(data, sequences, stride)
         features = data.features[rows][:, self.columns_]
         model = self.spec.build(params, features.shape[1], self.seed)
-        return model.fit(features, data.target[rows])
+        return model.fit(features, data.fit_target[rows])
 
     def score(self, fitted, data: FrameData, sequences: np.ndarray) -> np.ndarray:
         features = data.features[data.frames_of(sequences)][:, self.columns_]
