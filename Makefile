@@ -9,8 +9,9 @@ FRONTEND_STAMP := frontend/node_modules/.installed
 PYTEST_ARGS ?=
 
 .PHONY: run test test-python test-sqlite test-postgresql test-frontend test-browser setup \
-	frontend chromium lint format bench-detection bench-detection-splits bench-fall-onset bench-floor bench-ingest bench-robot \
-	bench-labelling bench-registry bench-alarm-latency readme screenshots clean
+	frontend chromium lint format bench-detection bench-detection-splits bench-fall-onset \
+	bench-floor bench-ingest bench-robot bench-labelling bench-registry bench-alarm-latency \
+	readme screenshots clean
 
 setup: $(STAMP) frontend
 

@@ -29,20 +29,11 @@ from worker.training.cli import make_trainers
 from worker.training.cross_validation import cross_validate
 from worker.training.data import from_urfd, with_emergency_lead
 from worker.training.run import INNER_FOLDS, TRAIN_STRIDE
-from worker.training.selection import StreamScores, operating_curve
+from worker.training.selection import CURVE_KEYS, StreamScores, operating_curve
 
 RESULTS = Path(__file__).resolve().parent / "results" / "detection_urfd_splits.json"
 FOLDS = 5
-SPLIT_KEYS = (
-    "frame_recall",
-    "frame_f1",
-    "falls_detected",
-    "falls_total",
-    "adl_false_alarms",
-    "adl_total",
-    "median_time_to_alarm_s",
-    "fold_operating_points",
-)
+SPLIT_KEYS = (*CURVE_KEYS, "fold_operating_points")
 CURVE_THRESHOLDS = (0.1, 0.2, 0.3, 0.4, 0.5)
 CURVE_DELAYS_S = tuple(round(0.05 * k, 2) for k in range(2, 17))  # 0.1 .. 0.8 s
 
