@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from vigil.datasets import urfd
+from vigil.features import FEATURE_VERSION
 from vigil.runtime import FrameClassifier
 from worker.training.cli import ALL_MODELS, make_trainers
 from worker.training.data import from_urfd
@@ -123,6 +124,7 @@ def main(argv: list[str] | None = None) -> int:
     }
     result = {
         "dataset": "urfd",
+        "feature_version": FEATURE_VERSION,
         "folds": report["folds"],
         "best": report["best"],
         "models": [{key: row[key] for key in SCHEMA_KEYS} for row in report["models"]],

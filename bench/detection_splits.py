@@ -25,6 +25,7 @@ from pathlib import Path
 import numpy as np
 from threadpoolctl import threadpool_limits
 
+from vigil.features import FEATURE_VERSION
 from worker.training.cli import make_trainers
 from worker.training.cross_validation import cross_validate
 from worker.training.data import from_urfd, with_emergency_lead
@@ -49,6 +50,10 @@ def _one_split(model: str, seed: int, urfd_dir: Path | None, lead_s: float) -> d
     return {
         "seed": seed,
         **{key: cv.result[key] for key in SPLIT_KEYS},
+        "events": [
+            {key: event[key] for key in ("sequence", "kind", "false_alarm", "time_to_alarm_s")}
+            for event in cv.result["events"]
+        ],
         "seconds": round(cv.seconds, 1),
         "test_scores": [(s.sequences, s.scores) for s in cv.test_scores],
     }
@@ -74,12 +79,14 @@ def measure(
         for sequences, scores in split.pop("test_scores")
     ]
     curve = operating_curve(streams, CURVE_THRESHOLDS, CURVE_DELAYS_S)
+    per_sequence = _per_sequence(splits)
     adl = [s["adl_false_alarms"] for s in splits]
     tta = [s["median_time_to_alarm_s"] for s in splits]
     recall = [s["frame_recall"] for s in splits]
     return {
         "data": "REAL: URFD, 30 falls and 40 daily activities",
         "model": model,
+        "feature_version": FEATURE_VERSION,
         "folds": FOLDS,
         "inner_folds": INNER_FOLDS,
         # Models fitted to Emergency starting this much before the labelled frames (evaluation,
@@ -96,6 +103,7 @@ def measure(
             "frame_recall_min": min(recall),
             "frame_recall_max": max(recall),
         },
+        "per_sequence": per_sequence,
         "operating_curve": {
             "pooled_splits": len(splits),
             "falls_total": curve[0]["falls_total"],
@@ -104,6 +112,23 @@ def measure(
         },
         "seconds": round(time.perf_counter() - start, 1),
         "machine": {"cpus": os.cpu_count(), "workers": workers},
+    }
+
+
+def _per_sequence(splits: list[dict]) -> dict:
+    """Which sequences the figures come from: per daily activity, the splits in which it raised a
+    false alarm; per fall, its time to alarm in every split (None: missed)."""
+    adl: dict[str, int] = {}
+    falls: dict[str, list[float | None]] = {}
+    for split in splits:
+        for event in split["events"]:
+            if event["kind"] == "adl":
+                adl[event["sequence"]] = adl.get(event["sequence"], 0) + event["false_alarm"]
+            else:
+                falls.setdefault(event["sequence"], []).append(event["time_to_alarm_s"])
+    return {
+        "adl_false_alarm_splits": {name: n for name, n in sorted(adl.items()) if n},
+        "fall_time_to_alarm_s": dict(sorted(falls.items())),
     }
 
 
@@ -151,6 +176,28 @@ def markdown_tables(result: dict) -> str:
             for p in (points[t, d] for t in thresholds)
         ]
         lines.append(f"| {d} | " + " | ".join(cells) + " |")
+    per_sequence = result.get("per_sequence")
+    if per_sequence:
+        n = len(result["splits"])
+        alarming = per_sequence["adl_false_alarm_splits"]
+        lines += [
+            "",
+            f"Daily-activity sequences with a false alarm (in how many of the {n} splits): "
+            + (", ".join(f"{name} ({k})" for name, k in alarming.items()) or "none")
+            + ".",
+        ]
+        slow = {
+            name: float(np.median([np.inf if t is None else t for t in times]))
+            for name, times in per_sequence["fall_time_to_alarm_s"].items()
+        }
+        slow = {name: t for name, t in sorted(slow.items(), key=lambda kv: -kv[1]) if t > 0.5}
+        lines += [
+            "",
+            "Falls whose median time to alarm over the splits is above 0.5 s (s; inf: missed in "
+            "most splits): "
+            + (", ".join(f"{name} ({t:.2f})" for name, t in slow.items()) or "none")
+            + ".",
+        ]
     return "\n".join(lines) + "\n"
 
 

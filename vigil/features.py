@@ -24,6 +24,12 @@ over to pick something up folds the hips over straight knees, sitting down folds
 body stays over its feet, and in URFD's falls the knees buckle as the body drops and leans: the
 centre and floor heights alone drop alike in all of them (docs/detection.md).
 
+Descent memory (feature version 5): the fastest sustained drop of the body's top above the floor
+since the top was last at standing or sitting height, held for as long as the person stays down,
+and the seconds since then. The decaying peaks forget a fall within seconds, so a person lying on
+the floor for a while looked the same whether they fell or lay down slowly; this remembers how
+they got there.
+
 Frames with too few keypoints (fewer than MIN_KEYPOINTS; e.g. the pose estimator found nobody)
 repeat the last usable pose with zero motion and set the `held` flag: the decision holds.
 """
@@ -36,7 +42,7 @@ import numpy as np
 
 from vigil.skeleton import INDEX, N_FLOOR, N_KEYPOINTS, SkeletonFrame
 
-FEATURE_VERSION = 4
+FEATURE_VERSION = 5
 MIN_KEYPOINTS = 4
 HORIZONS_S: tuple[float, ...] = (0.2, 0.4, 0.8, 1.6, 3.2)
 DELTA_LIMIT = 5.0  # body sizes (or log units): beyond this a change is a tracking glitch
@@ -44,6 +50,8 @@ PEAK_TAUS_S: tuple[float, ...] = (1.5, 4.0)
 MEMORY_FLOOR = 1e-3  # decaying memories below this are 0 (float32-safe for exported trees)
 MISSING_TAU_S = 1.0  # time constant of the decaying share of frames without a usable pose
 SINCE_SEEN_LIMIT_S = 3.0
+STANDING_TOP_M = 1.0  # the body's top above the floor above this: standing or sitting upright
+SINCE_STANDING_LIMIT_S = 10.0
 _HIPS = [INDEX["mid_hip"], INDEX["r_hip"], INDEX["l_hip"]]
 _NECK, _MID_HIP = INDEX["neck"], INDEX["mid_hip"]
 _SHOULDERS, _HIP_PAIR = [INDEX["r_shoulder"], INDEX["l_shoulder"]], [INDEX["r_hip"], INDEX["l_hip"]]
@@ -97,8 +105,11 @@ _HORIZON_COLUMNS = {
 # Downward speeds whose decaying peaks are kept: centre drop, head drop, loss of uprightness.
 # Loss of keypoints: a body hitting the floor is often lost by the pose estimator.
 _PEAKED = ("d_down", "d_top", "d_upright", "d_visible", "d_floor_top", "d_floor_centre")
-# Stream memory: time since the last usable pose and the decaying share of frames without one.
-_MEMORY = ("since_seen", "missing")
+# Stream memory: time since the last usable pose and the decaying share of frames without one;
+# the fastest sustained drop of the top above the floor since it was last at standing height, and
+# the time since then (module docstring).
+_MEMORY = ("since_seen", "missing", "floor_descent", "floor_since_standing")
+_DESCENT_HORIZON_S = 0.4
 
 
 def _names() -> tuple[str, ...]:
@@ -129,10 +140,9 @@ FEATURE_SETS: dict[str, np.ndarray] = {
 #: Feature sets whose models need floor measures in the frames (vigil.floor).
 NEEDS_FLOOR = frozenset({"full"})
 _MAX_HORIZON = max(HORIZONS_S)
-_PEAK_SOURCE = [
-    FEATURE_NAMES.index(f"{p}@0.4") - FEATURE_NAMES.index(f"{_DELTAS[0]}@{HORIZONS_S[0]}")
-    for p in _PEAKED
-]
+_TEMPORAL_START = FEATURE_NAMES.index(f"{_DELTAS[0]}@{HORIZONS_S[0]}")
+_PEAK_SOURCE = [FEATURE_NAMES.index(f"{p}@0.4") - _TEMPORAL_START for p in _PEAKED]
+_DESCENT_SOURCE = FEATURE_NAMES.index(f"d_floor_top@{_DESCENT_HORIZON_S}") - _TEMPORAL_START
 
 
 def _pose_and_state(
@@ -323,13 +333,32 @@ class _Memory:
 
     def __init__(self) -> None:
         self.missing = 0.0
+        self.descent = 0.0
+        self.standing_at: float | None = None
 
-    def step(self, state: np.ndarray, usable: bool, dt: float, now: float) -> np.ndarray:
+    def step(
+        self, state: np.ndarray, usable: bool, dt: float, now: float, top_drop: float
+    ) -> np.ndarray:
+        """`top_drop`: this frame's drop of the top above the floor over _DESCENT_HORIZON_S."""
         keep = float(np.exp(-dt / MISSING_TAU_S))
         self.missing = keep * self.missing + (1.0 - keep) * (0.0 if usable else 1.0)
         self.missing = round(self.missing, 3) if self.missing >= MEMORY_FLOOR else 0.0
         since_seen = now - state[_S["seen_at"]] if state[_S["seen"]] > 0 else SINCE_SEEN_LIMIT_S
-        return np.array([min(since_seen, SINCE_SEEN_LIMIT_S), self.missing])
+        if state[_S["has_floor"]] > 0:
+            if state[_S["floor_top"]] > STANDING_TOP_M:
+                self.descent, self.standing_at = 0.0, now
+            self.descent = max(self.descent, float(top_drop))
+        since_standing = (
+            SINCE_STANDING_LIMIT_S if self.standing_at is None else now - self.standing_at
+        )
+        return np.array(
+            [
+                min(since_seen, SINCE_SEEN_LIMIT_S),
+                self.missing,
+                self.descent,
+                min(since_standing, SINCE_STANDING_LIMIT_S),
+            ]
+        )
 
 
 def _as_arrays(frames: Sequence[SkeletonFrame]):
@@ -385,7 +414,9 @@ def extract_arrays(
         dt = timestamps[i] - timestamps[i - 1] if i else 0.0
         current = _peak_step(current, speeds[i], dt)
         peaks[i] = current
-        memories[i] = memory.step(state[i], bool(usable[i]), dt, float(timestamps[i]))
+        memories[i] = memory.step(
+            state[i], bool(usable[i]), dt, float(timestamps[i]), temporal[i, _DESCENT_SOURCE]
+        )
     features = _assemble(pose, held, temporal, peaks.reshape(n, -1), memories)
     return features[:, FEATURE_SETS[feature_set]].astype(np.float32)
 
@@ -452,7 +483,9 @@ class FeatureExtractor:
         temporal = np.concatenate(temporal, axis=1)
         self._peaks = _peak_step(self._peaks, temporal[0, _PEAK_SOURCE], dt)
         held = (~usable).astype(np.float64)[:, None]
-        memory = self._memory.step(state[0], bool(usable[0]), dt, t)[None]
+        memory = self._memory.step(state[0], bool(usable[0]), dt, t, temporal[0, _DESCENT_SOURCE])[
+            None
+        ]
         features = _assemble(pose, held, temporal, self._peaks.reshape(1, -1), memory)
         return features[0, self.columns_].astype(np.float32)
 

@@ -39,7 +39,8 @@ def test_floor_measures_enter_only_the_sets_that_declare_them(sequences):
     with_floor, without = extract_sequence(frames), extract_sequence(blind)
     assert with_floor[:, has_floor].min() == 1.0 and without[:, has_floor].max() == 0.0
     floor_columns = np.array([n in FLOOR_FEATURES for n in names])
-    assert len(FLOOR_FEATURES) == 4 + 2 * 5 + 2 * 2  # values + flag, drops, peaks
+    # values + flag, drops, peaks, descent memory
+    assert len(FLOOR_FEATURES) == 4 + 2 * 5 + 2 * 2 + 2
     assert "above_floor@0.4" in names[FEATURE_SETS["keypoints"]]  # made from keypoints
     assert not np.array_equal(with_floor[:, floor_columns], without[:, floor_columns])
     assert np.array_equal(with_floor[:, ~floor_columns], without[:, ~floor_columns])
@@ -145,6 +146,55 @@ def test_stream_memory_counts_time_without_a_pose():
     assert features[14, lost] > 0.5  # most keypoints vanished within 0.4 s
     assert features[-1, since] == pytest.approx(9 / 30, abs=1e-6)
     assert features[-1, missing] > features[15, missing] > 0 == features[14, missing]
+
+
+def _descent(tops: list[float], fps: float = 30.0) -> dict[str, np.ndarray]:
+    """Features of a still skeleton whose top above the floor follows `tops` (metres, one per
+    frame; NaN: floor unknown), by name."""
+    kp = np.zeros((N_KEYPOINTS, 3), np.float32)
+    kp[:, 0], kp[:, 1], kp[:, 2] = (
+        np.linspace(300, 340, N_KEYPOINTS),
+        np.linspace(100, 400, 25),
+        0.9,
+    )
+    frames = [
+        SkeletonFrame(kp, timestamp=i / fps, floor=np.array([top, top / 2, 0.1], np.float32))
+        for i, top in enumerate(tops)
+    ]
+    features = extract_sequence(frames)
+    return {name: features[:, i] for i, name in enumerate(FEATURE_NAMES)}
+
+
+def test_descent_memory_holds_how_fast_the_person_went_down():
+    fall = _descent([1.7] * 30 + list(np.linspace(1.7, 0.3, 15)) + [0.3] * 360)  # 1.4 m in 0.5 s
+    slow = _descent([1.7] * 30 + list(np.linspace(1.7, 0.3, 120)) + [0.3] * 255)  # in 4 s
+    descent, since = fall["floor_descent"], fall["floor_since_standing"]
+    # Over 0.4 s (13 frames at 30 frames/s) the fall drops about 1.3 m, the slow one 0.15 m.
+    assert descent[-1] == pytest.approx(1.4 * 13 / 14, abs=0.05)
+    assert slow["floor_descent"][-1] == pytest.approx(1.4 * 13 / 119, abs=0.02)
+    assert descent[29] == 0  # standing still: nothing yet
+    # Held while the person stays down, long after the decaying peak has faded.
+    assert descent[-1] == descent[60]
+    peak = fall["peak_d_floor_top@4.0"]
+    assert peak[-1] < 0.1 * peak.max()
+    # Seconds since the top was last at standing height, capped.
+    assert since[29] == 0
+    assert since[-1] == pytest.approx(10.0)
+    assert since[60] == pytest.approx(since[55] + 5 / 30, abs=1e-5)
+
+
+def test_descent_memory_starts_over_when_the_top_is_back_at_standing_height():
+    # A one-frame depth glitch while standing is gone with the next frame.
+    descent = _descent([1.7] * 30 + [0.6] + [1.7] * 30)["floor_descent"]
+    assert descent[30] > 1.0 and descent[31:].max() == 0
+    # A fast drop, then standing up again: the memory starts over.
+    features = _descent([1.7] * 30 + list(np.linspace(1.7, 0.4, 10)) + [0.4] * 30 + [1.7] * 30)
+    descent, since = features["floor_descent"], features["floor_since_standing"]
+    assert descent[69] > 1.0 and descent[-1] == 0 and since[-1] == 0
+    # Floor unknown: the memory neither grows nor resets.
+    tops = [1.7] * 30 + list(np.linspace(1.7, 0.4, 10)) + [float("nan")] * 20
+    descent = _descent(tops)["floor_descent"]
+    assert descent[-1] == descent[39] > 1.0
 
 
 def _person(knee_xy, ankle_xy, shoulders_y=100.0) -> np.ndarray:
