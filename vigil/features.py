@@ -24,7 +24,7 @@ over to pick something up folds the hips over straight knees, sitting down folds
 body stays over its feet, and in URFD's falls the knees buckle as the body drops and leans: the
 centre and floor heights alone drop alike in all of them (docs/detection.md).
 
-Descent memory (feature version 5): the fastest sustained drop of the body's top above the floor
+Descent memory (feature version 5): the fastest 0.4 s drop of the body's top above the floor
 since the top was last at standing or sitting height, held for as long as the person stays down,
 and the seconds since then. The decaying peaks forget a fall within seconds, so a person lying on
 the floor for a while looked the same whether they fell or lay down slowly; this remembers how
@@ -106,7 +106,7 @@ _HORIZON_COLUMNS = {
 # Loss of keypoints: a body hitting the floor is often lost by the pose estimator.
 _PEAKED = ("d_down", "d_top", "d_upright", "d_visible", "d_floor_top", "d_floor_centre")
 # Stream memory: time since the last usable pose and the decaying share of frames without one;
-# the fastest sustained drop of the top above the floor since it was last at standing height, and
+# the fastest 0.4 s drop of the top above the floor since it was last at standing height, and
 # the time since then (module docstring).
 _MEMORY = ("since_seen", "missing", "floor_descent", "floor_since_standing")
 _DESCENT_HORIZON_S = 0.4
@@ -483,9 +483,8 @@ class FeatureExtractor:
         temporal = np.concatenate(temporal, axis=1)
         self._peaks = _peak_step(self._peaks, temporal[0, _PEAK_SOURCE], dt)
         held = (~usable).astype(np.float64)[:, None]
-        memory = self._memory.step(state[0], bool(usable[0]), dt, t, temporal[0, _DESCENT_SOURCE])[
-            None
-        ]
+        top_drop = temporal[0, _DESCENT_SOURCE]
+        memory = self._memory.step(state[0], bool(usable[0]), dt, t, top_drop)[None]
         features = _assemble(pose, held, temporal, self._peaks.reshape(1, -1), memory)
         return features[0, self.columns_].astype(np.float32)
 
