@@ -69,7 +69,12 @@ def test_tables_name_alarming_activities_and_slow_or_missed_falls():
     result = {
         "splits": splits,
         "per_sequence": _per_sequence(SPLITS),
-        "operating_curve": {"pooled_splits": 2, "falls_total": 4, "adl_total": 4, "points": [point]},
+        "operating_curve": {
+            "pooled_splits": 2,
+            "falls_total": 4,
+            "adl_total": 4,
+            "points": [point],
+        },
     }
     text = markdown_tables(result)
     assert "adl-02 (2)" in text and "adl-01" not in text
