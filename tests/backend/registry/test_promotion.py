@@ -10,7 +10,7 @@ from backend.db import transaction
 from backend.models import Alarm, AlarmKind, AlarmPriority, AlarmState, Deployment, Robot, Role
 from backend.models._types import utcnow
 from tests.backend.conftest import ROBOT_TOKEN
-from tests.registry_fixtures import derive_model
+from tests.registry_fixtures import derive_model, second_version
 from worker.sweeps import automatic_rollback
 
 
@@ -46,7 +46,7 @@ def test_staged_rollout_canary_then_ward_then_rollback_restores_each_robot(
     engineer = make_account(Role.ENGINEER)
     nurse = make_account(Role.NURSE)
     v1 = register(trained_model_dir)
-    v2 = register(derive_model(trained_model_dir, tmp_path / "v2", "rf-test-2", threshold=0.55))
+    v2 = register(second_version(trained_model_dir, tmp_path / "v2", 0.55))
 
     assert client.post(f"/api/models/{v1}/promote", headers=nurse.headers,
                        json={"scope": "fleet"}).status_code == 403  # fmt: skip
@@ -130,7 +130,7 @@ def test_automatic_rollback_when_nurses_reject_too_many_alarms(
 ):  # fmt: skip
     engineer = make_account(Role.ENGINEER)
     v1 = register(trained_model_dir)
-    v2 = register(derive_model(trained_model_dir, tmp_path / "v2", "rf-test-2", threshold=0.5))
+    v2 = register(second_version(trained_model_dir, tmp_path / "v2", 0.5))
     client.post(f"/api/models/{v1}/promote", headers=engineer.headers,
                 json={"scope": "robot", "target": "robot-d"})  # fmt: skip
     new = client.post(f"/api/models/{v2}/promote", headers=engineer.headers,

@@ -29,7 +29,7 @@ from backend.models import (
     SegmentStatus,
 )
 from tests.backend.conftest import ROBOT_TOKEN
-from tests.registry_fixtures import derive_model
+from tests.registry_fixtures import derive_model, second_version
 from vigil.protocol import FrameBatch, FrameRecord, Hello, ShadowDecision, TransportStart
 from worker.sweeps import shadow_disagreements
 
@@ -83,7 +83,7 @@ def test_robot_agent_process_switches_to_the_promoted_version_and_back_on_rollba
     the model it runs) against the real backend."""
     engineer = make_account(Role.ENGINEER)
     v1 = register(trained_model_dir)
-    v2 = register(derive_model(trained_model_dir, tmp_path / "v2", "rf-test-2", threshold=0.5))
+    v2 = register(second_version(trained_model_dir, tmp_path / "v2", 0.5))
     api = httpx.Client(base_url=f"http://{live_server}", headers=engineer.headers, timeout=10)
     first = api.post(f"/api/models/{v1}/promote", json={"scope": "robot", "target": "robot-a"})
     assert first.status_code == 201, first.text
@@ -193,7 +193,7 @@ def test_withdrawing_a_shadow_deployment_tells_the_connected_robot_to_stop_it(
 ):
     engineer = make_account(Role.ENGINEER)
     v1 = register(trained_model_dir)
-    v2 = register(derive_model(trained_model_dir, tmp_path / "v2", "rf-test-2", threshold=0.5))
+    v2 = register(second_version(trained_model_dir, tmp_path / "v2", 0.5))
     api = httpx.Client(base_url=f"http://{live_server}", headers=engineer.headers, timeout=10)
     target = {"scope": "robot", "target": "robot-b"}
     assert api.post(f"/api/models/{v1}/promote", json=target).status_code == 201
