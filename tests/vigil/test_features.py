@@ -152,11 +152,9 @@ def _descent(tops: list[float], fps: float = 30.0) -> dict[str, np.ndarray]:
     """Features of a still skeleton whose top above the floor follows `tops` (metres, one per
     frame; NaN: floor unknown), by name."""
     kp = np.zeros((N_KEYPOINTS, 3), np.float32)
-    kp[:, 0], kp[:, 1], kp[:, 2] = (
-        np.linspace(300, 340, N_KEYPOINTS),
-        np.linspace(100, 400, 25),
-        0.9,
-    )
+    kp[:, 0] = np.linspace(300, 340, N_KEYPOINTS)
+    kp[:, 1] = np.linspace(100, 400, N_KEYPOINTS)
+    kp[:, 2] = 0.9
     frames = [
         SkeletonFrame(kp, timestamp=i / fps, floor=np.array([top, top / 2, 0.1], np.float32))
         for i, top in enumerate(tops)
