@@ -12,26 +12,20 @@ def _event(sequence, kind, false_alarm=False, time_to_alarm_s=None):
     }
 
 
-SPLITS = [
-    {
-        "seed": 0,
+def _split(seed: int, fall_01_time_s: float) -> dict:
+    """adl-02 alarms and fall-02 is missed on every split; fall-01's time to alarm varies."""
+    return {
+        "seed": seed,
         "events": [
             _event("adl-01", "adl", False),
             _event("adl-02", "adl", True),
-            _event("fall-01", "fall", time_to_alarm_s=0.3),
+            _event("fall-01", "fall", time_to_alarm_s=fall_01_time_s),
             _event("fall-02", "fall", time_to_alarm_s=None),
         ],
-    },
-    {
-        "seed": 1,
-        "events": [
-            _event("adl-01", "adl", False),
-            _event("adl-02", "adl", True),
-            _event("fall-01", "fall", time_to_alarm_s=0.7),
-            _event("fall-02", "fall", time_to_alarm_s=None),
-        ],
-    },
-]
+    }
+
+
+SPLITS = [_split(0, 0.3), _split(1, 0.7)]
 
 
 def test_per_sequence_counts_alarming_splits_and_keeps_every_fall_time():
