@@ -30,7 +30,6 @@ from vigil.skeleton import INDEX
 RESULTS = Path(__file__).resolve().parent / "results" / "fall_onset.json"
 FRACTIONS = (0.05, 0.1, 0.2)
 DROP_WINDOWS_S = (0.2, 0.3, 0.4, 0.5)
-BASELINE_FRAMES = 30  # one second at URFD's 30 frames/s
 END_FRAMES = 3  # the height at the end of a window: the median of its last 3 frames (glitches)
 _HIPS = [INDEX["r_hip"], INDEX["l_hip"]]
 
@@ -115,7 +114,7 @@ def measure(directory: Path | None = None) -> dict:
                         float(seq.timestamps[onset] - seq.timestamps[first])
                     )
     return {
-        "data": "REAL: URFD, the 30 fall sequences",
+        "data": "REAL: URFD, the 30 falls (onsets) and 40 daily activities (drop speeds)",
         "emergency_frames": emergency_total,
         "falling_frames": falling_total,
         "emergency_frames_before_onset": {
