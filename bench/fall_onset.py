@@ -138,6 +138,7 @@ def measure(directory: Path | None = None) -> dict:
         # time somewhere; every daily activity drops at least `adl_fastest_drop_min_m` in that
         # time somewhere, and `falls_dropping_less` falls go down less than that in their first
         # that many seconds.
+        "falls_total": len(fall_drops[DROP_WINDOWS_S[0]]),
         "adl_total": len(adl_fastest[DROP_WINDOWS_S[0]]),
         "drop_after_first_emergency": compare_drops(fall_drops, adl_fastest),
     }

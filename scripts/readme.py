@@ -148,6 +148,32 @@ def _detection_splits() -> str | None:
     return text
 
 
+def _fall_onset() -> str | None:
+    data = _load("fall_onset.json")
+    if data is None or "drop_after_first_emergency" not in data:
+        return None
+    bound = data["frame_recall_bound"]["depth_height_drop"]
+    onset = data["median_onset_s"]["depth_height_drop"]
+    drops = data["drop_after_first_emergency"]
+    first, last = min(drops, key=float), max(drops, key=float)
+    return (
+        f"**Why frame recall and time to alarm are hard** (`make bench-fall-onset` → "
+        f"`bench/results/fall_onset.json`, {data['data']}): URFD labels the second before a "
+        f"fall reaches the floor Emergency, often before the body moves. In the median fall the "
+        f"depth height H has dropped by 10 % {_fmt(onset['0.1'])} s and by 20 % "
+        f"{_fmt(onset['0.2'])} s after the first Emergency frame; a detector that needs a 10 % "
+        f"drop stays below a frame recall of {_fmt(bound['0.1'])}. And a fall's first moments "
+        f"are not fast: in its first {first} s the median fall's top goes down "
+        f"{_fmt(drops[first]['median_fall_drop_m'])} m, while every one of the "
+        f"{data['adl_total']} daily activities goes down at least "
+        f"{_fmt(drops[first]['adl_fastest_drop_min_m'])} m in {first} s somewhere, more than "
+        f"{drops[first]['falls_dropping_less']} of the {data['falls_total']} falls do in their "
+        f"first {first} s; in {last} s: {_fmt(drops[last]['median_fall_drop_m'])} m against "
+        f"{_fmt(drops[last]['adl_fastest_drop_min_m'])} m, with "
+        f"{drops[last]['falls_dropping_less']} falls below that."
+    )
+
+
 def _ingest() -> str | None:
     data = _load("ingest.json")
     if data is None:
@@ -269,6 +295,7 @@ def _registry() -> str | None:
 BENCH_SECTIONS = (
     _detection,
     _detection_splits,
+    _fall_onset,
     _floor_measures,
     _ingest,
     _robot,
