@@ -73,7 +73,8 @@ def derive_model(source: Path, out: Path, version: str, **changes) -> Path:
 
 def second_version(source: Path, out: Path, threshold: float) -> Path:
     """`rf-test-2`: the same graph at another threshold, with a 400 ms delay. The small test
-    model chooses its delay on 12 recordings (0.7-0.9 s), so at a higher threshold its gold-set
-    falls alarm only just before they end; the shorter delay keeps the version a clear pass of
-    the promotion gate, which these tests need in order to exercise rollout and rollback."""
+    model chooses its delay on 12 recordings (a long one with feature version 5), so at a higher
+    threshold its gold-set falls alarm only just before they end; the shorter delay keeps the
+    version a clear pass of the promotion gate, which these tests need in order to exercise
+    rollout and rollback."""
     return derive_model(source, out, "rf-test-2", threshold=threshold, delay_ms=400)
