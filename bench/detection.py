@@ -37,6 +37,8 @@ SCHEMA_KEYS = (
     "threshold",
     "delay_ms",
 )
+# Beyond the schema: where in the falls the missed Emergency frames are.
+EXTRA_KEYS = ("recall_by_onset",)
 
 
 def frame_latency_ms(model_dir: Path, sequences) -> dict:
@@ -127,7 +129,9 @@ def main(argv: list[str] | None = None) -> int:
         "feature_version": FEATURE_VERSION,
         "folds": report["folds"],
         "best": report["best"],
-        "models": [{key: row[key] for key in SCHEMA_KEYS} for row in report["models"]],
+        "models": [
+            {key: row[key] for key in (*SCHEMA_KEYS, *EXTRA_KEYS)} for row in report["models"]
+        ],
         "retrain_s": round(report["retrain_s"], 1),
         "cross_validation_s": round(report["evaluation_s"], 1),
         "frames": report["frames"],

@@ -109,6 +109,22 @@ def _detection() -> str | None:
     ]
     if extras:
         text += "\n\n" + "; ".join(extras) + "."
+    best = next(m for m in data["models"] if m["name"] == data["best"])
+    if "recall_by_onset" in best:
+        bins = best["recall_by_onset"]
+        missed = sum(b["missed"] for b in bins)
+        parts = [
+            f"{b['missed']} of {b['emergency_frames']} "
+            + (f"from {_fmt(b['from_s'])} s on" if b["to_s"] is None else
+               f"{_fmt(b['from_s'])}-{_fmt(b['to_s'])} s")
+            for b in bins
+        ]  # fmt: skip
+        text += (
+            f"\n\nWhere the best model's {missed} missed Emergency frames are (before the delay "
+            "filter; by time since the fall's first Emergency-labelled frame): "
+            + ", ".join(parts)
+            + "."
+        )
     return text
 
 

@@ -3,7 +3,12 @@ import pytest
 
 from vigil.classes import TransportMode
 from worker.training.data import FrameData
-from worker.training.selection import StreamScores, operating_curve
+from worker.training.selection import (
+    ONSET_BINS_S,
+    StreamScores,
+    evaluate_folds,
+    operating_curve,
+)
 
 FPS = 10
 N = 30
@@ -52,3 +57,18 @@ def test_operating_curve_pools_streams():
     stream = _crafted_stream()
     (point,) = operating_curve([stream, stream], (0.3,), (0.1,))
     assert (point["falls_total"], point["adl_total"], point["adl_false_alarms"]) == (2, 2, 2)
+
+
+def test_recall_by_onset_bins_missed_emergency_frames_by_time_since_the_first_label():
+    # Emergency from 1.0 s, scored high from 1.2 s: the frames at 1.0 and 1.1 s are missed.
+    result = evaluate_folds([(_crafted_stream(), 0.5, 0.1)])
+    bins = {(row["from_s"], row["to_s"]): row for row in result["recall_by_onset"]}
+    assert [key[0] for key in bins] == list(ONSET_BINS_S[:-1])
+    assert (bins[0.0, 0.2]["emergency_frames"], bins[0.0, 0.2]["missed"]) == (2, 2)
+    assert (bins[0.2, 0.4]["emergency_frames"], bins[0.2, 0.4]["missed"]) == (2, 0)
+    assert bins[1.0, None]["emergency_frames"] == 10
+    assert sum(row["emergency_frames"] for row in bins.values()) == 20
+    missed = sum(row["missed"] for row in bins.values())
+    assert missed == result["fn"]
+    # The daily activity's burst is not an Emergency frame and counts nowhere here.
+    assert result["frame_recall"] == pytest.approx(1 - missed / 20)

@@ -193,9 +193,15 @@ def markdown(report: dict) -> str:
             ev["sequence"] for ev in row["events"] if ev["kind"] == "fall" and not ev["detected"]
         ]
         alarms = [ev["sequence"] for ev in row["events"] if ev["false_alarm"]]
+        by_onset = ", ".join(
+            f"{b['missed']}/{b['emergency_frames']} "
+            + (f">= {b['from_s']:g} s" if b["to_s"] is None else f"{b['from_s']:g}-{b['to_s']:g} s")
+            for b in row.get("recall_by_onset", [])
+        )
         lines.append(
             f"- **{row['name']}**: missed falls: {', '.join(missed) or 'none'}; "
-            f"sequences with a false alarm: {', '.join(alarms) or 'none'}"
+            f"sequences with a false alarm: {', '.join(alarms) or 'none'}; "
+            f"missed Emergency frames by time since the first Emergency label: {by_onset or '-'}"
         )
     lines += ["", "Plots: `plots/<model>_roc_pr.png`, `plots/<model>_delay.png`."]
     return "\n".join(lines) + "\n"

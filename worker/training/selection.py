@@ -14,7 +14,7 @@ from vigil.events import (
     event_f1,
     summarise,
 )
-from vigil.policy import alarm_mask, apply_delay, raw_decisions
+from vigil.policy import TIME_EPSILON, alarm_mask, apply_delay, raw_decisions
 from vigil.thresholds import f1_from_counts, override_threshold, youden_threshold
 from worker.training.data import FrameData
 
@@ -149,6 +149,40 @@ def choose_operating_point(
     return best[1], best[2], {**best[3], "threshold": best[1], "youden_threshold": youden}
 
 
+#: Bins of "seconds since the sequence's first Emergency-labelled frame" for recall_by_onset.
+ONSET_BINS_S = (0.0, 0.2, 0.4, 0.6, 1.0, float("inf"))
+
+
+def _onset_seconds(stream: StreamScores, e: int) -> np.ndarray:
+    """Per frame of the stream: seconds since its sequence's first Emergency label (NaN before
+    it and in sequences without one)."""
+    since = []
+    for _, times, target, _ in stream.per_sequence():
+        first = _first_emergency(times, target, e)
+        since.append(times - first if first is not None else np.full(len(times), np.nan))
+    return np.concatenate(since) if since else np.zeros(0)
+
+
+def _recall_by_onset(emergency_onset_s: np.ndarray, caught: np.ndarray) -> list[dict]:
+    """Frame recall (before the delay filter) of Emergency frames binned by time since the first
+    Emergency label of their sequence: shows which part of a fall the missed frames are in."""
+    rows = []
+    for low, high in zip(ONSET_BINS_S[:-1], ONSET_BINS_S[1:], strict=True):
+        in_bin = (emergency_onset_s >= low - TIME_EPSILON) & (
+            emergency_onset_s < high - TIME_EPSILON
+        )
+        frames = int(in_bin.sum())
+        rows.append(
+            {
+                "from_s": low,
+                "to_s": None if np.isinf(high) else high,
+                "emergency_frames": frames,
+                "missed": int(np.sum(in_bin & ~caught)),
+            }
+        )
+    return rows
+
+
 def evaluate(stream: StreamScores, threshold: float, delay_s: float) -> dict:
     return evaluate_folds([(stream, threshold, delay_s)])
 
@@ -157,7 +191,7 @@ def evaluate_folds(folds: list[tuple[StreamScores, float, float]]) -> dict:
     """Table 3 columns plus per-event results over held-out folds, each fold with the threshold
     and delay chosen on its own training sequences."""
     tp = fp = fn = fp_d = fn_d = 0
-    events, stable = [], []
+    events, stable, onset_s, caught = [], [], [], []
     for stream, threshold, delay_s in folds:
         classes = stream.data.classes
         e = classes.index(Decision.EMERGENCY)
@@ -174,6 +208,8 @@ def evaluate_folds(folds: list[tuple[StreamScores, float, float]]) -> dict:
         fn_d += int(np.sum(~pred_d & true))
         events += fold_events
         stable += _time_to_stable(stream, filtered, e)
+        onset_s.append(_onset_seconds(stream, e)[scored][true])
+        caught.append(pred[true])
     return {
         "frame_recall": tp / max(tp + fn, 1),
         "frame_precision": tp / max(tp + fp, 1),
@@ -190,6 +226,10 @@ def evaluate_folds(folds: list[tuple[StreamScores, float, float]]) -> dict:
             "mean": float(np.mean(stable)) if stable else None,
             "std": float(np.std(stable)) if stable else None,
         },
+        "recall_by_onset": _recall_by_onset(
+            np.concatenate(onset_s) if onset_s else np.zeros(0),
+            np.concatenate(caught) if caught else np.zeros(0, bool),
+        ),
         "fold_operating_points": [
             {"threshold": t, "delay_ms": int(round(d * 1000))} for _, t, d in folds
         ],
