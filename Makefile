@@ -35,11 +35,19 @@ chromium:
 run: setup
 	$(PY) -m scripts.run_all
 
+# The two database runs go side by side: the suite keeps one core busy, the machine has two. The
+# PostgreSQL run's output is printed after the SQLite run's, so the two do not interleave.
 test: $(STAMP) frontend chromium lint
-	@echo "== Python tests on SQLite (with browser tests) =="
-	VIGIL_TEST_DATABASE=sqlite $(PY) -m pytest -q $(PYTEST_ARGS)
-	@echo "== Python tests on PostgreSQL (throwaway database) =="
-	VIGIL_TEST_DATABASE=postgresql $(PY) -m pytest -q -m "not browser" $(PYTEST_ARGS)
+	@echo "== Python tests on SQLite (with browser tests) and on PostgreSQL (throwaway database), side by side =="
+	@postgresql_log=$$(mktemp); \
+	VIGIL_TEST_DATABASE=postgresql $(PY) -m pytest -q -p no:cacheprovider -m "not browser" \
+		$(PYTEST_ARGS) >"$$postgresql_log" 2>&1 & postgresql_pid=$$!; \
+	echo "-- SQLite --"; \
+	VIGIL_TEST_DATABASE=sqlite $(PY) -m pytest -q $(PYTEST_ARGS); sqlite_status=$$?; \
+	wait $$postgresql_pid; postgresql_status=$$?; \
+	echo "-- PostgreSQL --"; cat "$$postgresql_log"; rm -f "$$postgresql_log"; \
+	echo "SQLite run exit status $$sqlite_status, PostgreSQL run exit status $$postgresql_status"; \
+	test $$sqlite_status -eq 0 && test $$postgresql_status -eq 0
 	@echo "== Frontend unit tests =="
 	cd frontend && npm test
 

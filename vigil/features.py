@@ -140,6 +140,7 @@ FEATURE_SETS: dict[str, np.ndarray] = {
 #: Feature sets whose models need floor measures in the frames (vigil.floor).
 NEEDS_FLOOR = frozenset({"full"})
 _MAX_HORIZON = max(HORIZONS_S)
+_HORIZONS = np.array(HORIZONS_S)
 _TEMPORAL_START = FEATURE_NAMES.index(f"{_DELTAS[0]}@{HORIZONS_S[0]}")
 _PEAK_SOURCE = [FEATURE_NAMES.index(f"{p}@0.4") - _TEMPORAL_START for p in _PEAKED]
 _DESCENT_SOURCE = FEATURE_NAMES.index(f"d_floor_top@{_DESCENT_HORIZON_S}") - _TEMPORAL_START
@@ -277,9 +278,10 @@ def _hold(pose: np.ndarray, state: np.ndarray, usable: np.ndarray, last: tuple |
     return pose_out, state_out
 
 
-def _deltas(state_now: np.ndarray, state_then: np.ndarray, horizon: float) -> np.ndarray:
-    """(m, len(_STATE)) pairs -> (m, len(_DELTAS)) in body sizes (the larger of then and now, so
-    one frame with a few clustered keypoints cannot blow a change up); 0 if no pose was seen then.
+def _deltas(state_now: np.ndarray, state_then: np.ndarray, horizon) -> np.ndarray:
+    """(m, len(_STATE)) pairs at one horizon, or at (m,) horizons -> (m, len(_DELTAS)) in body
+    sizes (the larger of then and now, so one frame with a few clustered keypoints cannot blow a
+    change up); 0 if no pose was seen then.
     When the earlier pose is older than the horizon (the person was not detected in between), the
     change is scaled down to the horizon, so reappearing elsewhere does not look like a fast drop.
     """
@@ -473,14 +475,18 @@ class FeatureExtractor:
         while len(self._times) > 1 and self._times[1] <= t - _MAX_HORIZON:
             self._times.pop(0)
             self._states.pop(0)
-        times = np.array(self._times)
-        now = np.array([t])
-        temporal = []
-        for horizon in HORIZONS_S:
-            then = self._states[int(_lag_index(times, now, horizon)[0])]
-            delta = _deltas(state, then[None], horizon)[:, _HORIZON_COLUMNS[horizon]]
-            temporal.append(np.where(usable[:, None], delta, 0.0))
-        temporal = np.concatenate(temporal, axis=1)
+        # All horizons in one _deltas call: per frame, numpy's call overhead is what costs.
+        then = _lag_index(np.array(self._times), t, _HORIZONS)
+        deltas = _deltas(
+            np.repeat(state, len(_HORIZONS), axis=0),
+            np.stack([self._states[i] for i in then]),
+            _HORIZONS,
+        )
+        temporal = np.concatenate(
+            [deltas[k, _HORIZON_COLUMNS[h]] for k, h in enumerate(HORIZONS_S)]
+        )[None]
+        if not usable[0]:
+            temporal = np.zeros_like(temporal)
         self._peaks = _peak_step(self._peaks, temporal[0, _PEAK_SOURCE], dt)
         held = (~usable).astype(np.float64)[:, None]
         top_drop = temporal[0, _DESCENT_SOURCE]
