@@ -161,16 +161,23 @@ def import_coco(session: Session, document: dict, name: str | None = None) -> Vi
 
 def import_csv(session: Session, text: str) -> dict[str, int]:
     """Labels onto videos that exist (by name); returns segments created per video."""
-    reader = csv.DictReader(io.StringIO(text))
-    if tuple(reader.fieldnames or ())[:4] != CSV_COLUMNS[:4]:
-        raise LabellingError(f"csv: header must start with {','.join(CSV_COLUMNS[:4])}")
-    per_video: dict[str, dict[int, str | None]] = {}
-    for line, row in enumerate(reader, start=2):
-        try:
-            frame = int(row["frame"])
-        except (TypeError, ValueError) as error:
-            raise LabellingError(f"csv line {line}: frame must be an integer") from error
-        per_video.setdefault(row["video"], {})[frame] = row["label_key"] or None
+    # newline="": the csv module splits lines itself, so a lone \r ends a line as in any editor.
+    reader = csv.DictReader(io.StringIO(text, newline=""))
+    try:
+        header = tuple(reader.fieldnames or ())
+        if header[:4] != CSV_COLUMNS[:4]:
+            raise LabellingError(f"csv: header must start with {','.join(CSV_COLUMNS[:4])}")
+        per_video: dict[str, dict[int, str | None]] = {}
+        for row in reader:
+            try:
+                frame = int(row["frame"])
+            except (TypeError, ValueError) as error:
+                raise LabellingError(
+                    f"csv line {reader.line_num}: frame must be an integer"
+                ) from error
+            per_video.setdefault(row["video"], {})[frame] = row["label_key"] or None
+    except csv.Error as error:
+        raise LabellingError(f"csv line {reader.line_num}: {error}") from error
     created: dict[str, int] = {}
     for name, labels in per_video.items():
         video = video_by_name(session, name)

@@ -97,6 +97,16 @@ def test_bad_import_files_are_refused_and_store_nothing(client, urfd_videos, ann
         client, annotator, "csv", "video,frame,ts,label_key\nnope,0,0,walking\n"
     )
     assert unknown_video.status_code == 422 and "nope" in unknown_video.json()["detail"]
+    # Found by the OpenAPI fuzzer: malformed CSV is a clear 422 naming the line, never a 500.
+    for malformed in (
+        'video,frame,ts,label_key\nfall-01,"1,0,walking\n',
+        "video,frame,ts,label_key\nfall-01,1\x00,0,walking\n",
+    ):
+        refused = _import(client, annotator, "csv", malformed)
+        assert refused.status_code == 422 and "csv line" in refused.json()["detail"], malformed
+    not_a_number = _import(client, annotator, "csv", "video,frame,ts,label_key\rfall-01,x,0,a\r")
+    assert not_a_number.status_code == 422
+    assert not_a_number.json()["detail"] == "csv line 2: frame must be an integer"
     for field, value in (("floor", [1e300, 0.5, None]), ("floor", [1.0]), ("depth", [1e39] * 25)):
         document = _export(client, annotator, urfd_videos["fall-01"], "json").json()
         document["frames"][3][field] = value
