@@ -14,6 +14,8 @@ import json
 import sys
 from pathlib import Path
 
+from worker.training.selection import onset_bin_label
+
 ROOT = Path(__file__).resolve().parent.parent
 README = ROOT / "README.md"
 RESULTS = ROOT / "bench" / "results"
@@ -113,12 +115,7 @@ def _detection() -> str | None:
     if "recall_by_onset" in best:
         bins = best["recall_by_onset"]
         missed = sum(b["missed"] for b in bins)
-        parts = [
-            f"{b['missed']} of {b['emergency_frames']} "
-            + (f"from {_fmt(b['from_s'])} s on" if b["to_s"] is None else
-               f"{_fmt(b['from_s'])}-{_fmt(b['to_s'])} s")
-            for b in bins
-        ]  # fmt: skip
+        parts = [f"{b['missed']} of {b['emergency_frames']} {onset_bin_label(b)}" for b in bins]
         text += (
             f"\n\nWhere the best model's {missed} missed Emergency frames are (before the delay "
             "filter; by time since the fall's first Emergency-labelled frame): "

@@ -177,7 +177,8 @@ def import_csv(session: Session, text: str) -> dict[str, int]:
                 ) from error
             per_video.setdefault(row["video"], {})[frame] = row["label_key"] or None
     except csv.Error as error:
-        raise LabellingError(f"csv line {reader.line_num}: {error}") from error
+        # line_num counts the lines parsed so far; the one that failed is the next.
+        raise LabellingError(f"csv line {reader.line_num + 1}: {error}") from error
     created: dict[str, int] = {}
     for name, labels in per_video.items():
         video = video_by_name(session, name)

@@ -17,6 +17,7 @@ from worker.training.cross_validation import cross_validate, select
 from worker.training.data import FrameData
 from worker.training.plots import delay_metrics, roc_pr
 from worker.training.publish import publish
+from worker.training.selection import onset_bin_label
 from worker.training.trainers import Trainer
 
 TABLE_COLUMNS = (
@@ -194,8 +195,7 @@ def markdown(report: dict) -> str:
         ]
         alarms = [ev["sequence"] for ev in row["events"] if ev["false_alarm"]]
         by_onset = ", ".join(
-            f"{b['missed']}/{b['emergency_frames']} "
-            + (f">= {b['from_s']:g} s" if b["to_s"] is None else f"{b['from_s']:g}-{b['to_s']:g} s")
+            f"{b['missed']}/{b['emergency_frames']} {onset_bin_label(b)}"
             for b in row.get("recall_by_onset", [])
         )
         lines.append(

@@ -153,6 +153,13 @@ def choose_operating_point(
 ONSET_BINS_S = (0.0, 0.2, 0.4, 0.6, 1.0, float("inf"))
 
 
+def onset_bin_label(row: dict) -> str:
+    """A recall_by_onset row's time range as text: '0.2-0.4 s' or 'from 1 s on'."""
+    if row["to_s"] is None:
+        return f"from {row['from_s']:g} s on"
+    return f"{row['from_s']:g}-{row['to_s']:g} s"
+
+
 def _onset_seconds(stream: StreamScores, e: int) -> np.ndarray:
     """Per frame of the stream: seconds since its sequence's first Emergency label (NaN before
     it and in sequences without one)."""
