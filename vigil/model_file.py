@@ -15,6 +15,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
 
 from vigil.classes import MODE_CLASSES, Decision, TransportMode
+from vigil.inputs import InputName, model_inputs, normalise
 
 MANIFEST_NAME = "manifest.json"
 MODEL_NAME = "model.onnx"
@@ -39,6 +40,11 @@ class ModelManifest(BaseModel):
     feature_version: int
     feature_set: str = "full"
     window: int = Field(default=1, ge=1, description="frames of features per inference")
+    inputs: list[InputName] = Field(
+        default_factory=list,
+        description="what the model needs in every frame (vigil.inputs); derived from "
+        "feature_set for manifests written before the field existed",
+    )
     taxonomy_version: int
     threshold: float = Field(ge=0.0, le=1.0)
     delay_ms: int = Field(ge=0, le=10_000)
@@ -55,6 +61,12 @@ class ModelManifest(BaseModel):
         if "/" in value or "\\" in value or value in ("", ".", ".."):
             raise ValueError("file must be a plain file name next to the manifest")
         return value
+
+    @model_validator(mode="after")
+    def _inputs_known(self) -> ModelManifest:
+        inputs = normalise(self.inputs) if self.inputs else model_inputs(self.feature_set)
+        self.inputs = inputs
+        return self
 
     @model_validator(mode="after")
     def _classes_match_mode(self) -> ModelManifest:

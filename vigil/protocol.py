@@ -1,7 +1,7 @@
 """Robot <-> backend wire protocol (JSON text messages over a websocket), version 1.
 
 Robot -> server: ``hello`` (first message), ``transport_start``, ``frames``, ``transport_end``,
-``heartbeat``.  Server -> robot: ``welcome``, ``ack`` (highest sequence number committed to the
+``heartbeat``, ``detection_status``.  Server -> robot: ``welcome``, ``ack`` (highest sequence number committed to the
 database, never sent before the commit), ``assign_model``, ``error``.
 
 A message that does not validate closes the connection with one of the CLOSE_* codes and a
@@ -23,6 +23,7 @@ from pydantic import (
 )
 
 from vigil.classes import Decision, TransportMode
+from vigil.inputs import InputName
 from vigil.skeleton import N_FLOOR, N_KEYPOINTS
 
 PROTOCOL_VERSION = 1
@@ -54,6 +55,11 @@ class Hello(_Message):
     token: str = Field(min_length=1, max_length=256)
     agent_version: str = Field(default="unknown", max_length=64)
     running_model: str | None = Field(default=None, max_length=64)
+    # Protocol 1 extension: the inputs this robot can feed a model (vigil.inputs); older
+    # agents omit it and are taken to feed keypoints only.
+    inputs: list[InputName] | None = Field(
+        default=None, description="inputs the robot can feed a model: keypoints, depth, floor"
+    )
 
 
 class TransportStart(_Message):
@@ -126,11 +132,34 @@ class Heartbeat(_Message):
     )
 
 
+class DetectionStatus(_Message):
+    """Sent when the robot's detection degrades or recovers (protocol 1 extension).
+
+    degraded: the assigned model lacks an input it needs (``missing_inputs``: the depth stream
+    stopped, no camera mount...) and the robot classifies with ``running_model``, its
+    keypoints-only fallback (None: it has none and keeps the assigned model on what it has).
+    The backend raises a technical alarm "detection degraded" while degraded and clears it on
+    the next status with degraded false. Queued in the outbox like frames: it is never lost.
+    """
+
+    type: Literal["detection_status"] = "detection_status"
+    ts: FiniteFloat
+    transport_id: str | None = Field(default=None, max_length=64)
+    degraded: bool
+    missing_inputs: list[InputName] = Field(default_factory=list)
+    assigned_model: str | None = Field(default=None, max_length=64)
+    running_model: str | None = Field(default=None, max_length=64)
+    reason: str = Field(default="", max_length=500)
+
+
 RobotMessage = Annotated[
-    Hello | TransportStart | TransportEnd | FrameBatch | Heartbeat, Field(discriminator="type")
+    Hello | TransportStart | TransportEnd | FrameBatch | Heartbeat | DetectionStatus,
+    Field(discriminator="type"),
 ]
 robot_message_adapter: TypeAdapter[RobotMessage] = TypeAdapter(RobotMessage)
-MESSAGE_TYPES = frozenset({"hello", "transport_start", "transport_end", "frames", "heartbeat"})
+MESSAGE_TYPES = frozenset(
+    {"hello", "transport_start", "transport_end", "frames", "heartbeat", "detection_status"}
+)
 
 
 class ModelAssignment(_Message):
@@ -146,18 +175,26 @@ class ModelAssignment(_Message):
     stop_shadow: bool = Field(
         default=False, description="also stop the shadow model (only with shadow=false)"
     )
+    # Protocol 1 extension: a keypoints-only model the robot keeps beside its assigned one and
+    # switches to when the assigned model lacks an input (vigil.inputs). Sent only when true.
+    fallback: bool = Field(
+        default=False, description="the keypoints-only fallback, kept beside the assigned model"
+    )
 
     @model_validator(mode="after")
     def _stop_shadow_with_production_only(self) -> ModelAssignment:
         if self.stop_shadow and self.shadow:
             raise ValueError("stop_shadow: only allowed with shadow=false")
+        if self.fallback and (self.shadow or self.stop_shadow):
+            raise ValueError("fallback: not together with shadow or stop_shadow")
         return self
 
     @model_serializer(mode="wrap")
-    def _omit_stop_shadow_unless_set(self, handler: SerializerFunctionWrapHandler) -> dict:
+    def _omit_extensions_unless_set(self, handler: SerializerFunctionWrapHandler) -> dict:
         data = handler(self)
-        if not self.stop_shadow:
-            data.pop("stop_shadow", None)
+        for extension in ("stop_shadow", "fallback"):
+            if not getattr(self, extension):
+                data.pop(extension, None)
         return data
 
 
