@@ -69,6 +69,8 @@ class TransportStart(_Message):
     patient: str | None = Field(default=None, max_length=64, description="patient pseudonym")
     location: str | None = Field(default=None, max_length=128)
     ts: FiniteFloat
+    # Protocol 1 extension: the source's real frame rate (a 23.976 fps clip is not 30 fps).
+    fps: float | None = Field(default=None, gt=0, le=1000, allow_inf_nan=False)
 
 
 class TransportEnd(_Message):
