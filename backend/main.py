@@ -35,7 +35,7 @@ from backend.ingest import robot_ws
 from backend.ingest.registry import RobotRegistry
 from backend.ingest.writer import FrameWriter
 from backend.metrics import Metrics
-from backend.models.alarms import Alarm, AlarmState
+from backend.models.alarms import Alarm, AlarmKind, AlarmState
 from backend.realtime import browser_ws
 from backend.realtime.bus import AlarmBus
 from backend.realtime.hub import BrowserHub
@@ -119,8 +119,8 @@ def create_app(settings: Settings | None = None) -> FastAPI:
                     .group_by(Alarm.kind)
                 ).all()
             )
-        for kind in ("emergency", "pause", "robot_offline", "stream_stalled"):
-            metrics.open_alarms.labels(kind).set(counts.get(kind, 0))
+        for kind in AlarmKind:
+            metrics.open_alarms.labels(kind.value).set(counts.get(kind, 0))
         return Response(generate_latest(metrics.registry), media_type=CONTENT_TYPE_LATEST)
 
     @app.exception_handler(DataError)

@@ -9,13 +9,12 @@ from datetime import datetime, timedelta
 from statistics import median
 from typing import Literal, Protocol
 
-from backend.models.alarms import AlarmKind, Verdict
+from backend.models.alarms import TECHNICAL_KINDS, AlarmKind, Verdict
 
 ShiftName = Literal["early", "late", "night"]
 
 #: Shift start hours (UTC): early 06-14, late 14-22, night 22-06 (the night belongs to its start).
 SHIFT_STARTS: tuple[tuple[int, ShiftName], ...] = ((6, "early"), (14, "late"), (22, "night"))
-TECHNICAL_KINDS = frozenset({AlarmKind.ROBOT_OFFLINE, AlarmKind.STREAM_STALLED})
 
 
 class AlarmFacts(Protocol):

@@ -12,6 +12,7 @@ from backend.alarms.state import AlarmAction, next_state
 from backend.models._types import utcnow
 from backend.models.alarms import (
     PRIORITY_OF_KIND,
+    TECHNICAL_KINDS,
     Alarm,
     AlarmEvent,
     AlarmKind,
@@ -21,8 +22,6 @@ from backend.models.alarms import (
 )
 from backend.models.robots import Robot, Transport
 from backend.models.users import User
-
-TECHNICAL_KINDS = frozenset({AlarmKind.ROBOT_OFFLINE, AlarmKind.STREAM_STALLED})
 
 
 @dataclass(slots=True)
@@ -161,6 +160,15 @@ def resolve(
         note += f": {comment}"
     _record(session, alarm, AlarmAction.RESOLVE, before, f"{user.role}:{user.username}", user,
             note)  # fmt: skip
+    return alarm
+
+
+def clear(session: Session, alarm: Alarm, now: datetime, comment: str) -> Alarm:
+    """The system resolves a technical alarm whose cause ended (no verdict, no user)."""
+    before = alarm.state
+    alarm.state = next_state(before, AlarmAction.CLEAR)
+    alarm.updated_at = alarm.resolved_at = now
+    _record(session, alarm, AlarmAction.CLEAR, before, "system", comment=comment)
     return alarm
 
 

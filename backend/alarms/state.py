@@ -2,6 +2,7 @@
 
     open ──acknowledge──▶ acknowledged ──resolve──▶ resolved
       └──────────────────resolve──────────────────────▲
+      └──────────────────clear────────────────────────┘  (technical: the cause ended)
 
 Escalation and re-alarm do not change the state: they raise `escalation_level` or
 `realarmed_at` on an open or acknowledged alarm and push it again.
@@ -19,6 +20,7 @@ class AlarmAction(StrEnum):
     RESOLVE = "resolve"
     ESCALATE = "escalate"
     REALARM = "realarm"
+    CLEAR = "clear"  # the system resolves a technical alarm whose cause ended (no verdict)
 
 
 TRANSITIONS: dict[tuple[AlarmState, AlarmAction], AlarmState] = {
@@ -29,6 +31,8 @@ TRANSITIONS: dict[tuple[AlarmState, AlarmAction], AlarmState] = {
     (AlarmState.ACKNOWLEDGED, AlarmAction.RESOLVE): AlarmState.RESOLVED,
     (AlarmState.OPEN, AlarmAction.ESCALATE): AlarmState.OPEN,
     (AlarmState.ACKNOWLEDGED, AlarmAction.REALARM): AlarmState.ACKNOWLEDGED,
+    (AlarmState.OPEN, AlarmAction.CLEAR): AlarmState.RESOLVED,
+    (AlarmState.ACKNOWLEDGED, AlarmAction.CLEAR): AlarmState.RESOLVED,
 }
 
 

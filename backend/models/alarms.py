@@ -1,7 +1,7 @@
 from datetime import datetime
 from enum import StrEnum
 
-from sqlalchemy import ForeignKey, Index, String, Text, text
+from sqlalchemy import JSON, ForeignKey, Index, String, Text, text
 from sqlalchemy.orm import Mapped, mapped_column, relationship
 
 from backend.db import Base
@@ -14,6 +14,9 @@ class AlarmKind(StrEnum):
     PAUSE = "pause"
     ROBOT_OFFLINE = "robot_offline"
     STREAM_STALLED = "stream_stalled"
+    # The robot lacks an input its assigned model needs and classifies with its keypoints-only
+    # fallback (or with what it has); raised and cleared by the robot's detection_status.
+    DETECTION_DEGRADED = "detection_degraded"
 
 
 class AlarmPriority(StrEnum):
@@ -27,7 +30,12 @@ PRIORITY_OF_KIND = {
     AlarmKind.PAUSE: AlarmPriority.MEDIUM,
     AlarmKind.ROBOT_OFFLINE: AlarmPriority.TECHNICAL,
     AlarmKind.STREAM_STALLED: AlarmPriority.TECHNICAL,
+    AlarmKind.DETECTION_DEGRADED: AlarmPriority.TECHNICAL,
 }
+#: Alarms about the system rather than the patient (no verdict statistics per model version).
+TECHNICAL_KINDS = frozenset(
+    kind for kind, priority in PRIORITY_OF_KIND.items() if priority == AlarmPriority.TECHNICAL
+)
 
 
 class AlarmState(StrEnum):
@@ -66,7 +74,7 @@ class Alarm(Base):
     )
 
     id: Mapped[int] = mapped_column(primary_key=True)
-    kind: Mapped[AlarmKind] = mapped_column(String(16))
+    kind: Mapped[AlarmKind] = mapped_column(String(32))
     priority: Mapped[AlarmPriority] = mapped_column(String(16))
     state: Mapped[AlarmState] = mapped_column(String(16), default=AlarmState.OPEN)
     robot_id: Mapped[str] = mapped_column(ForeignKey("robots.id"))
@@ -97,6 +105,9 @@ class Alarm(Base):
     model_version: Mapped[str | None] = mapped_column(String(64), index=True)
     threshold: Mapped[float | None] = mapped_column()
     delay_ms: Mapped[int | None] = mapped_column()
+    # What a technical alarm is about, e.g. detection_degraded: {"missing_inputs", "reason",
+    # "assigned_model", "running_model", "status_ts"}.
+    details: Mapped[dict | None] = mapped_column(JSON)
 
     acknowledged_by_user: Mapped[User | None] = relationship(
         foreign_keys=[acknowledged_by_id], lazy="joined"

@@ -1,11 +1,12 @@
 from datetime import datetime
 
-from sqlalchemy import ForeignKey, Index, String
+from sqlalchemy import JSON, ForeignKey, Index, String
 from sqlalchemy.orm import Mapped, mapped_column
 
 from backend.db import Base
 from backend.models._types import UTCDateTime, utcnow
 from vigil.classes import TransportMode
+from vigil.inputs import KEYPOINTS, InputName, normalise
 
 
 class Robot(Base):
@@ -20,9 +21,28 @@ class Robot(Base):
     shadow_model_id: Mapped[int | None] = mapped_column(ForeignKey("model_versions.id"))
     running_model_version: Mapped[str | None] = mapped_column(String(64))
     agent_version: Mapped[str | None] = mapped_column(String(64))
+    # What the robot said in its last hello it can feed a model (vigil.inputs); None: it did
+    # not say (an older agent, or it never connected), which counts as keypoints only.
+    inputs: Mapped[list[str] | None] = mapped_column(JSON)
     last_seen_at: Mapped[datetime | None] = mapped_column(UTCDateTime)
     last_seq: Mapped[int | None] = mapped_column()
     created_at: Mapped[datetime] = mapped_column(UTCDateTime, default=utcnow)
+
+    @property
+    def feeds(self) -> list[InputName]:
+        """The inputs this robot can feed a model (keypoints only unless it said more)."""
+        return robot_inputs(self.inputs)
+
+
+def robot_inputs(reported: list[str] | None) -> list[InputName]:
+    if reported is None:
+        return [KEYPOINTS]
+    try:
+        return normalise(reported)
+    except ValueError:  # a name this backend does not know: ignore it
+        from vigil.inputs import ALL_INPUTS
+
+        return normalise(name for name in reported if name in ALL_INPUTS)
 
 
 class Transport(Base):
@@ -38,3 +58,5 @@ class Transport(Base):
     ended_at: Mapped[datetime | None] = mapped_column(UTCDateTime)
     # When a frame of this transport was last committed (stream-stalled detection).
     last_frame_at: Mapped[datetime | None] = mapped_column(UTCDateTime)
+    # The source's real frame rate from transport_start (None: not given, 30 assumed).
+    fps: Mapped[float | None] = mapped_column()
