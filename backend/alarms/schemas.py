@@ -41,6 +41,11 @@ class AlarmOut(BaseModel):
     model_version: str | None
     threshold: float | None
     delay_ms: int | None
+    details: dict | None = Field(
+        default=None,
+        description="technical alarms: what it is about (detection_degraded: missing_inputs, "
+        "reason, assigned_model, running_model, fallback, summary)",
+    )
 
 
 class AlarmEventOut(BaseModel):

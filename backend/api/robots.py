@@ -9,6 +9,7 @@ from backend.models._types import utcnow
 from backend.models.robots import Robot, Transport
 from backend.security import hash_robot_token, new_robot_token
 from vigil.classes import TransportMode
+from vigil.inputs import InputName
 from vigil.protocol import CLOSE_UNAUTHORIZED
 
 router = APIRouter(prefix="/api", tags=["robots"])
@@ -25,6 +26,11 @@ class RobotOut(BaseModel):
     shadow_model_id: int | None
     running_model_version: str | None
     agent_version: str | None
+    inputs: list[InputName] = Field(
+        description="what the robot can feed a model (its last hello; keypoints only when it "
+        "did not say)"
+    )
+    inputs_reported: bool = Field(description="false: an older agent, or it never connected")
     last_seen_at: datetime | None
     last_seq: int | None
     connected: bool = False
@@ -52,10 +58,14 @@ class TransportOut(BaseModel):
     started_at: datetime
     ended_at: datetime | None
     last_frame_at: datetime | None
+    fps: float | None = Field(default=None, description="the source's frame rate, if it said")
 
 
 def _robot_out(request: Request, robot: Robot) -> RobotOut:
-    out = RobotOut.model_validate({**robot.__dict__, "has_token": robot.token_hash is not None})
+    out = RobotOut.model_validate({
+        **robot.__dict__, "has_token": robot.token_hash is not None, "inputs": robot.feeds,
+        "inputs_reported": robot.inputs is not None,
+    })  # fmt: skip
     out.connected = request.app.state.robots.socket(robot.id) is not None
     return out
 

@@ -10,6 +10,7 @@ from datetime import UTC, datetime
 from sqlalchemy import select
 from sqlalchemy.orm import Session
 
+from backend.alarms import service as alarms
 from backend.alarms.service import DecisionEvidence, fold_evidence, raise_or_update
 from backend.ingest.bulk import insert_frame_rows
 from backend.ingest.bulk_update import update_rows
@@ -20,9 +21,10 @@ from backend.models.robots import Robot, Transport
 from backend.models.videos import Frame, Video
 from backend.security import robot_token_matches
 from vigil.classes import Decision, TransportMode
-from vigil.protocol import Hello, TransportEnd, TransportStart
+from vigil.protocol import DetectionStatus, Hello, TransportEnd, TransportStart
 
 ALARM_KIND_OF_DECISION = {Decision.EMERGENCY: AlarmKind.EMERGENCY, Decision.PAUSE: AlarmKind.PAUSE}
+DEFAULT_FPS = 30.0  # a robot transport whose transport_start gave no frame rate
 
 
 class RobotAuthError(Exception):
@@ -35,6 +37,8 @@ def authenticate(session: Session, hello: Hello) -> Robot:
         raise RobotAuthError("unknown robot or wrong or revoked token")
     robot.agent_version = hello.agent_version
     robot.running_model_version = hello.running_model
+    # Said at every connect; an agent that says nothing feeds keypoints only (None).
+    robot.inputs = list(hello.inputs) if hello.inputs is not None else None
     robot.last_seen_at = utcnow()
     return robot
 
@@ -58,10 +62,19 @@ def start_transport(session: Session, robot: Robot, message: TransportStart) -> 
             patient=message.patient,
             location=message.location,
             started_at=datetime.fromtimestamp(message.ts, UTC),
+            fps=message.fps,
         )
         session.add(transport)
     elif transport.robot_id != robot.id:
         raise ValueError(f"transport_id {message.transport_id} belongs to another robot")
+    elif message.fps is not None and transport.fps != message.fps:
+        # Sent again (a reconnect) with the real frame rate: the recording follows.
+        transport.fps = message.fps
+        video = session.scalars(
+            select(Video).where(Video.name == _video_name(robot.id, transport.id))
+        ).first()
+        if video is not None:
+            video.fps = message.fps
     return transport
 
 
@@ -91,6 +104,7 @@ class TransportState:
     mode: TransportMode
     patient: str | None
     location: str | None
+    fps: float | None = None
     last_frame_at: datetime | None = None
 
 
@@ -144,7 +158,7 @@ class IngestContext:
             for row in session.execute(
                 select(
                     Transport.id, Transport.robot_id, Transport.mode, Transport.patient,
-                    Transport.location,
+                    Transport.location, Transport.fps,
                 ).where(Transport.id.in_(missing))
             ):  # fmt: skip
                 self.transports[row.id] = TransportState(*row)
@@ -200,7 +214,7 @@ class IngestContext:
         """After the commit: a context for the next flush that keeps the robot, transport and
         video rows (as plain states, ORM objects converted) and nothing else."""
         transports = {
-            key: TransportState(t.id, t.robot_id, t.mode, t.patient, t.location)
+            key: TransportState(t.id, t.robot_id, t.mode, t.patient, t.location, t.fps)
             if isinstance(t, Transport) else t
             for key, t in self.transports.items()
         }  # fmt: skip
@@ -245,6 +259,7 @@ def _video_for(
             mode=transport.mode if transport else TransportMode.WALKING,
             camera=f"{robot.id}/front",
             location=transport.location if transport else None,
+            fps=(transport.fps if transport else None) or DEFAULT_FPS,
             person=transport.patient if transport else None,
             transport_id=transport.id if transport else None,
             robot_id=robot.id,
@@ -349,3 +364,84 @@ def store_frames(
     robot.last_seen_at = now
     unique_alarms = list({a.id: a for a in alarms.values()}.values())
     return IngestResult(highest, stored, duplicates, unique_alarms, new_alarm_ids)
+
+
+def degraded_details(message: DetectionStatus) -> dict:
+    """What the nurse board and the engineers read on a detection_degraded alarm."""
+    return {
+        "missing_inputs": list(message.missing_inputs),
+        "reason": message.reason,
+        "assigned_model": message.assigned_model,
+        "running_model": message.running_model,
+        "fallback": message.running_model is not None
+        and message.running_model != message.assigned_model,
+        "summary": degraded_summary(message),
+        "status_ts": message.ts,
+    }
+
+
+def degraded_summary(message: DetectionStatus) -> str:
+    words = {"depth": "depth", "floor": "floor measures", "keypoints": "keypoints"}
+    missing = "/".join(words.get(m, m) for m in message.missing_inputs) or "an input"
+    if message.running_model and message.running_model != message.assigned_model:
+        running = f"running keypoints-only fallback {message.running_model}"
+    elif message.running_model:
+        running = f"{message.running_model} runs on what is left"
+    else:
+        running = "no fallback model"
+    return f"no {missing}, {running}"
+
+
+def apply_detection_status(
+    session: Session,
+    robot: Robot | RobotState,
+    message: DetectionStatus,
+    context: IngestContext,
+) -> list[Alarm]:
+    """degraded: raise (or update) the robot's detection_degraded alarm for the transport;
+    recovered: clear every unresolved one of the robot. Returns the alarms changed.
+
+    The status travels in the robot's outbox and may be sent again after a reconnect: a status
+    no newer than the one the robot's latest degraded alarm last saw is a replay and is ignored,
+    so a replayed "degraded" cannot reopen what a later "recovered" cleared.
+    """
+    kind = AlarmKind.DETECTION_DEGRADED
+    latest = session.scalars(
+        select(Alarm)
+        .where(Alarm.robot_id == robot.id, Alarm.kind == kind)
+        .order_by(Alarm.raised_at.desc(), Alarm.id.desc())
+        .limit(1)
+    ).first()
+    seen_ts = (latest.details or {}).get("status_ts") if latest is not None else None
+    if seen_ts is not None and message.ts <= seen_ts:
+        return []
+    now = utcnow()
+    if not message.degraded:
+        cleared = []
+        for alarm in session.scalars(
+            select(Alarm).where(
+                Alarm.robot_id == robot.id, Alarm.kind == kind, Alarm.state != AlarmState.RESOLVED
+            )
+        ).unique():
+            alarm.details = {**(alarm.details or {}), "status_ts": message.ts,
+                             "recovered_reason": message.reason}  # fmt: skip
+            running = message.running_model or message.assigned_model or "its model"
+            note = f"detection recovered: {running} has every input it needs"
+            if message.reason:
+                note += f" ({message.reason})"
+            cleared.append(alarms.clear(session, alarm, now, note))
+        return cleared
+    transport = context.transport(session, message.transport_id)
+    if transport is not None and transport.robot_id != robot.id:
+        raise ValueError(f"transport_id {message.transport_id} belongs to another robot")
+    video = context.videos.get(_video_name(robot.id, transport.id if transport else None))
+    evidence = DecisionEvidence(
+        seq=robot.last_seq,  # the status follows this frame in the robot's stream
+        ts=message.ts,
+        model_version=message.running_model,
+        video_id=video.id if video is not None else None,
+    )
+    with session.no_autoflush:
+        alarm, _ = raise_or_update(session, robot, transport, kind, evidence)
+    alarm.details = degraded_details(message)
+    return [alarm]

@@ -25,11 +25,11 @@ from backend.ingest import service
 from backend.ingest.received import ReceivedFrame, ReceivedFrames
 from backend.metrics import Metrics
 from vigil import protocol
-from vigil.protocol import Heartbeat, TransportEnd, TransportStart
+from vigil.protocol import DetectionStatus, Heartbeat, TransportEnd, TransportStart
 
 log = logging.getLogger(__name__)
 
-RobotWork = ReceivedFrames | TransportStart | TransportEnd | Heartbeat
+RobotWork = ReceivedFrames | TransportStart | TransportEnd | Heartbeat | DetectionStatus
 CACHE_SECONDS = 5.0
 
 
@@ -234,6 +234,8 @@ class FrameWriter:
                         alarming.add(robot_id)
             else:
                 streams.add((robot_id, None))
+                if isinstance(job.message, DetectionStatus) and job.message.transport_id:
+                    streams.add((robot_id, job.message.transport_id))
         context.preload(session, streams, alarming)
         touched = {}
         # Consecutive frame batches of one connection become one store_frames call.
@@ -278,6 +280,19 @@ class FrameWriter:
                     robot.running_model_changed = True
                 if message.model_error:
                     log.warning("robot %s refused a model: %s", robot.id, message.model_error)
+            elif isinstance(message, DetectionStatus):
+                # In stream order: the frames before it (this flush's included) are stored.
+                robot.last_seen_at = service.utcnow()
+                try:
+                    changed = service.apply_detection_status(session, robot, message, context)
+                except ValueError as error:
+                    raise RejectedMessage(protocol.CLOSE_BAD_MESSAGE, str(error)) from None
+                for alarm in changed:
+                    touched[alarm.id] = alarm
+                if changed:
+                    log.warning("robot %s: detection %s: %s", robot.id,
+                                "degraded" if message.degraded else "recovered",
+                                message.reason or ", ".join(message.missing_inputs))  # fmt: skip
         store_run()
         outcome.stored = context.flush_rows(session)
         context.write_back(session)
