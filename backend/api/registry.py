@@ -12,11 +12,12 @@ from fastapi.responses import FileResponse
 from starlette.concurrency import run_in_threadpool
 
 from backend.db import transaction
-from backend.deps import CurrentUser, SessionDep, SettingsDep
+from backend.deps import MAX_DB_INT, CurrentUser, SessionDep, SettingsDep
 from backend.models.registry import Deployment, ModelVersion
 from backend.models.robots import Robot
 from backend.models.users import User
 from backend.registry import queries, rollout
+from backend.registry.capability import fallback_for
 from backend.registry.gate import gate_report
 from backend.registry.push import push_to_robots
 from backend.registry.schemas import (
@@ -124,6 +125,7 @@ async def promote(
             session, model, signer, body.scope, body.target, _report(model, request),
             canary_robot_id=body.canary_robot_id, comment=body.comment,
             require_second_approver=request.app.state.settings.require_second_approver,
+            only_capable=body.only_capable,
         )  # fmt: skip
         return queries.deployment_out(session, deployment), robots
 
@@ -141,7 +143,7 @@ async def start_shadow(
         model, signer = _model(session, model_id), session.get(User, user_id)
         deployment, robots = rollout.promote(
             session, model, signer, body.scope, body.target, _report(model, request),
-            comment=body.comment, shadow=True,
+            comment=body.comment, shadow=True, only_capable=body.only_capable,
         )  # fmt: skip
         return queries.deployment_out(session, deployment), robots
 
@@ -197,10 +199,21 @@ async def rollback_deployment(
 
 
 @router.get("/fleet")
-def fleet(session: SessionDep, user: CurrentUser, request: Request) -> list[FleetRobot]:
+def fleet(
+    session: SessionDep,
+    user: CurrentUser,
+    request: Request,
+    model_id: Annotated[
+        int | None,
+        Query(ge=1, le=MAX_DB_INT, description="also say whether each robot can feed this model"),
+    ] = None,
+) -> list[FleetRobot]:
+    """Target vs running version per robot, what it feeds, its fallback; with model_id, which
+    robots qualify for that model (a promotion to the others is refused)."""
     registry = request.app.state.robots
     connected = {r.id for r in session.query(Robot.id) if registry.socket(r.id) is not None}
-    return queries.fleet(session, connected)
+    model = _model(session, model_id) if model_id is not None else None
+    return queries.fleet(session, connected, model)
 
 
 # --- robots: model download, authenticated by the robot's own token ------------------------
@@ -218,11 +231,20 @@ def _robot_model(session, robot_id: str, authorization: str, version: str) -> Mo
     model = queries.model_by_version(session, version)
     if model is None:
         raise HTTPException(status.HTTP_404_NOT_FOUND, f"model {version} not found")
-    if model.id not in (robot.assigned_model_id, robot.shadow_model_id):
+    if model.id not in (robot.assigned_model_id, robot.shadow_model_id) and not _is_fallback_of(
+        session, robot, model
+    ):
         raise HTTPException(
             status.HTTP_403_FORBIDDEN, f"model {version} is not assigned to {robot_id}"
         )
     return model
+
+
+def _is_fallback_of(session, robot: Robot, model: ModelVersion) -> bool:
+    if robot.assigned_model_id is None:
+        return False
+    fallback = fallback_for(session, session.get(ModelVersion, robot.assigned_model_id))
+    return fallback is not None and fallback.id == model.id
 
 
 RobotIdHeader = Annotated[str, Header(alias="X-Robot-Id", min_length=1, max_length=64)]

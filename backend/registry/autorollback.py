@@ -2,17 +2,23 @@
 
 The share counts alarms raised by the deployment's model version since the deployment started
 that carry a nurse verdict; `false_alarm` verdicts are rejections. Nothing acts before
-`min_verdicts` verdicts exist, so one early rejection does not undo a rollout.
+`min_verdicts` verdicts exist, so one early rejection does not undo a rollout. A rollback the
+rollout service refuses (it would retire a mode's last keypoints-only fallback) is logged and
+left to the engineers.
 """
 
 from __future__ import annotations
+
+import logging
 
 from sqlalchemy import func, select
 from sqlalchemy.orm import Session
 
 from backend.models.alarms import Alarm, Verdict
 from backend.models.registry import Deployment, ModelVersion
-from backend.registry.rollout import LIVE, rollback
+from backend.registry.rollout import LIVE, RolloutError, rollback
+
+log = logging.getLogger(__name__)
 
 
 def rejection_share(session: Session, deployment: Deployment) -> tuple[int, int]:
@@ -47,5 +53,9 @@ def check(session: Session, budget: float, min_verdicts: int) -> list[tuple[Depl
                 f"automatic: nurses rejected {rejected} of {judged} alarms "
                 f"({rejected / judged:.0%} > budget {budget:.0%})"
             )
-            done.append((deployment, rollback(session, deployment, reason)))
+            try:
+                done.append((deployment, rollback(session, deployment, reason)))
+            except RolloutError as error:  # e.g. the mode's last keypoints-only fallback
+                log.warning("automatic rollback of deployment %s refused: %s (%s)",
+                            deployment.id, error, reason)  # fmt: skip
     return done

@@ -3,6 +3,11 @@
 Sent right after a rollout change is committed, after `welcome` when a robot (re)connects with a
 different version than assigned, and by a reconcile loop that resends an assignment a robot has
 not switched to (this also carries rollbacks made by the worker's automatic check).
+
+A robot whose assigned model needs more than keypoints also gets its mode's keypoints-only
+fallback (`fallback: true`, backend.registry.capability) after every `welcome` and whenever that
+fallback changes (a new one promoted, the assigned model changed); the reconcile loop notices
+changes made elsewhere.
 """
 
 from __future__ import annotations
@@ -17,6 +22,7 @@ from starlette.concurrency import run_in_threadpool
 
 from backend.models.registry import ModelVersion
 from backend.models.robots import Robot
+from backend.registry.capability import fallback_for
 from vigil.protocol import ModelAssignment
 
 log = logging.getLogger(__name__)
@@ -29,29 +35,34 @@ def http_base(websocket: WebSocket) -> str:
     return str(url.replace(scheme=scheme)).rstrip("/")
 
 
-def assignment_for(model: ModelVersion, base_url: str, shadow: bool) -> ModelAssignment:
+def assignment_for(
+    model: ModelVersion, base_url: str, shadow: bool, fallback: bool = False
+) -> ModelAssignment:
     return ModelAssignment(
         version=model.version,
         url=base_url + DOWNLOAD_PATH.format(version=model.version),
         sha256=model.sha256,
         manifest=model.manifest,
         shadow=shadow,
+        fallback=fallback,
     )
 
 
 def _wanted(
     app: FastAPI, robot_id: str
-) -> tuple[ModelVersion | None, ModelVersion | None, str | None]:
+) -> tuple[ModelVersion | None, ModelVersion | None, ModelVersion | None, str | None]:
+    """(assigned, shadow, fallback, running version) of a robot."""
     with app.state.session_factory() as session:
         robot = session.get(Robot, robot_id)
         if robot is None:
-            return None, None, None
+            return None, None, None, None
         assigned = (
             session.get(ModelVersion, robot.assigned_model_id) if robot.assigned_model_id else None
         )
         shadow = session.get(ModelVersion, robot.shadow_model_id) if robot.shadow_model_id else None
+        fallback = fallback_for(session, assigned)
         session.expunge_all()
-        return assigned, shadow, robot.running_model_version
+        return assigned, shadow, fallback, robot.running_model_version
 
 
 def _sent(app: FastAPI) -> dict:
@@ -68,6 +79,13 @@ def _shadows_sent(app: FastAPI) -> dict[str, str]:
     return app.state.shadows_sent
 
 
+def _fallbacks_sent(app: FastAPI) -> dict[str, str]:
+    """robot id -> fallback version sent on its current connection."""
+    if not hasattr(app.state, "fallbacks_sent"):
+        app.state.fallbacks_sent = {}
+    return app.state.fallbacks_sent
+
+
 def _socket(app: FastAPI, robot_id: str) -> WebSocket | None:
     connection = app.state.robots.socket(robot_id)  # a RobotConnection (or a bare socket)
     if connection is None or getattr(connection, "closed", False):
@@ -80,9 +98,10 @@ async def push_to_robot(app: FastAPI, robot_id: str, force: bool = True) -> bool
     websocket = _socket(app, robot_id)
     if websocket is None:
         return False
-    assigned, shadow, running = await run_in_threadpool(_wanted, app, robot_id)
+    assigned, shadow, fallback, running = await run_in_threadpool(_wanted, app, robot_id)
     sent = _sent(app)
     shadows = _shadows_sent(app)
+    fallbacks = _fallbacks_sent(app)
     # A withdrawn shadow deployment: the production assignment also stops the shadow model
     # (protocol 1 extension). Without a production assignment the robot drops it on reconnect.
     stop_shadow = force and shadow is None and robot_id in shadows
@@ -94,6 +113,10 @@ async def push_to_robot(app: FastAPI, robot_id: str, force: bool = True) -> bool
         messages.append(production)
     if shadow is not None and force:
         messages.append(assignment_for(shadow, http_base(websocket), shadow=True))
+    if fallback is None:
+        fallbacks.pop(robot_id, None)  # nothing to withdraw: the robot keeps it unused
+    elif force or fallbacks.get(robot_id) != fallback.version:
+        messages.append(assignment_for(fallback, http_base(websocket), shadow=False, fallback=True))
     for message in messages:
         try:
             await websocket.send_text(message.model_dump_json())
@@ -102,8 +125,10 @@ async def push_to_robot(app: FastAPI, robot_id: str, force: bool = True) -> bool
             return False
         log.info("assigned %s%s to robot %s", message.version,
                  " (shadow)" if message.shadow else " (shadow stopped)" if message.stop_shadow
-                 else "", robot_id)  # fmt: skip
-        if message.shadow:
+                 else " (fallback)" if message.fallback else "", robot_id)  # fmt: skip
+        if message.fallback:
+            fallbacks[robot_id] = message.version
+        elif message.shadow:
             shadows[robot_id] = message.version
         elif message.stop_shadow:
             shadows.pop(robot_id, None)
@@ -121,9 +146,12 @@ async def on_robot_connected(websocket: WebSocket, robot_id: str) -> None:
     from what it reported in hello (or a shadow model is assigned)."""
     app = websocket.app
     _shadows_sent(app).pop(robot_id, None)  # the agent dropped its shadow model on welcome
-    assigned, shadow, running = await run_in_threadpool(_wanted, app, robot_id)
-    if (assigned is not None and assigned.version != running) or shadow is not None:
+    _fallbacks_sent(app).pop(robot_id, None)  # sent again after every welcome
+    assigned, shadow, fallback, running = await run_in_threadpool(_wanted, app, robot_id)
+    if shadow is not None:
         await push_to_robot(app, robot_id, force=True)
+    elif (assigned is not None and assigned.version != running) or fallback is not None:
+        await push_to_robot(app, robot_id, force=False)
 
 
 async def reconcile(app: FastAPI) -> list[str]:
@@ -131,21 +159,34 @@ async def reconcile(app: FastAPI) -> list[str]:
     resend_after = app.state.settings.assignment_resend_s
     sent = _sent(app)
 
-    def _lagging() -> list[tuple[str, str]]:
+    fallbacks = _fallbacks_sent(app)
+
+    def _assigned() -> list[tuple[str, str, str | None, str | None]]:
+        """(robot, assigned version, running version, fallback version) of robots with a model."""
+        cache: dict = {}
         with app.state.session_factory() as session:
             rows = session.execute(
-                select(Robot.id, ModelVersion.version, Robot.running_model_version).join(
+                select(Robot.id, ModelVersion, Robot.running_model_version).join(
                     ModelVersion, ModelVersion.id == Robot.assigned_model_id
                 )
             ).all()
-        return [(r, v) for r, v, running in rows if v != running]
+            out = []
+            for robot_id, model, running in rows:
+                fallback = fallback_for(session, model, cache)
+                out.append((robot_id, model.version, running,
+                            fallback.version if fallback else None))  # fmt: skip
+            return out
 
     pushed = []
-    for robot_id, version in await run_in_threadpool(_lagging):
+    for robot_id, version, running, fallback in await run_in_threadpool(_assigned):
         if _socket(app, robot_id) is None:
             continue
+        new_fallback = fallback is not None and fallbacks.get(robot_id) != fallback
+        if version == running and not new_fallback:
+            continue
         last = sent.get(robot_id)
-        if last and last[0] == version and time.monotonic() - last[1] < resend_after:
+        recent = last and last[0] == version and time.monotonic() - last[1] < resend_after
+        if recent and not new_fallback:
             continue
         if await push_to_robot(app, robot_id, force=False):
             pushed.append(robot_id)

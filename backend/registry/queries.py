@@ -7,9 +7,11 @@ from pathlib import Path
 from sqlalchemy import func, select
 from sqlalchemy.orm import Session
 
+from backend.models.alarms import Alarm, AlarmKind, AlarmState
 from backend.models.jobs import Job, JobStatus
 from backend.models.registry import Deployment, ModelVersion
 from backend.models.robots import Robot
+from backend.registry import capability
 from backend.registry.autorollback import rejection_share
 from backend.registry.schemas import DeploymentOut, FleetRobot, ModelDetail, ModelSummary
 
@@ -35,6 +37,8 @@ def summary(model: ModelVersion, assigned: int = 0) -> ModelSummary:
         threshold=model.manifest["threshold"], delay_ms=model.manifest["delay_ms"],
         gold={k: gold.get(k) for k in GOLD_HEADLINE} if gold else None,
         parent=(model.lineage or {}).get("parent"), robots_assigned=assigned,
+        inputs=capability.model_needs(model),
+        keypoints_only=capability.is_fallback_candidate(model),
     )  # fmt: skip
 
 
@@ -73,18 +77,40 @@ def list_deployments(session: Session, limit: int = 100) -> list[DeploymentOut]:
     return [deployment_out(session, d) for d in rows]
 
 
-def fleet(session: Session, connected: set[str]) -> list[FleetRobot]:
-    versions = dict(session.execute(select(ModelVersion.id, ModelVersion.version)).all())
+def fleet(
+    session: Session, connected: set[str], model: ModelVersion | None = None
+) -> list[FleetRobot]:
+    """Every robot's target vs running version, its inputs and fallback; with `model`, whether
+    each robot qualifies for it."""
+    models = {m.id: m for m in session.scalars(select(ModelVersion))}
     robots = session.scalars(select(Robot).order_by(Robot.ward, Robot.id))
+    degraded = set(
+        session.scalars(
+            select(Alarm.robot_id).where(
+                Alarm.kind == AlarmKind.DETECTION_DEGRADED, Alarm.state != AlarmState.RESOLVED
+            )
+        )
+    )
+    fallbacks: dict = {}
     out = []
     for robot in robots:
-        target = versions.get(robot.assigned_model_id)
+        target_model = models.get(robot.assigned_model_id)
+        target = target_model.version if target_model else None
+        shadow = models.get(robot.shadow_model_id)
+        fallback = capability.fallback_for(session, target_model, fallbacks)
+        missing = capability.missing_for(robot, model) if model is not None else []
         out.append(FleetRobot(
             id=robot.id, name=robot.name, ward=robot.ward, connected=robot.id in connected,
             target_version=target, running_version=robot.running_model_version,
-            shadow_version=versions.get(robot.shadow_model_id),
+            shadow_version=shadow.version if shadow else None,
             in_sync=target is None or target == robot.running_model_version,
             agent_version=robot.agent_version, last_seen_at=robot.last_seen_at,
+            inputs=robot.feeds, inputs_reported=robot.inputs is not None,
+            fallback_version=fallback.version if fallback else None,
+            target_feedable=target_model is None
+            or not capability.missing_for(robot, target_model),
+            detection_degraded=robot.id in degraded,
+            qualifies=None if model is None else not missing, missing_inputs=missing,
         ))  # fmt: skip
     return out
 

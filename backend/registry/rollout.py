@@ -4,6 +4,10 @@ A deployment names a model and a scope (one robot, a ward, the fleet). A promoti
 the gate starts with one canary robot (a scope of several robots) and reaches the rest on
 `advance`, once the canary reports that it runs the new version. Every robot's previous
 assignment is kept in the deployment, so a rollback restores exactly what each robot had.
+A model reaches only robots that feed every input it needs (backend.registry.capability): a
+scope holding a robot that cannot is refused (409) unless the promotion asks for
+`only_capable`, which leaves those robots out (listed in `rollout["skipped"]`). A rollback that
+would retire a mode's last keypoints-only production model (every robot's fallback) is refused.
 Services change the session; the request (or the job) commits.
 """
 
@@ -22,6 +26,7 @@ from backend.models.registry import (
 )
 from backend.models.robots import Robot
 from backend.models.users import User
+from backend.registry import capability
 
 ALLOWED: dict[DeploymentStatus, frozenset[DeploymentStatus]] = {
     DeploymentStatus.PENDING_APPROVAL: frozenset(
@@ -39,6 +44,10 @@ LIVE = (DeploymentStatus.CANARY, DeploymentStatus.ACTIVE)
 
 class RolloutError(ValueError):
     """A request that conflicts with the current state (HTTP 409)."""
+
+
+class CapabilityError(RolloutError):
+    """A robot in the scope cannot feed the model an input it needs (HTTP 409)."""
 
 
 def _move(deployment: Deployment, new: DeploymentStatus) -> None:
@@ -65,9 +74,29 @@ def robots_in_scope(session: Session, scope: DeploymentScope, target: str | None
     return robots
 
 
+def _capable(session: Session, deployment: Deployment, robots: list[Robot]) -> list[Robot]:
+    """The robots that can feed the deployment's model (their inputs may have changed since the
+    promotion: checked again at every assignment). Refuses, or with only_capable skips, the
+    others."""
+    model = session.get(ModelVersion, deployment.model_version_id)
+    checked = capability.qualify(robots, model)
+    refused = [q for q in checked if not q.qualifies]
+    if not refused:
+        return robots
+    if not deployment.rollout.get("only_capable"):
+        raise CapabilityError(capability.refusal(model, refused, len(checked)))
+    skipped = {**deployment.rollout.get("skipped", {}), **{q.robot_id: q.reason for q in refused}}
+    deployment.rollout = {**deployment.rollout, "skipped": skipped}
+    keep = {q.robot_id for q in checked if q.qualifies}
+    return [r for r in robots if r.id in keep]
+
+
 def _assign(session: Session, deployment: Deployment, robot_ids: list[str]) -> list[str]:
     previous = dict(deployment.rollout["previous"])
-    for robot in session.scalars(select(Robot).where(Robot.id.in_(robot_ids))):
+    robots = list(session.scalars(select(Robot).where(Robot.id.in_(robot_ids))))
+    robots = _capable(session, deployment, robots)
+    robot_ids = [r.id for r in robots]
+    for robot in robots:
         if deployment.shadow:
             previous.setdefault(robot.id, robot.shadow_model_id)
             robot.shadow_model_id = deployment.model_version_id
@@ -121,14 +150,28 @@ def promote(
     comment: str | None = None,
     shadow: bool = False,
     require_second_approver: bool = False,
+    only_capable: bool = False,
 ) -> tuple[Deployment, list[str]]:
-    """Create a deployment of a model whose gate passed; returns it and the robots to notify."""
+    """Create a deployment of a model whose gate passed; returns it and the robots to notify.
+
+    Every robot of the scope must feed the model's inputs (409 naming those that cannot);
+    with `only_capable` a ward or fleet scope is narrowed to the robots that can.
+    """
     if not shadow and not gate.get("passed"):
         failed = [c["name"] for c in gate.get("checks", []) if not c["passed"]]
         raise RolloutError(f"gate failed: {'; '.join(failed)}")
-    robots = [r.id for r in robots_in_scope(session, scope, target)]
-    if canary_robot_id is not None and canary_robot_id not in robots:
+    in_scope = robots_in_scope(session, scope, target)
+    if canary_robot_id is not None and canary_robot_id not in {r.id for r in in_scope}:
         raise ValueError(f"canary_robot_id: robot {canary_robot_id} is not in the scope")
+    checked = capability.qualify(in_scope, model)
+    refused = [q for q in checked if not q.qualifies]
+    narrow = only_capable and scope != DeploymentScope.ROBOT
+    if refused and (not narrow or len(refused) == len(checked)):
+        raise CapabilityError(capability.refusal(model, refused, len(checked)))
+    canary_refused = next((q for q in refused if q.robot_id == canary_robot_id), None)
+    if canary_refused is not None:
+        raise CapabilityError(f"canary_robot_id: {canary_refused.reason}")
+    robots = [q.robot_id for q in checked if q.qualifies]
     deployment = Deployment(
         model_version_id=model.id,
         previous_model_version_id=None,
@@ -145,7 +188,12 @@ def promote(
             "canary": canary_robot_id or robots[0],
             "previous": {},
             "assigned": [],
-        },
+            **(
+                {"only_capable": True, "skipped": {q.robot_id: q.reason for q in refused}}
+                if narrow
+                else {}
+            ),
+        },  # fmt: skip
     )
     session.add(deployment)
     session.flush()
@@ -189,6 +237,7 @@ def advance(session: Session, deployment: Deployment) -> list[str]:
 
 def rollback(session: Session, deployment: Deployment, reason: str) -> list[str]:
     """Give every robot of the deployment back what it had before (if it still runs this one)."""
+    _guard_last_fallback(session, deployment)
     _move(deployment, DeploymentStatus.ROLLED_BACK)
     deployment.rolled_back_at = utcnow()
     deployment.rollback_reason = reason
@@ -211,3 +260,33 @@ def rollback(session: Session, deployment: Deployment, reason: str) -> list[str]
     if not deployment.shadow and still_used is None:
         model.status = ModelStatus.RETIRED
     return changed
+
+
+def _guard_last_fallback(session: Session, deployment: Deployment) -> None:
+    """Refuse a rollback that would retire the last keypoints-only production model of a mode:
+    every robot of that mode whose model needs depth or floor falls back to it."""
+    model = session.get(ModelVersion, deployment.model_version_id)
+    if (
+        deployment.shadow
+        or ModelStatus(model.status) != ModelStatus.PRODUCTION
+        or not capability.is_fallback_candidate(model)
+    ):
+        return
+    previous = (deployment.rollout or {}).get("previous", {})
+    users = session.scalars(select(Robot).where(Robot.assigned_model_id == model.id)).all()
+    if any(robot.id not in previous for robot in users):
+        return  # another deployment's robots keep it: it is not retired
+    restored = [session.get(ModelVersion, previous[r.id]) for r in users if previous[r.id]]
+    if any(
+        m is not None and m.mode == model.mode and capability.is_fallback_candidate(m)
+        for m in restored
+    ):
+        return  # the rollback promotes another keypoints-only model of the mode back
+    if capability.fallback_model(session, model.mode, exclude=model.id) is not None:
+        return
+    raise RolloutError(
+        f"cannot roll back deployment {deployment.id}: {model.version} is the last promoted "
+        f"keypoints-only {model.mode} model, the fallback of every {model.mode} robot whose "
+        f"model needs depth or floor measures; promote another keypoints-only {model.mode} "
+        "model first"
+    )

@@ -5,6 +5,7 @@ from pydantic import BaseModel, ConfigDict, Field
 from backend.models.jobs import JobKind, JobStatus
 from backend.models.registry import DeploymentScope, DeploymentStatus, ModelStatus
 from vigil.classes import TransportMode
+from vigil.inputs import InputName
 
 
 class ModelSummary(BaseModel):
@@ -23,6 +24,12 @@ class ModelSummary(BaseModel):
     gold: dict | None = Field(description="headline gold-set figures")
     parent: str | None
     robots_assigned: int = 0
+    inputs: list[InputName] = Field(
+        default_factory=list, description="what the model needs in every frame (its manifest)"
+    )
+    keypoints_only: bool = Field(
+        default=False, description="needs keypoints only: can be a robot's fallback"
+    )
 
 
 class ModelDetail(ModelSummary):
@@ -39,17 +46,25 @@ class Comparison(BaseModel):
     events: list[dict] = Field(description="per gold-set recording: result under a and under b")
 
 
+ONLY_CAPABLE = (
+    "ward or fleet: leave out the robots that cannot feed the model (listed in "
+    "rollout.skipped) instead of refusing the promotion (409)"
+)
+
+
 class PromoteIn(BaseModel):
     scope: DeploymentScope
     target: str | None = Field(default=None, max_length=64, description="robot id or ward")
     canary_robot_id: str | None = Field(default=None, max_length=64)
     comment: str | None = Field(default=None, max_length=2000)
+    only_capable: bool = Field(default=False, description=ONLY_CAPABLE)
 
 
 class ShadowIn(BaseModel):
     scope: DeploymentScope
     target: str | None = Field(default=None, max_length=64)
     comment: str | None = Field(default=None, max_length=2000)
+    only_capable: bool = Field(default=False, description=ONLY_CAPABLE)
 
 
 class RollbackIn(BaseModel):
@@ -91,6 +106,23 @@ class FleetRobot(BaseModel):
     in_sync: bool
     agent_version: str | None
     last_seen_at: datetime | None
+    inputs: list[InputName] = Field(
+        description="what the robot can feed a model (its last hello; keypoints only if unsaid)"
+    )
+    inputs_reported: bool = Field(description="false: an older agent, or it never connected")
+    fallback_version: str | None = Field(
+        description="the keypoints-only model it keeps beside its target (None: not needed)"
+    )
+    target_feedable: bool = Field(description="it feeds every input its target model needs")
+    detection_degraded: bool = Field(
+        default=False, description="an unresolved detection_degraded alarm is open for it"
+    )
+    qualifies: bool | None = Field(
+        default=None, description="with ?model_id=: it feeds every input that model needs"
+    )
+    missing_inputs: list[InputName] = Field(
+        default_factory=list, description="with ?model_id=: what it lacks for that model"
+    )
 
 
 class JobIn(BaseModel):

@@ -1,5 +1,8 @@
 from __future__ import annotations
 
+from pathlib import Path
+
+import numpy as np
 import pytest
 
 from backend.db import transaction
@@ -7,11 +10,37 @@ from backend.models.jobs import JobKind, JobStatus
 from backend.models.robots import Robot
 from backend.security import hash_robot_token
 from tests.backend.conftest import ROBOT_TOKEN
-from tests.registry_fixtures import factory, trained_model_dir, urfd_db, worker_settings
+from tests.registry_fixtures import (
+    SMALL_GRID,
+    TRAIN,
+    factory,
+    trained_model_dir,
+    urfd_db,
+    worker_settings,
+)
 from worker import queue
 from worker.runner import Worker
 
 __all__ = ["factory", "trained_model_dir", "urfd_db", "worker_settings"]
+
+
+@pytest.fixture(scope="session")
+def keypoints_model_dir(tmp_path_factory) -> Path:
+    """`rf-kp-test-1`: like `trained_model_dir` but on the keypoints feature set (no floor
+    measures), so its manifest needs keypoints only: a robot's fallback."""
+    from worker.training.cross_validation import select
+    from worker.training.data import from_urfd
+    from worker.training.estimators import ModelSpec
+    from worker.training.publish import publish
+    from worker.training.trainers import SklearnTrainer
+
+    out = tmp_path_factory.mktemp("model") / "rf-kp-test"
+    data = from_urfd(names=TRAIN)
+    grid = {k: v[:1] for k, v in SMALL_GRID.items()}
+    trainer = SklearnTrainer(ModelSpec("rf-kp-test", "rf", grid, feature_set="keypoints"))
+    selected = select(trainer, data, np.arange(len(data.names)), n_inner=3, stride=2)
+    publish(trainer, selected, data, out, version="rf-kp-test-1")
+    return out
 
 
 @pytest.fixture
@@ -38,12 +67,17 @@ def register(factory, worker_settings):  # noqa: F811
     return run
 
 
+FEEDS_ALL = ["keypoints", "depth", "floor"]
+
+
 @pytest.fixture
 def fleet(session_factory) -> list[str]:
-    """Three robots in ward-a (same token as the `robot` fixture) and one in ward-b."""
+    """Three robots in ward-a (same token as the `robot` fixture) and one in ward-b; each said
+    in its last hello that it feeds keypoints, depth and floor measures (the test models use
+    the full feature set, which needs floor measures)."""
     with transaction(session_factory) as session:
         for robot_id, ward in (("robot-a", "ward-a"), ("robot-b", "ward-a"),
                                ("robot-c", "ward-a"), ("robot-d", "ward-b")):  # fmt: skip
-            session.add(Robot(id=robot_id, name=robot_id, ward=ward,
+            session.add(Robot(id=robot_id, name=robot_id, ward=ward, inputs=FEEDS_ALL,
                               token_hash=hash_robot_token(ROBOT_TOKEN)))  # fmt: skip
     return ["robot-a", "robot-b", "robot-c", "robot-d"]

@@ -76,14 +76,16 @@ def _wait_frames(session_factory, robot_id: str, version: str, timeout: float = 
 
 
 def test_robot_agent_process_switches_to_the_promoted_version_and_back_on_rollback(
-    live_server, make_account, fleet, urfd_db, register, trained_model_dir, tmp_path,
+    live_server, make_account, fleet, urfd_db, register, keypoints_model_dir, tmp_path,
     session_factory,
 ):  # fmt: skip
     """The real `vigil-robot simulate` agent (GENERATED transports, classified on the robot by
-    the model it runs) against the real backend."""
+    the model it runs) against the real backend. Keypoints-only models: the robot may feed them
+    whatever inputs its hello names."""
     engineer = make_account(Role.ENGINEER)
-    v1 = register(trained_model_dir)
-    v2 = register(second_version(trained_model_dir, tmp_path / "v2", 0.5))
+    v1 = register(keypoints_model_dir)
+    v2 = register(derive_model(keypoints_model_dir, tmp_path / "v2", "rf-kp-test-2",
+                               threshold=0.5, delay_ms=400))  # fmt: skip
     api = httpx.Client(base_url=f"http://{live_server}", headers=engineer.headers, timeout=10)
     first = api.post(f"/api/models/{v1}/promote", json={"scope": "robot", "target": "robot-a"})
     assert first.status_code == 201, first.text
@@ -93,37 +95,37 @@ def test_robot_agent_process_switches_to_the_promoted_version_and_back_on_rollba
     agent = subprocess.Popen(
         [sys.executable, "-m", "robot_agent.cli", "simulate", "--backend",
          f"ws://{live_server}/ws/robot", "--robots", "1", "--tokens-file", str(tokens),
-         "--model-dir", str(trained_model_dir), "--models-dir", str(models),
+         "--model-dir", str(keypoints_model_dir), "--models-dir", str(models),
          "--outbox-dir", str(tmp_path / "outbox"), "--transports", "1", "--duration-s", "600"],
         cwd=REPO, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
     )  # fmt: skip
     try:
-        _wait_running(session_factory, "robot-a", "rf-test-1")  # it starts with v1
-        _wait_frames(session_factory, "robot-a", "rf-test-1")  # and classifies frames with it
+        _wait_running(session_factory, "robot-a", "rf-kp-test-1")  # it starts with v1
+        _wait_frames(session_factory, "robot-a", "rf-kp-test-1")  # and classifies frames with it
         # Promoted while connected: pushed at once, downloaded with the robot token, verified.
         second = api.post(f"/api/models/{v2}/promote",
                           json={"scope": "robot", "target": "robot-a"}).json()  # fmt: skip
-        _wait_running(session_factory, "robot-a", "rf-test-2")
-        assert (models / "robot-a" / "rf-test-2" / "model.onnx").is_file()
+        _wait_running(session_factory, "robot-a", "rf-kp-test-2")
+        assert (models / "robot-a" / "rf-kp-test-2" / "model.onnx").is_file()
         row = {r["id"]: r for r in api.get("/api/fleet").json()}["robot-a"]
         assert (row["connected"], row["target_version"], row["running_version"], row["in_sync"]) \
-            == (True, "rf-test-2", "rf-test-2", True)  # fmt: skip
+            == (True, "rf-kp-test-2", "rf-kp-test-2", True)  # fmt: skip
         # One click back.
         assert api.post(f"/api/deployments/{second['id']}/rollback", json={}).status_code == 200
-        _wait_running(session_factory, "robot-a", "rf-test-1")
+        _wait_running(session_factory, "robot-a", "rf-kp-test-1")
         # A change made outside this backend (the worker's automatic rollback writes only the
         # database) reaches the robot through the backend's reconcile loop.
         with transaction(session_factory) as session:
             session.get(Robot, "robot-a").assigned_model_id = v2
-        _wait_running(session_factory, "robot-a", "rf-test-2")
-        _wait_frames(session_factory, "robot-a", "rf-test-2")  # it classifies with it
+        _wait_running(session_factory, "robot-a", "rf-kp-test-2")
+        _wait_frames(session_factory, "robot-a", "rf-kp-test-2")  # it classifies with it
         with session_factory() as session:  # it streamed frames classified by its models only
             versions = set(
                 session.scalars(
                     select(Frame.model_version).where(Frame.robot_id == "robot-a").distinct()
                 )
             )
-        assert versions == {"rf-test-1", "rf-test-2"}
+        assert versions == {"rf-kp-test-1", "rf-kp-test-2"}
     finally:
         agent.terminate()
         _, err = agent.communicate(timeout=20)
