@@ -24,12 +24,8 @@ class ModelSummary(BaseModel):
     gold: dict | None = Field(description="headline gold-set figures")
     parent: str | None
     robots_assigned: int = 0
-    inputs: list[InputName] = Field(
-        default_factory=list, description="what the model needs in every frame (its manifest)"
-    )
-    keypoints_only: bool = Field(
-        default=False, description="needs keypoints only: can be a robot's fallback"
-    )
+    inputs: list[InputName] = Field(description="what the model needs in every frame (manifest)")
+    keypoints_only: bool = Field(description="needs keypoints only: can be a robot's fallback")
 
 
 class ModelDetail(ModelSummary):
@@ -115,13 +111,13 @@ class FleetRobot(BaseModel):
     )
     target_feedable: bool = Field(description="it feeds every input its target model needs")
     detection_degraded: bool = Field(
-        default=False, description="an unresolved detection_degraded alarm is open for it"
+        description="an unresolved detection_degraded alarm is open for it"
     )
     qualifies: bool | None = Field(
         default=None, description="with ?model_id=: it feeds every input that model needs"
     )
     missing_inputs: list[InputName] = Field(
-        default_factory=list, description="with ?model_id=: what it lacks for that model"
+        description="with ?model_id=: what it lacks for that model (else empty)"
     )
 
 

@@ -64,8 +64,9 @@ def test_detection_degraded_is_raised_in_stream_order_and_cleared_on_recovery(
         assert browser.receive_json()["alarms"] == []
         connect(ws, robot, inputs=["keypoints", "depth"])
         ws.send_text(
-            TransportStart(transport_id="t-1", mode="walking", patient="P-4", location="lift 2",
-                           ts=0.0).model_dump_json()  # fmt: skip
+            TransportStart(
+                transport_id="t-1", mode="walking", patient="P-4", location="lift 2", ts=0.0
+            ).model_dump_json()  # fmt: skip
         )
         # Frames 0-2, then the status, then frame 3, all in one flush: the alarm is placed
         # after frame 2, where the robot's stream put it.

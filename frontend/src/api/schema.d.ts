@@ -633,7 +633,11 @@ export interface paths {
             path?: never;
             cookie?: never;
         };
-        /** Fleet */
+        /**
+         * Fleet
+         * @description Target vs running version per robot, what it feeds, its fallback; with model_id, which
+         *     robots qualify for that model (a promotion to the others is refused).
+         */
         get: operations["fleet_api_fleet_get"];
         put?: never;
         post?: never;
@@ -1101,7 +1105,7 @@ export interface components {
          * AlarmKind
          * @enum {string}
          */
-        AlarmKind: "emergency" | "pause" | "robot_offline" | "stream_stalled";
+        AlarmKind: "emergency" | "pause" | "robot_offline" | "stream_stalled" | "detection_degraded";
         /** AlarmOut */
         AlarmOut: {
             /** Id */
@@ -1159,6 +1163,13 @@ export interface components {
             threshold: number | null;
             /** Delay Ms */
             delay_ms: number | null;
+            /**
+             * Details
+             * @description technical alarms: what it is about (detection_degraded: missing_inputs, reason, assigned_model, running_model, fallback, summary)
+             */
+            details?: {
+                [key: string]: unknown;
+            } | null;
         };
         /** AlarmPageOut */
         AlarmPageOut: {
@@ -1348,6 +1359,41 @@ export interface components {
             agent_version: string | null;
             /** Last Seen At */
             last_seen_at: string | null;
+            /**
+             * Inputs
+             * @description what the robot can feed a model (its last hello; keypoints only if unsaid)
+             */
+            inputs: ("keypoints" | "depth" | "floor")[];
+            /**
+             * Inputs Reported
+             * @description false: an older agent, or it never connected
+             */
+            inputs_reported: boolean;
+            /**
+             * Fallback Version
+             * @description the keypoints-only model it keeps beside its target (None: not needed)
+             */
+            fallback_version: string | null;
+            /**
+             * Target Feedable
+             * @description it feeds every input its target model needs
+             */
+            target_feedable: boolean;
+            /**
+             * Detection Degraded
+             * @description an unresolved detection_degraded alarm is open for it
+             */
+            detection_degraded: boolean;
+            /**
+             * Qualifies
+             * @description with ?model_id=: it feeds every input that model needs
+             */
+            qualifies?: boolean | null;
+            /**
+             * Missing Inputs
+             * @description with ?model_id=: what it lacks for that model (else empty)
+             */
+            missing_inputs: ("keypoints" | "depth" | "floor")[];
         };
         /** FrameOut */
         FrameOut: {
@@ -1585,6 +1631,16 @@ export interface components {
              * @default 0
              */
             robots_assigned: number;
+            /**
+             * Inputs
+             * @description what the model needs in every frame (manifest)
+             */
+            inputs: ("keypoints" | "depth" | "floor")[];
+            /**
+             * Keypoints Only
+             * @description needs keypoints only: can be a robot's fallback
+             */
+            keypoints_only: boolean;
             /** Manifest */
             manifest: {
                 [key: string]: unknown;
@@ -1657,6 +1713,16 @@ export interface components {
              * @default 0
              */
             robots_assigned: number;
+            /**
+             * Inputs
+             * @description what the model needs in every frame (manifest)
+             */
+            inputs: ("keypoints" | "depth" | "floor")[];
+            /**
+             * Keypoints Only
+             * @description needs keypoints only: can be a robot's fallback
+             */
+            keypoints_only: boolean;
         };
         /** ProbabilityOut */
         ProbabilityOut: {
@@ -1690,6 +1756,12 @@ export interface components {
             canary_robot_id?: string | null;
             /** Comment */
             comment?: string | null;
+            /**
+             * Only Capable
+             * @description ward or fleet: leave out the robots that cannot feed the model (listed in rollout.skipped) instead of refusing the promotion (409)
+             * @default false
+             */
+            only_capable: boolean;
         };
         /** QueueItemOut */
         QueueItemOut: {
@@ -1802,6 +1874,16 @@ export interface components {
             running_model_version: string | null;
             /** Agent Version */
             agent_version: string | null;
+            /**
+             * Inputs
+             * @description what the robot can feed a model (its last hello; keypoints only when it did not say)
+             */
+            inputs: ("keypoints" | "depth" | "floor")[];
+            /**
+             * Inputs Reported
+             * @description false: an older agent, or it never connected
+             */
+            inputs_reported: boolean;
             /** Last Seen At */
             last_seen_at: string | null;
             /** Last Seq */
@@ -1942,6 +2024,12 @@ export interface components {
             target?: string | null;
             /** Comment */
             comment?: string | null;
+            /**
+             * Only Capable
+             * @description ward or fleet: leave out the robots that cannot feed the model (listed in rollout.skipped) instead of refusing the promotion (409)
+             * @default false
+             */
+            only_capable: boolean;
         };
         /** ShiftRow */
         ShiftRow: {
@@ -2067,6 +2155,11 @@ export interface components {
             ended_at: string | null;
             /** Last Frame At */
             last_frame_at: string | null;
+            /**
+             * Fps
+             * @description the source's frame rate, if it said
+             */
+            fps?: number | null;
         };
         /** UserIn */
         UserIn: {
@@ -3347,7 +3440,10 @@ export interface operations {
     };
     fleet_api_fleet_get: {
         parameters: {
-            query?: never;
+            query?: {
+                /** @description also say whether each robot can feed this model */
+                model_id?: number | null;
+            };
             header?: never;
             path?: never;
             cookie?: never;
@@ -3361,6 +3457,15 @@ export interface operations {
                 };
                 content: {
                     "application/json": components["schemas"]["FleetRobot"][];
+                };
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
                 };
             };
         };

@@ -1,6 +1,7 @@
 import { describe, expect, it } from "vitest";
 import type { Alarm } from "../api/types";
 import {
+  alarmTitle,
   applyMessage,
   emptyBoard,
   inWard,
@@ -109,5 +110,19 @@ describe("board ordering and sound", () => {
     expect(wardsOf(alarms)).toEqual(["A", "B"]);
     expect(inWard(alarms, "B").map((a) => a.id)).toEqual([1]);
     expect(inWard(alarms, null)).toHaveLength(3);
+  });
+});
+
+describe("alarm titles", () => {
+  it("says what a degraded detection lacks and what runs instead", () => {
+    const degraded = alarm({
+      kind: "detection_degraded",
+      priority: "technical",
+      details: { missing_inputs: ["depth", "floor"], assigned_model: "gbt-floor-2", running_model: "gbt-kp-3" },
+    });
+    expect(alarmTitle(degraded)).toBe("Detection degraded: no depth/floor measures, running keypoints-only fallback gbt-kp-3");
+    const noFallback = alarm({ kind: "detection_degraded", priority: "technical", details: { missing_inputs: ["floor"], assigned_model: "m", running_model: null } });
+    expect(alarmTitle(noFallback)).toBe("Detection degraded: no floor measures, no fallback model");
+    expect(alarmTitle(alarm({ kind: "robot_offline", priority: "technical" }))).toBe("Robot offline");
   });
 });

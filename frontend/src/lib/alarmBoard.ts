@@ -80,4 +80,22 @@ export const KIND_LABEL: Record<Alarm["kind"], string> = {
   pause: "Pause",
   robot_offline: "Robot offline",
   stream_stalled: "Stream stalled",
+  detection_degraded: "Detection degraded",
 };
+
+const INPUT_WORDS: Record<string, string> = { keypoints: "keypoints", depth: "depth", floor: "floor measures" };
+
+/** What a technical alarm is about, in a line: "Detection degraded: no depth/floor measures,
+ * running keypoints-only fallback gbt-kp-3" (from the alarm's details). */
+export function alarmTitle(alarm: Alarm): string {
+  const label = KIND_LABEL[alarm.kind];
+  if (alarm.kind !== "detection_degraded") return label;
+  const details = (alarm.details ?? {}) as Record<string, unknown>;
+  const missing = Array.isArray(details.missing_inputs) ? (details.missing_inputs as string[]) : [];
+  const running = typeof details.running_model === "string" ? details.running_model : null;
+  const assigned = typeof details.assigned_model === "string" ? details.assigned_model : null;
+  const what = missing.length ? `no ${missing.map((m) => INPUT_WORDS[m] ?? m).join("/")}` : "an input is missing";
+  const how = running && running !== assigned ? `running keypoints-only fallback ${running}`
+    : running ? `${running} runs on what is left` : "no fallback model";
+  return `${label}: ${what}, ${how}`;
+}

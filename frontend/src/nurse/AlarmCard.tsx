@@ -1,6 +1,6 @@
 import { Link } from "react-router-dom";
 import type { Alarm } from "../api/types";
-import { isRealarmed, KIND_LABEL, styleOf } from "../lib/alarmBoard";
+import { alarmTitle, isRealarmed, KIND_LABEL, styleOf } from "../lib/alarmBoard";
 import { elapsed } from "../lib/time";
 
 interface Props {
@@ -21,7 +21,7 @@ export function AlarmCard({ alarm, now, busy, onAcknowledge, onResolve }: Props)
       aria-label={`${KIND_LABEL[alarm.kind]} alarm ${alarm.id}`}
     >
       <header>
-        <span className="kind">{KIND_LABEL[alarm.kind]}</span>
+        <span className="kind">{alarmTitle(alarm)}</span>
         {alarm.escalation_level > 0 && (
           <span className="escalated" title="Not acknowledged in time: escalated">
             Escalated{alarm.escalation_level > 1 ? ` ×${alarm.escalation_level}` : ""}
@@ -34,6 +34,9 @@ export function AlarmCard({ alarm, now, busy, onAcknowledge, onResolve }: Props)
         )}
         <span className="since" title={alarm.raised_at}>{elapsed(alarm.raised_at, now)} ago</span>
       </header>
+      {alarm.kind === "detection_degraded" && typeof alarm.details?.reason === "string" && alarm.details.reason && (
+        <p className="technical-reason">{alarm.details.reason}</p>
+      )}
       <dl>
         <dt>Robot</dt><dd>{alarm.robot_id}</dd>
         <dt>Patient</dt><dd>{alarm.patient ?? "–"}</dd>

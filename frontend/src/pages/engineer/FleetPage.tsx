@@ -2,6 +2,11 @@ import { useEffect, useState } from "react";
 import { api, errorMessage } from "../../api/client";
 import type { Deployment, FleetRobot } from "./types";
 
+/** "keypoints, depth, floor" (or "keypoints (not reported)" for an agent that did not say). */
+export function inputsText(robot: Pick<FleetRobot, "inputs" | "inputs_reported">): string {
+  return robot.inputs.join(", ") + (robot.inputs_reported ? "" : " (not reported)");
+}
+
 export function FleetPage() {
   const [robots, setRobots] = useState<FleetRobot[] | null>(null);
   const [deployments, setDeployments] = useState<Deployment[]>([]);
@@ -35,12 +40,19 @@ export function FleetPage() {
       {error && <p role="alert" className="error">{error}</p>}
       {robots === null ? <p className="muted">Loading…</p> : (
         <table className="table" aria-label="Fleet">
-          <thead><tr><th>Robot</th><th>Ward</th><th>Connected</th><th>Target version</th><th>Running version</th><th>Shadow</th><th /></tr></thead>
+          <thead><tr><th>Robot</th><th>Ward</th><th>Connected</th><th>Inputs</th><th>Target version</th><th>Running version</th><th>Fallback</th><th>Shadow</th><th /></tr></thead>
           <tbody>{robots.map((r) => (
-            <tr key={r.id} className={r.in_sync ? "" : "out-of-sync"}>
+            <tr key={r.id} className={r.in_sync ? "" : "out-of-sync"} data-robot={r.id}>
               <td>{r.id}</td><td>{r.ward}</td><td>{r.connected ? "yes" : "no"}</td>
-              <td>{r.target_version ?? "–"}</td><td>{r.running_version ?? "–"}</td><td>{r.shadow_version ?? "–"}</td>
-              <td>{r.in_sync ? "in sync" : r.connected ? "switching…" : "pending: robot offline"}</td>
+              <td className="inputs">{inputsText(r)}</td>
+              <td>{r.target_version ?? "–"}{r.target_feedable ? "" : <span className="pill refused" title="the robot lacks an input this model needs"> cannot feed</span>}</td>
+              <td>{r.running_version ?? "–"}</td>
+              <td className="fallback">{r.fallback_version ?? "–"}</td>
+              <td>{r.shadow_version ?? "–"}</td>
+              <td>
+                {r.in_sync ? "in sync" : r.connected ? "switching…" : "pending: robot offline"}
+                {r.detection_degraded && <> <span className="pill kind-detection_degraded">detection degraded</span></>}
+              </td>
             </tr>))}</tbody>
         </table>
       )}

@@ -2,7 +2,8 @@ import { Fragment, useEffect, useState, type FormEvent } from "react";
 import { useParams } from "react-router-dom";
 import { api, errorMessage } from "../../api/client";
 import { JobProgress } from "./JobProgress";
-import { fmt, type Deployment, type GateReport, type GoldEvent, type JobKind, type ModelDetail } from "./types";
+import { inputsText } from "./FleetPage";
+import { fmt, type Deployment, type FleetRobot, type GateReport, type GoldEvent, type JobKind, type ModelDetail } from "./types";
 import { useJob } from "./useJobPolling";
 
 const TABLE3 = ["frame_recall", "frame_precision", "frame_f1", "fp", "fp_d", "fp_d_over_fp", "fn", "fn_d",
@@ -47,6 +48,7 @@ export function ModelPage() {
           <dt>Mode</dt><dd>{model.mode}</dd>
           <dt>Family</dt><dd>{model.kind}</dd>
           <dt>Threshold / delay</dt><dd>{fmt(model.threshold)} / {model.delay_ms} ms</dd>
+          <dt>Needs</dt><dd className="needs">{model.inputs.join(", ")}{model.keypoints_only ? " (can be a robot's fallback)" : ""}</dd>
           {Object.entries(model.lineage).map(([k, v]) => (<Fragment key={k}><dt>{k}</dt><dd>{fmt(v)}</dd></Fragment>))}
           <dt>sha256</dt><dd><code>{model.sha256}</code></dd>
         </dl>
@@ -84,7 +86,7 @@ export function ModelPage() {
         {job?.status === "failed" && <p role="alert" className="error">{job.message}</p>}
       </section>
       <WhatIf modelId={model.id} threshold={model.threshold} delayMs={model.delay_ms} />
-      <Promote modelId={model.id} gate={gate} onDone={load} />
+      <Promote modelId={model.id} needs={model.inputs} gate={gate} onDone={load} />
     </>
   );
 }
@@ -127,16 +129,30 @@ function WhatIf({ modelId, threshold, delayMs }: { modelId: number; threshold: n
   );
 }
 
-function Promote({ modelId, gate, onDone }: { modelId: number; gate: GateReport | null; onDone: () => void }) {
+/** The robots a promotion of this scope would reach. */
+export function inScope(robots: FleetRobot[], scope: "robot" | "ward" | "fleet", target: string): FleetRobot[] {
+  if (scope === "fleet") return robots;
+  return robots.filter((r) => (scope === "robot" ? r.id === target : r.ward === target));
+}
+
+function Promote({ modelId, needs, gate, onDone }: { modelId: number; needs: string[]; gate: GateReport | null; onDone: () => void }) {
   const [scope, setScope] = useState<"robot" | "ward" | "fleet">("fleet");
   const [target, setTarget] = useState("");
   const [canary, setCanary] = useState("");
   const [comment, setComment] = useState("");
+  const [onlyCapable, setOnlyCapable] = useState(false);
+  const [robots, setRobots] = useState<FleetRobot[] | null>(null);
   const [result, setResult] = useState<Deployment | null>(null);
   const [error, setError] = useState<string | null>(null);
+  const loadRobots = () => {
+    void api.GET("/api/fleet", { params: { query: { model_id: modelId } } }).then(({ data }) => data && setRobots(data));
+  };
+  useEffect(loadRobots, [modelId]);
+  const shown = robots ? inScope(robots, scope, target) : [];
+  const refused = shown.filter((r) => r.qualifies === false);
   async function send(shadow: boolean) {
     setError(null);
-    const body = { scope, target: target || null, comment: comment || null };
+    const body = { scope, target: target || null, comment: comment || null, only_capable: onlyCapable };
     const response = shadow
       ? await api.POST("/api/models/{model_id}/shadow", { params: { path: { model_id: modelId } }, body })
       : await api.POST("/api/models/{model_id}/promote", {
@@ -144,6 +160,7 @@ function Promote({ modelId, gate, onDone }: { modelId: number; gate: GateReport 
         });
     if (response.data) { setResult(response.data); onDone(); }
     else setError(errorMessage(response.error, "Promotion refused"));
+    loadRobots();
   }
   return (
     <section className="card">
@@ -166,11 +183,36 @@ function Promote({ modelId, gate, onDone }: { modelId: number; gate: GateReport 
         {scope !== "fleet" && <label>{scope === "robot" ? "Robot id" : "Ward"} <input name="target" value={target} onChange={(e) => setTarget(e.target.value)} /></label>}
         {scope !== "robot" && <label>Canary robot (optional) <input name="canary" value={canary} onChange={(e) => setCanary(e.target.value)} /></label>}
         <label>Comment <input name="comment" value={comment} onChange={(e) => setComment(e.target.value)} /></label>
+        {scope !== "robot" && (
+          <label className="inline">
+            <input name="only_capable" type="checkbox" checked={onlyCapable} onChange={(e) => setOnlyCapable(e.target.checked)} />
+            {" "}leave out robots that cannot feed it
+          </label>
+        )}
         <button className="primary" type="submit" disabled={!gate?.passed}>Sign off and promote</button>
         <button type="button" onClick={() => void send(true)}>Run in shadow mode</button>
       </form>
+      <h3>Robots in the scope</h3>
+      <p className="muted">
+        The model needs {needs.join(", ")} in every frame; a robot that cannot feed it is refused
+        {scope !== "robot" ? " (the whole promotion, unless robots that cannot are left out)" : ""}.
+      </p>
+      {robots === null ? <p className="muted">Loading…</p> : shown.length === 0 ? <p className="empty">No robot in this scope.</p> : (
+        <table className="table" aria-label="Qualifying robots">
+          <thead><tr><th>Robot</th><th>Ward</th><th>Inputs</th><th>Qualifies</th><th>Current target</th><th>Fallback</th></tr></thead>
+          <tbody>{shown.map((r) => (
+            <tr key={r.id} data-robot={r.id} className={r.qualifies ? "" : "refused"}>
+              <td>{r.id}</td><td>{r.ward}</td><td>{inputsText(r)}</td>
+              <td>{r.qualifies
+                ? <span className="pill qualifies">yes</span>
+                : <span className="pill refused">no: lacks {r.missing_inputs.join(", ")}</span>}</td>
+              <td>{r.target_version ?? "–"}</td><td>{r.fallback_version ?? "–"}</td>
+            </tr>))}</tbody>
+        </table>
+      )}
+      {refused.length > 0 && <p className="warning" aria-label="Refused robots">⚠ {refused.length} of {shown.length} robots cannot feed this model: {refused.map((r) => r.id).join(", ")}</p>}
       {error && <p role="alert" className="error">{error}</p>}
-      {result && <p role="status">Deployment {result.id}: {result.status}{result.shadow ? " (shadow)" : ""}{result.rollout?.canary && result.status === "canary" ? `, canary ${String(result.rollout.canary)}` : ""}.</p>}
+      {result && <p role="status">Deployment {result.id}: {result.status}{result.shadow ? " (shadow)" : ""}{result.rollout?.canary && result.status === "canary" ? `, canary ${String(result.rollout.canary)}` : ""}{result.rollout?.skipped ? `; left out: ${Object.keys(result.rollout.skipped as Record<string, string>).join(", ")}` : ""}.</p>}
     </section>
   );
 }

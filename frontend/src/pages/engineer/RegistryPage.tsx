@@ -54,7 +54,7 @@ export function RegistryPage() {
         <div className="table-wrap">
           <table className="table" aria-label="Models">
             <thead><tr>
-              <th>Pick</th><th>Version</th><th>Status</th><th>Mode</th><th>Gold falls</th>
+              <th>Pick</th><th>Version</th><th>Status</th><th>Mode</th><th>Needs</th><th>Gold falls</th>
               <th>Gold false alarms</th><th>Frame F1</th><th>Threshold</th><th>Delay</th><th>Robots</th><th>Created</th>
             </tr></thead>
             <tbody>
@@ -64,6 +64,7 @@ export function RegistryPage() {
                   <td><Link to={`/engineer/models/${m.id}`}>{m.version}</Link></td>
                   <td><span className={`pill status-${m.status}`}>{m.status}</span></td>
                   <td>{m.mode}</td>
+                  <td>{m.inputs.join(", ")}</td>
                   <td>{m.gold ? `${fmt(m.gold.falls_detected)}/${fmt(m.gold.falls_total)}` : "not evaluated"}</td>
                   <td>{m.gold ? `${fmt(m.gold.adl_false_alarms)}/${fmt(m.gold.adl_total)}` : "–"}</td>
                   <td>{fmt(m.gold?.frame_f1)}</td>
