@@ -2,7 +2,7 @@
 `python -m bench.floor_measures` (make bench-floor) writes bench/results/floor_measures.json.
 
 URFD ships 11 real depth frames of fall-01 (camera 0). For each, the depth at the MoveNet
-keypoints is sampled from the 16-bit PNG (robot_agent.depth, as on the robot) and turned into
+keypoints is sampled from the 16-bit PNG (vigil.depth, as on the robot) and turned into
 floor measures by vigil.floor with the Kinect intrinsics. URFD does not publish the camera's
 height and pitch, so those two numbers are fitted (least squares) to the official H and D of
 the same frames: the figures are how far the keypoint-based measures scatter around the
@@ -22,7 +22,7 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from backend.labelling.importers.urfd import KINECT_INTRINSICS
-from robot_agent.depth import sample_depth
+from vigil.depth import sample_depth
 from robot_agent.sources.replay import URFD_DEPTH_SCALE_MM, read_depth_png, urfd_image_frames
 from vigil.datasets import urfd
 from vigil.floor import CameraMount, floor_measures

@@ -18,7 +18,7 @@ from robot_agent.client import LinkFatal, RobotLink
 from robot_agent.models import ModelRefused, fetch_model, remember_running
 from robot_agent.outbox import Outbox
 from robot_agent.pipeline import Pipeline
-from robot_agent.sources.base import Observation
+from vigil.observation import Observation
 from vigil.protocol import ModelAssignment
 
 log = logging.getLogger(__name__)

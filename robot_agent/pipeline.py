@@ -18,17 +18,17 @@ from typing import Protocol
 
 import numpy as np
 
-from robot_agent.depth import sample_depth
 from robot_agent.outbox import Outbox, Priority
-from robot_agent.sources.base import Observation
-from robot_agent.tracking import PatientTracker as TrackingPatientTracker
 from vigil.classes import Decision, TransportMode
+from vigil.depth import sample_depth
 from vigil.features import NEEDS_FLOOR
 from vigil.floor import CameraMount, floor_measures
+from vigil.observation import Observation
 from vigil.protocol import FrameRecord, TransportEnd, TransportStart
 from vigil.runtime import Classification, FrameClassifier
 from vigil.skeleton import SkeletonFrame, empty_keypoints
 from vigil.taxonomy import DEFAULT_TAXONOMY
+from vigil.tracking import PatientTracker as TrackingPatientTracker
 
 log = logging.getLogger(__name__)
 

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from robot_agent.sources.base import Observation
+from vigil.observation import Observation
 from vigil.skeleton import SkeletonFrame
 
 DEFAULT_WINDOW = 5  # pixels on a side; odd

@@ -55,7 +55,8 @@ def is_keypoints_only(inputs: Iterable[str]) -> bool:
 
 
 def describe_missing(model: str, missing: Iterable[str], robot: str | None = None) -> str:
-    """"robot robot-1 cannot feed model gbt-2026...: it has no floor measures" (for 409s/alarms)."""
+    """A sentence for 409s and alarms: "robot robot-1 cannot feed model gbt-...: it has no floor
+    measures"."""
     words = {KEYPOINTS: "keypoints", DEPTH: "depth at the keypoints", FLOOR: "floor measures"}
     what = " and ".join(words[m] for m in missing)
     who = f"robot {robot}" if robot else "this robot"

@@ -1,8 +1,8 @@
 """Robot <-> backend wire protocol (JSON text messages over a websocket), version 1.
 
 Robot -> server: ``hello`` (first message), ``transport_start``, ``frames``, ``transport_end``,
-``heartbeat``, ``detection_status``.  Server -> robot: ``welcome``, ``ack`` (highest sequence number committed to the
-database, never sent before the commit), ``assign_model``, ``error``.
+``heartbeat``, ``detection_status``.  Server -> robot: ``welcome``, ``ack`` (highest sequence
+number committed to the database, never sent before the commit), ``assign_model``, ``error``.
 
 A message that does not validate closes the connection with one of the CLOSE_* codes and a
 reason naming the bad field; frames stored before it are unaffected.

@@ -26,17 +26,17 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 from enum import StrEnum
 
-import cv2
 import numpy as np
 
-from robot_agent.depth import people_with_depth
-from robot_agent.sources.base import Observation
+from vigil.depth import people_with_depth
+from vigil.observation import Observation
 from vigil.skeleton import INDEX, SkeletonFrame
 
 TORSO = np.array([INDEX[k] for k in ("neck", "r_shoulder", "l_shoulder", "mid_hip", "r_hip",
                                      "l_hip")])  # fmt: skip
 MIN_SHARED_JOINTS = 3
 MIN_PERSON_KEYPOINTS = 4
+SCALE_MEMORY = 0.97  # share of a track's remembered body size kept per frame
 
 
 class TrackState(StrEnum):
@@ -90,10 +90,13 @@ def skeleton_height(keypoints: np.ndarray) -> float:
     return float(max(box[3] - box[1], box[2] - box[0], 1.0))
 
 
-def detect_markers(
-    rgb: np.ndarray, dictionary: int = cv2.aruco.DICT_4X4_50
-) -> dict[int, np.ndarray]:
-    """ArUco marker id -> centre (x, y) in pixels of the image."""
+def detect_markers(rgb: np.ndarray, dictionary: int | None = None) -> dict[int, np.ndarray]:
+    """ArUco marker id -> centre (x, y) in pixels of the image (OpenCV's DICT_4X4_50 unless
+    ``dictionary`` says otherwise). OpenCV is imported here: only sources with RGB need it."""
+    import cv2
+
+    if dictionary is None:
+        dictionary = cv2.aruco.DICT_4X4_50
     grey = cv2.cvtColor(rgb, cv2.COLOR_BGR2GRAY) if rgb.ndim == 3 else rgb
     detector = cv2.aruco.ArucoDetector(cv2.aruco.getPredefinedDictionary(dictionary))
     corners, ids, _ = detector.detectMarkers(grey)
@@ -124,8 +127,12 @@ def marker_wearer(
 
 def central_closest(people: list[SkeletonFrame], image_width: float) -> int | None:
     """Index of the most central, closest person (see the module docstring), None if nobody
-    has enough keypoints."""
-    candidates = [i for i, p in enumerate(people) if p.present.sum() >= MIN_PERSON_KEYPOINTS]
+    has a keypoint. People with at least MIN_PERSON_KEYPOINTS keypoints are preferred: a pose
+    estimator's stray one- or two-joint detection is chosen only when nobody better is there."""
+    counts = [int(p.present.sum()) for p in people]
+    candidates = [i for i, n in enumerate(counts) if n >= MIN_PERSON_KEYPOINTS]
+    if not candidates:
+        candidates = [i for i, n in enumerate(counts) if n > 0]
     if not candidates:
         return None
     offsets, distances = [], []
@@ -135,7 +142,7 @@ def central_closest(people: list[SkeletonFrame], image_width: float) -> int | No
         kp = people[i].keypoints
         centre_x = float(np.mean(kp[kp[:, 2] > 0, 0]))
         offsets.append(abs(centre_x - image_width / 2) / (image_width / 2))
-        distances.append(depths[i] if use_depth else 1.0 / skeleton_height(kp))
+        distances.append(depths[i] if use_depth else 1.0 / max(skeleton_height(kp), 1.0))
     distances_arr = np.asarray(distances)
     score = np.asarray(offsets) + distances_arr / distances_arr.min() - 1.0
     return candidates[int(np.argmin(score))]
@@ -157,16 +164,36 @@ def match_cost(predicted: np.ndarray, candidate: np.ndarray, scale: float) -> fl
     return float(gaps.mean() / scale)
 
 
+def _gap_to_box(point: np.ndarray, box: np.ndarray) -> float:
+    """Pixels from ``point`` to the nearest point of ``box`` (0 inside)."""
+    return float(np.linalg.norm(np.maximum(np.maximum(box[:2] - point, point - box[2:]), 0.0)))
+
+
+def body_gap(predicted: np.ndarray, candidate: np.ndarray, scale: float) -> float:
+    """How far apart two skeletons' bodies are, whatever their poses, in units of ``scale``:
+    the smaller of the gaps from each one's centre to the other's box (0 when a centre lies
+    inside the other box). A person falling changes every joint's place within a few frames,
+    and the pose estimator may see only a part of them, but the body stays where it was."""
+    a, b = _box(predicted), _box(candidate)
+    if a is None or b is None:
+        pa, pb = predicted[predicted[:, 2] > 0, :2], candidate[candidate[:, 2] > 0, :2]
+        if not len(pa) or not len(pb):
+            return float("inf")
+        return float(np.linalg.norm(pa.mean(0) - pb.mean(0)) / scale)
+    centre_a, centre_b = (a[:2] + a[2:]) / 2, (b[:2] + b[2:]) / 2
+    return min(_gap_to_box(centre_a, b), _gap_to_box(centre_b, a)) / scale
+
+
 class _Track:
     """One person followed from frame to frame (the patient or someone to tell apart)."""
 
     __slots__ = ("keypoints", "depth", "velocity", "scale", "missed", "born", "bystander")
 
-    def __init__(self, person: SkeletonFrame, born: int) -> None:
+    def __init__(self, person: SkeletonFrame, born: int, min_scale: float) -> None:
         self.keypoints = person.keypoints.copy()
         self.depth = person_depth(person)
         self.velocity = np.zeros(2, np.float32)  # px per frame of the skeleton's centre
-        self.scale = max(skeleton_height(self.keypoints), 20.0)
+        self.scale = max(skeleton_height(self.keypoints), min_scale)
         self.missed = 0
         self.born = born  # frame count when first seen
         self.bystander = False  # seen in the same frame as the patient: not the patient
@@ -186,7 +213,7 @@ class _Track:
         """Both distances known and further apart than ``limit`` metres."""
         return bool(abs(person_depth(person) - self.depth) > limit)  # NaN compares False
 
-    def accept(self, person: SkeletonFrame) -> None:
+    def accept(self, person: SkeletonFrame, min_scale: float) -> None:
         keypoints = person.keypoints
         depth = person_depth(person)
         if np.isfinite(depth):
@@ -201,7 +228,9 @@ class _Track:
         merged[~present] = self.keypoints[~present]
         merged[~present, :2] += self.velocity * frames
         self.keypoints = merged
-        self.scale = max(skeleton_height(keypoints), 20.0)
+        # A partial detection (a few joints) must not shrink the gates to nothing: the size of
+        # the body is remembered and forgets slowly (SCALE_MEMORY per frame).
+        self.scale = max(skeleton_height(keypoints), SCALE_MEMORY**frames * self.scale, min_scale)
         self.missed = 0
 
 
@@ -210,17 +239,21 @@ class PatientTracker:
 
     max_missed: frames the patient may go unmatched before the tracker searches anew (30: one
     second at 30 frames/s). gate: largest accepted match cost (mean joint distance / skeleton
-    height) on the frame after a match; gate_growth is added per missed frame. reacquire_radius:
-    how near (in skeleton heights) to the patient's last position a newly appeared person must
-    be to be taken for the patient while LOST. depth_gate_m: when both a followed person and a
-    detection have a known distance (median keypoint depth), they never match if it differs by
-    more than this (scaled up per missed frame like the gate); sample depth for everyone before
-    tracking to use it. marker_id: the ArUco id the patient wears (None:
-    any DICT_4X4_50 marker). require_marker: with RGB, wait for a marker instead of falling back
-    to the central, closest person. image_width: used when the observation carries no image.
-    sample_depth: when the observation has a depth image, sample everyone's depth first (one
-    vectorised call, about 0.2 ms for five people) so distance separates people who overlap in
-    the image; the reported patient then carries that depth.
+    height) on the frame after a match; gate_growth is added per missed frame. body_gate: the
+    largest body gap (``body_gap``, in skeleton heights) of the second, pose-free match for
+    people the joints did not match (a fall, a partial detection); grows like the gate.
+    reacquire_radius: how near (in skeleton heights) to the patient's last position a newly
+    appeared person must be to be taken for the patient while LOST when others are in view too
+    (a lone person who is no known bystander is taken wherever they are). depth_gate_m: when
+    both a followed person and a detection have a known distance (median keypoint depth), they
+    never match if it differs by more than this (scaled up per missed frame like the gate);
+    sample depth for everyone before tracking to use it. marker_id: the ArUco id the patient
+    wears (None: any DICT_4X4_50 marker). require_marker: with RGB, wait for a marker instead of
+    falling back to the central, closest person. image_width: used when the observation
+    carries no image. min_scale: the smallest body size used for the gates, as a share of the
+    image width. sample_depth: when the observation has a depth image, sample everyone's depth
+    first (one vectorised call, about 0.2 ms for five people) so distance separates people who
+    overlap in the image; the reported patient then carries that depth.
     """
 
     def __init__(
@@ -228,25 +261,31 @@ class PatientTracker:
         max_missed: int = 30,
         gate: float = 0.25,
         gate_growth: float = 0.02,
+        body_gate: float = 0.5,
         reacquire_radius: float = 0.75,
         depth_gate_m: float = 0.6,
         marker_id: int | None = None,
         require_marker: bool = False,
         image_width: float = 640.0,
+        min_scale: float = 0.1,
         sample_depth: bool = True,
     ) -> None:
         if max_missed < 0:
             raise ValueError(f"max_missed must be >= 0, got {max_missed}")
         if gate <= 0:
             raise ValueError(f"gate must be positive, got {gate}")
+        if body_gate < 0:
+            raise ValueError(f"body_gate must be >= 0, got {body_gate}")
         self.max_missed = max_missed
         self.gate = gate
         self.gate_growth = gate_growth
+        self.body_gate = body_gate
         self.reacquire_radius = reacquire_radius
         self.depth_gate_m = depth_gate_m
         self.marker_id = marker_id
         self.require_marker = require_marker
         self.image_width = image_width
+        self.min_scale = min_scale
         self.sample_depth = sample_depth
         self.reset()
 
@@ -256,6 +295,7 @@ class PatientTracker:
         self.tracks_: list[_Track] = []
         self.patient_: _Track | None = None
         self.frame_ = 0
+        self.min_scale_px_ = self.min_scale * self.image_width
 
     @property
     def missed_(self) -> int:
@@ -268,6 +308,7 @@ class PatientTracker:
 
     def update(self, observation: Observation) -> TrackResult:
         self.frame_ += 1
+        self.min_scale_px_ = self.min_scale * self._width(observation)
         if self.sample_depth and observation.depth_image is not None and observation.people:
             observation = replace(observation, people=people_with_depth(observation))
         people = observation.people
@@ -275,7 +316,7 @@ class PatientTracker:
         if self.state_ is TrackState.SEARCHING:
             return self._select(observation, assigned)
         index = next((i for i, t in assigned.items() if t is self.patient_), None)
-        if index is None and self.state_ is TrackState.LOST:
+        if index is None:
             index = self._reacquire(assigned)
         if index is not None:
             self._mark_bystanders(assigned)
@@ -309,19 +350,34 @@ class PatientTracker:
         return TrackResult(self.state_, people[index], index, selected_by=how)
 
     def _reacquire(self, assigned: dict[int, _Track]) -> int | None:
-        """A person who appeared since the patient was lost, near the patient's last position."""
+        """The patient was not matched: take a person who is no known bystander for them.
+
+        When that person is the only one in view, they are (a fall can change a body beyond
+        both gates within a frame; a partial detection can hide everything the gates compare).
+        With others in view, only a person who appeared since the patient was lost and is near
+        their last position is taken: a stranger stepping out from behind a bystander is not."""
         patient = self.patient_
         lost_at = self.frame_ - patient.missed
         last = patient.centre()
-        best, best_distance = None, self.reacquire_radius
-        for index, track in assigned.items():
-            if track.bystander or track.born < lost_at or track.missed:
-                continue
-            if np.isfinite(track.depth) and abs(track.depth - patient.depth) > self.depth_gate_m:
-                continue
-            distance = float(np.linalg.norm(track.centre() - last)) / patient.scale
-            if distance <= best_distance:
-                best, best_distance = index, distance
+        depth_limit = self.depth_gate_m * (1 + 0.05 * patient.missed)
+        candidates = [
+            (index, track)
+            for index, track in assigned.items()
+            if not track.bystander
+            and not track.missed
+            and not (np.isfinite(track.depth) and abs(track.depth - patient.depth) > depth_limit)
+        ]
+        best = None
+        if len(candidates) == 1 and len(assigned) == 1:
+            best = candidates[0][0]
+        else:
+            best_distance = self.reacquire_radius
+            for index, track in candidates:
+                if track.born < lost_at:
+                    continue
+                distance = float(np.linalg.norm(track.centre() - last)) / patient.scale
+                if distance <= best_distance:
+                    best, best_distance = index, distance
         if best is not None:
             self.tracks_.remove(patient)
             self.patient_ = assigned[best]
@@ -338,29 +394,37 @@ class PatientTracker:
                 return float(image.shape[1])
         return self.image_width
 
-    def _associate(self, people: list[SkeletonFrame]) -> dict[int, _Track]:
-        """Match detections to followed people (greedy, lowest cost first, within the gate);
-        unmatched detections start new tracks, tracks unmatched too long are dropped."""
+    def _pairs(self, people: list[SkeletonFrame], tracks: list[int], detections: list[int],
+               cost, gate: float) -> list[tuple[float, int, int]]:  # fmt: skip
         pairs = []
-        for t, track in enumerate(self.tracks_):
+        for t in tracks:
+            track = self.tracks_[t]
             predicted = track.predicted()
-            limit = self.gate + self.gate_growth * track.missed
+            limit = gate + self.gate_growth * track.missed
             depth_limit = self.depth_gate_m * (1 + 0.05 * track.missed)
-            for d, person in enumerate(people):
-                if track.depth_differs(person, depth_limit):
+            for d in detections:
+                if track.depth_differs(people[d], depth_limit):
                     continue
-                cost = match_cost(predicted, person.keypoints, track.scale)
-                if cost <= limit:
-                    pairs.append((cost, t, d))
-        pairs.sort()
+                value = cost(predicted, people[d].keypoints, track.scale)
+                if value <= limit:
+                    pairs.append((value, t, d))
+        return sorted(pairs)
+
+    def _associate(self, people: list[SkeletonFrame]) -> dict[int, _Track]:
+        """Match detections to followed people (greedy, lowest cost first, within the gate: by
+        joints first, then the people left by where their bodies are); unmatched detections
+        start new tracks, tracks unmatched too long are dropped."""
         assigned: dict[int, _Track] = {}
         used: set[int] = set()
-        for _, t, d in pairs:
-            if t in used or d in assigned:
-                continue
-            used.add(t)
-            assigned[d] = self.tracks_[t]
-            self.tracks_[t].accept(people[d])
+        for cost, gate in ((match_cost, self.gate), (body_gap, self.body_gate)):
+            free_tracks = [t for t in range(len(self.tracks_)) if t not in used]
+            free_people = [d for d in range(len(people)) if d not in assigned]
+            for _, t, d in self._pairs(people, free_tracks, free_people, cost, gate):
+                if t in used or d in assigned:
+                    continue
+                used.add(t)
+                assigned[d] = self.tracks_[t]
+                self.tracks_[t].accept(people[d], self.min_scale_px_)
         for t, track in enumerate(self.tracks_):
             if t not in used:
                 track.missed += 1
@@ -369,7 +433,7 @@ class PatientTracker:
         ]
         for d, person in enumerate(people):
             if d not in assigned:
-                track = _Track(person, born=self.frame_)
+                track = _Track(person, born=self.frame_, min_scale=self.min_scale_px_)
                 self.tracks_.append(track)
                 assigned[d] = track
         return assigned

@@ -12,10 +12,10 @@ import json
 from collections.abc import Iterator
 from pathlib import Path
 
-from robot_agent.sources.base import Observation
 from robot_agent.sources.pacing import Pacer
 from robot_agent.sources.replay import SourceError, depth_files, frame_number, read_depth_png
 from vigil.formats.openpose import from_openpose_json
+from vigil.observation import Observation
 
 
 class OpenPoseDirSource:

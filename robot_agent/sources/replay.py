@@ -29,9 +29,9 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from robot_agent.sources.base import Observation
 from robot_agent.sources.pacing import Pacer
 from vigil.datasets import urfd
+from vigil.observation import Observation
 from vigil.skeleton import N_FLOOR, N_KEYPOINTS, SkeletonFrame
 
 URFD_DEPTH_SCALE_MM = 6000 / 65535  # fall sequences (ADL: 7000 / 65535)

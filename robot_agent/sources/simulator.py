@@ -15,8 +15,8 @@ from collections.abc import Iterator, Sequence
 import cv2
 import numpy as np
 
-from robot_agent.sources.base import Observation
 from robot_agent.sources.pacing import Pacer
+from vigil.observation import Observation
 from vigil.synthetic import FPS, IMAGE_HEIGHT, IMAGE_WIDTH, GeneratedTransport, generate_transport
 
 MARKER_DICTIONARY = cv2.aruco.DICT_4X4_50

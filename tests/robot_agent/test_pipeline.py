@@ -10,7 +10,7 @@ import pytest
 
 from robot_agent.outbox import Outbox
 from robot_agent.pipeline import GROUND_TRUTH_VERSION, Pipeline
-from robot_agent.sources.base import Observation
+from vigil.observation import Observation
 from robot_agent.sources.simulator import SimulatorSource
 from vigil.classes import TransportMode
 from vigil.floor import CameraMount

@@ -6,10 +6,10 @@ import cv2
 import numpy as np
 import pytest
 
-from robot_agent.depth import people_with_depth, sample_depth, with_depth
-from robot_agent.sources.base import Observation
 from robot_agent.sources.replay import UrfdReplaySource
 from vigil.datasets import urfd
+from vigil.depth import people_with_depth, sample_depth, with_depth
+from vigil.observation import Observation
 from vigil.skeleton import SkeletonFrame
 
 DEPTH_DIR = urfd.default_dir() / "depth"

@@ -4,9 +4,11 @@ import cv2
 import numpy as np
 import pytest
 
-from robot_agent.sources.base import Observation
 from robot_agent.sources.simulator import SimulatorSource
-from robot_agent.tracking import (
+from vigil.observation import Observation
+from vigil.skeleton import SkeletonFrame
+from vigil.synthetic import generate_transport
+from vigil.tracking import (
     TRANSITIONS,
     PatientTracker,
     SelectedBy,
@@ -14,8 +16,6 @@ from robot_agent.tracking import (
     central_closest,
     detect_markers,
 )
-from vigil.skeleton import SkeletonFrame
-from vigil.synthetic import generate_transport
 
 
 def crossing_seeds(mode, count, n_people=3, duration_s=12.0):
@@ -176,3 +176,30 @@ def test_depth_image_keeps_a_person_further_away_from_taking_the_patients_place(
     blind = PatientTracker(sample_depth=False)  # image distance alone cannot tell them apart
     blind.update(first)
     assert blind.update(second).state is TrackState.TRACKING
+
+
+@pytest.mark.parametrize("sequence", ["fall-24", "fall-26", "adl-30", "adl-13"])
+def test_real_urfd_patient_passed_on_in_every_frame_with_a_person(sequence):
+    """REAL URFD replays (one person, MoveNet keypoints): these sequences start with partial
+    detections and fall fast; the tracker must pass the patient on whenever anybody is seen."""
+    from robot_agent.sources.replay import UrfdReplaySource
+
+    tracker = PatientTracker()
+    seen = 0
+    for obs in UrfdReplaySource(sequence, speed=0):
+        result = tracker.update(obs)
+        if obs.people:
+            seen += 1
+            assert result.patient is obs.people[0], (sequence, obs.index, result.state)
+    assert seen > 50
+
+
+def test_lone_stranger_behind_a_bystander_is_not_taken_for_the_patient():
+    """With others in view, only a newcomer near the patient's last position replaces them."""
+    tracker = PatientTracker(sample_depth=False)
+    patient, bystander = _standing_person(320, 200), _standing_person(520, 200)
+    tracker.update(Observation(0.0, [patient, bystander]))
+    tracker.update(Observation(0.033, [bystander]))  # patient hidden
+    stranger = _standing_person(60, 200)
+    result = tracker.update(Observation(0.066, [bystander, stranger]))
+    assert result.patient is None
