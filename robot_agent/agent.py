@@ -18,6 +18,7 @@ from robot_agent.client import LinkFatal, RobotLink
 from robot_agent.models import ModelRefused, fetch_model, remember_running
 from robot_agent.outbox import Outbox
 from robot_agent.pipeline import Pipeline
+from vigil.inputs import is_keypoints_only
 from vigil.observation import Observation
 from vigil.protocol import ModelAssignment
 
@@ -32,6 +33,7 @@ class TransportPlan:
     patient: str | None = None
     location: str | None = None
     materialise: bool = False  # generate all observations in a thread first (generated data)
+    fps: float | None = None  # the source's real frame rate, when it knows it
 
 
 @dataclass
@@ -70,6 +72,7 @@ class RobotAgent:
             token,
             self.outbox,
             running_model=lambda: pipeline.running_model,
+            inputs=pipeline.detector.available_inputs,
             on_assignment=self.on_assignment,
             on_welcome=self._on_welcome,
             heartbeat_s=options.heartbeat_s,
@@ -100,17 +103,22 @@ class RobotAgent:
             self.pipeline.set_shadow(None)
             self.link.heartbeat_now()
         running = self.pipeline.running_model
-        if assignment.shadow:
+        if assignment.fallback:
+            fallback = self.pipeline.fallback
+            if fallback is not None and fallback.manifest.version == assignment.version:
+                return
+        elif assignment.shadow:
             shadow = self.pipeline.shadow
             if shadow is not None and shadow.manifest.version == assignment.version:
                 return
         elif assignment.version == running:
             return
-        key = ("shadow:" if assignment.shadow else "") + assignment.version
+        kind = "fallback" if assignment.fallback else "shadow" if assignment.shadow else "model"
+        key = f"{kind}:{assignment.version}"
         if key in self._fetching:
             return
         self._fetching.add(key)
-        role = "shadow model" if assignment.shadow else "model"
+        role = {"fallback": "keypoints-only fallback", "shadow": "shadow model"}.get(kind, "model")
         log.info("robot %s: backend assigned %s %s; fetching it", self.robot_id, role,
                  assignment.version)  # fmt: skip
         try:
@@ -118,6 +126,11 @@ class RobotAgent:
                 fetch_model, assignment, self.robot_id, self.token, self.models_dir,
                 self.pipeline.mode,
             )  # fmt: skip
+            if assignment.fallback and not is_keypoints_only(classifier.manifest.inputs):
+                raise ModelRefused(
+                    f"fallback {assignment.version} needs {classifier.manifest.inputs}: a "
+                    "fallback must need keypoints only"
+                )
         except ModelRefused as refused:
             self.link.model_error = str(refused)[:500]
             log.error("robot %s: %s; model %s keeps running", self.robot_id, refused,
@@ -126,8 +139,10 @@ class RobotAgent:
             return
         finally:
             self._fetching.discard(key)
-        # Both swaps run on the event loop, so they happen between two frames.
-        if assignment.shadow:
+        # Every swap runs on the event loop, so it happens between two frames.
+        if assignment.fallback:
+            self.pipeline.set_fallback(classifier)
+        elif assignment.shadow:
             self.pipeline.set_shadow(classifier)
         else:
             self.pipeline.swap_model(classifier)
@@ -142,7 +157,9 @@ class RobotAgent:
         while (plan := await asyncio.to_thread(next, self.transports, None)) is not None:
             number += 1
             transport_id = f"{self.robot_id}-{int(time.time())}-{number}"[-64:]
-            self.pipeline.start_transport(transport_id, time.time(), plan.patient, plan.location)
+            self.pipeline.start_transport(
+                transport_id, time.time(), plan.patient, plan.location, plan.fps
+            )
             log.info(
                 "robot %s: transport %s started (patient %s, %s)",
                 self.robot_id,

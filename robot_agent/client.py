@@ -13,7 +13,7 @@ import asyncio
 import contextlib
 import logging
 import time
-from collections.abc import Awaitable, Callable
+from collections.abc import Awaitable, Callable, Iterable
 
 from pydantic import ValidationError
 from websockets.asyncio.client import ClientConnection, connect
@@ -22,6 +22,7 @@ from websockets.exceptions import ConnectionClosed, InvalidHandshake, InvalidURI
 from robot_agent.backoff import Backoff
 from robot_agent.outbox import Outbox
 from vigil import protocol
+from vigil.inputs import normalise
 from vigil.protocol import (
     Ack,
     Heartbeat,
@@ -52,6 +53,7 @@ class RobotLink:
         token: str,
         outbox: Outbox,
         running_model: Callable[[], str | None],
+        inputs: Iterable[str] | None = None,
         on_assignment: Callable[[ModelAssignment], Awaitable[None]] | None = None,
         on_welcome: Callable[[], None] | None = None,
         heartbeat_s: float = 5.0,
@@ -61,6 +63,7 @@ class RobotLink:
         self.url, self.robot_id, self.token = url, robot_id, token
         self.outbox = outbox
         self.running_model = running_model
+        self.inputs = None if inputs is None else normalise(inputs)  # told in the hello
         self.on_assignment = on_assignment
         self.on_welcome = on_welcome
         self.heartbeat_s = heartbeat_s
@@ -133,8 +136,9 @@ class RobotLink:
             token=self.token,
             agent_version=AGENT_VERSION,
             running_model=self.running_model(),
+            inputs=self.inputs,
         )
-        await socket.send(hello.model_dump_json())
+        await socket.send(hello.model_dump_json(exclude_none=True))
         welcome = await self._receive_welcome(socket)
         before = self.outbox.status().pending_frames
         self.outbox.on_welcome(welcome.last_seq)

@@ -63,7 +63,8 @@ class AgentSettings(BaseSettings):
     source: SourceKind = Field(default=SourceKind.GENERATED, description="keypoint source")
     source_path: str | None = Field(
         default=None,
-        description="replay: URFD sequence (fall-01) or export .json; openpose: directory; "
+        description="replay: URFD sequence (fall-01, or FILE#fall-01 for a keypoint file in "
+        "URFD's format) or export .json; openpose: directory; "
         "mediapipe: video file or camera index",
     )
     depth_dir: Path | None = Field(

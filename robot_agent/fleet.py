@@ -68,6 +68,7 @@ def build_fleet(
             settings.mode,
             classifier,
             ground_truth_fallback=True,
+            available_inputs=["keypoints", "depth", "floor"],  # the generator knows them all
         )
         plans = generated_transports(
             seed=settings.seed + 1000 * number,

@@ -1,8 +1,11 @@
-"""One robot's frame path: source observation -> patient -> depth -> classification -> outbox.
+"""One robot's frame path: the transport around vigil.detector (patient -> depth -> floor ->
+classification, with the keypoints-only fallback) -> outbox.
 
 Everything here runs between two camera frames on the agent's event loop; a model swap
 (`swap_model`) is also called there, so it always happens between two frames. The new model's
-feature history is warmed up with the frames of the current transport it missed.
+feature history is warmed up with the frames of the current transport it missed. When detection
+degrades or recovers (vigil.detector), a `detection_status` message goes into the outbox beside
+the frames, so the nurse board shows it.
 """
 
 from __future__ import annotations
@@ -11,44 +14,26 @@ import json
 import logging
 import math
 import time
-from collections import deque
-from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Protocol
 
 import numpy as np
 
 from robot_agent.outbox import Outbox, Priority
 from vigil.classes import Decision, TransportMode
 from vigil.depth import sample_depth
-from vigil.features import NEEDS_FLOOR
-from vigil.floor import CameraMount, floor_measures
+from vigil.detector import DepthSampler, DetectionStatusChange, Detector, PatientFrames
+from vigil.floor import CameraMount
 from vigil.observation import Observation
-from vigil.protocol import FrameRecord, TransportEnd, TransportStart
+from vigil.protocol import DetectionStatus, FrameRecord, TransportEnd, TransportStart
 from vigil.runtime import Classification, FrameClassifier
-from vigil.skeleton import SkeletonFrame, empty_keypoints
+from vigil.skeleton import SkeletonFrame
 from vigil.taxonomy import DEFAULT_TAXONOMY
-from vigil.tracking import PatientTracker as TrackingPatientTracker
+from vigil.tracking import PatientTracker
 
 log = logging.getLogger(__name__)
 
 #: model_version of frames whose decision is the generator's ground truth, not a model's.
 GROUND_TRUTH_VERSION = "generated-ground-truth"
-WARMUP_FRAMES = 150  # frames of the current transport replayed into a newly swapped-in model
-
-
-class TrackedPatient(Protocol):
-    patient: SkeletonFrame | None  # None when the patient is not seen in this observation
-
-
-class PatientTracker(Protocol):
-    def reset(self) -> None: ...
-
-    def update(self, observation: Observation) -> TrackedPatient: ...
-
-
-DepthSampler = Callable[[np.ndarray, np.ndarray, float], np.ndarray]
-"""(depth_image, keypoints (25, 3), depth_scale_mm) -> depth (25,) metres, NaN where unknown."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -73,6 +58,28 @@ def _finite_or_none(value: float) -> float | None:
     return float(value) if math.isfinite(value) else None
 
 
+@dataclass
+class _TransportCounts:
+    frames: int = 0
+    with_person: int = 0
+    with_patient: int = 0
+    first_ts: float | None = None
+    last_ts: float | None = None
+
+    def add(self, ts: float, people: int, seen: bool) -> None:
+        self.frames += 1
+        self.with_person += people > 0
+        self.with_patient += seen
+        self.first_ts = ts if self.first_ts is None else self.first_ts
+        self.last_ts = ts
+
+    @property
+    def fps(self) -> float | None:
+        if self.frames < 2 or self.last_ts is None or self.last_ts <= self.first_ts:
+            return None
+        return (self.frames - 1) / (self.last_ts - self.first_ts)
+
+
 class Pipeline:
     def __init__(
         self,
@@ -83,55 +90,78 @@ class Pipeline:
         depth_sampler: DepthSampler | None = None,
         ground_truth_fallback: bool = False,
         camera_mount: CameraMount | None = None,
+        fallback: FrameClassifier | None = None,
+        available_inputs: list[str] | None = None,
     ) -> None:
         self.outbox = outbox
         self.mode = TransportMode(mode)
-        self.classifier = classifier
+        frames = PatientFrames(
+            tracker, depth_sampler if depth_sampler is not None else sample_depth, camera_mount
+        )
+        self.detector = Detector(classifier, frames, fallback, available_inputs)
         self.shadow: FrameClassifier | None = None  # a candidate: decisions stored, never alarmed
-        self.tracker = tracker if tracker is not None else TrackingPatientTracker()
-        self.depth_sampler = depth_sampler if depth_sampler is not None else sample_depth
         self.ground_truth_fallback = ground_truth_fallback
-        self.camera_mount = camera_mount
-        self._floor_warned = False
         self.transport_id: str | None = None
         self._transport_started = 0.0
         self._clock_offset: float | None = None  # wall time minus source time
         self._last_ts: float | None = None
         self._last_wall_ts = 0.0
-        self._history: deque[SkeletonFrame] = deque(maxlen=WARMUP_FRAMES)
+        self._counts = _TransportCounts()
         self.last_decision: Decision | None = None
 
     @property
+    def classifier(self) -> FrameClassifier | None:
+        """The assigned model."""
+        return self.detector.classifier
+
+    @property
+    def fallback(self) -> FrameClassifier | None:
+        return self.detector.fallback
+
+    @property
     def running_model(self) -> str | None:
+        """The assigned model's version (what the fleet compares with its target)."""
         if self.classifier is not None:
             return self.classifier.manifest.version
         return GROUND_TRUTH_VERSION if self.ground_truth_fallback else None
 
     # --- transports ------------------------------------------------------------------------
     def start_transport(
-        self, transport_id: str, ts: float, patient: str | None = None, location: str | None = None
+        self,
+        transport_id: str,
+        ts: float,
+        patient: str | None = None,
+        location: str | None = None,
+        fps: float | None = None,
     ) -> None:
+        """fps: the source's real frame rate, told to the backend (None: not known)."""
         if self.transport_id is not None:
             self.end_transport(ts)
         self.transport_id = transport_id
-        self._floor_warned = False
         self._transport_started = ts
         self._clock_offset = None
         self._last_ts = None
-        self.tracker.reset()
-        for model in (self.classifier, self.shadow):
-            if model is not None:
-                model.reset()
-        self._history.clear()
+        self._counts = _TransportCounts()
+        self.detector.reset()
+        if self.shadow is not None:
+            self.shadow.reset()
         self.last_decision = None
         message = TransportStart(
-            transport_id=transport_id, mode=self.mode, patient=patient, location=location, ts=ts
-        )
-        self.outbox.add_message(message.model_dump_json())
+            transport_id=transport_id, mode=self.mode, patient=patient, location=location, ts=ts,
+            fps=fps,
+        )  # fmt: skip
+        self.outbox.add_message(message.model_dump_json(exclude_none=True))
 
     def end_transport(self, ts: float) -> None:
         if self.transport_id is None:
             return
+        counts = self._counts
+        fps = counts.fps
+        log.info(
+            "transport %s ended: %d frames, %d with a person in view, %d with the patient, %s",
+            self.transport_id, counts.frames, counts.with_person, counts.with_patient,
+            "no frame rate" if fps is None else f"{fps:.1f} frames/s",
+        )  # fmt: skip
         self.outbox.add_message(
             TransportEnd(transport_id=self.transport_id, ts=ts).model_dump_json()
         )
@@ -140,17 +170,21 @@ class Pipeline:
     # --- models ----------------------------------------------------------------------------
     def swap_model(self, classifier: FrameClassifier) -> None:
         """Run `classifier` from the next frame on, warmed up on this transport's frames."""
-        classifier.reset()
-        for frame in self._history:
-            classifier.classify(frame)
         previous = self.running_model
-        self.classifier = classifier
+        self.detector.set_model(classifier)
         log.info(
             "model %s now classifies the frames (was %s; warmed up on %d frames)",
             classifier.manifest.version,
             previous,
-            len(self._history),
+            len(self.detector.history),
         )
+
+    def set_fallback(self, classifier: FrameClassifier | None) -> None:
+        """Keep `classifier` (keypoints only) beside the assigned model (None: none)."""
+        self.detector.set_fallback(classifier)
+        if classifier is not None:
+            log.info("keypoints-only fallback %s kept beside %s", classifier.manifest.version,
+                     self.running_model)  # fmt: skip
 
     def _restart_stream(self, timestamp: float) -> None:
         """The source's clock went back (a recording started again): the features and the
@@ -159,18 +193,16 @@ class Pipeline:
             "transport %s: source time went back from %.3f s to %.3f s; classifying a new stream",
             self.transport_id, self._last_ts, timestamp,
         )  # fmt: skip
-        self.tracker.reset()
-        for model in (self.classifier, self.shadow):
-            if model is not None:
-                model.reset()
-        self._history.clear()
+        self.detector.reset()
+        if self.shadow is not None:
+            self.shadow.reset()
         self._clock_offset = self._last_wall_ts + 0.001 - timestamp
 
     def set_shadow(self, classifier: FrameClassifier | None) -> None:
         """Run `classifier` beside the model from the next frame on (None: stop)."""
         if classifier is not None:
             classifier.reset()
-            for frame in self._history:
+            for frame in self.detector.history:
                 classifier.classify(frame)
             log.info("shadow model %s runs beside %s", classifier.manifest.version,
                      self.running_model)  # fmt: skip
@@ -178,47 +210,32 @@ class Pipeline:
             log.info("shadow model %s stopped", self.shadow.manifest.version)
         self.shadow = classifier
 
-    def _check_floor(self, frame: SkeletonFrame) -> None:
-        """Say once per transport when the model needs floor measures the robot cannot give."""
-        classifier = self.classifier
-        if (
-            self._floor_warned
-            or classifier is None
-            or classifier.manifest.feature_set not in NEEDS_FLOOR
-            or not np.isnan(frame.floor).all()
-        ):
-            return
-        self._floor_warned = True
-        log.warning(
-            "model %s uses floor measures but this frame has none (no camera_mount, no depth, "
-            "or too few keypoints with depth): its decisions rest on the keypoints alone",
-            classifier.manifest.version,
+    def _report_status(self, change: DetectionStatusChange, wall_ts: float) -> None:
+        (log.warning if change.degraded else log.info)(
+            "transport %s: detection %s: %s", self.transport_id,
+            "DEGRADED" if change.degraded else "recovered", change.reason,
+        )  # fmt: skip
+        message = DetectionStatus(
+            ts=wall_ts,
+            transport_id=self.transport_id,
+            degraded=change.degraded,
+            missing_inputs=list(change.missing_inputs),
+            assigned_model=change.assigned_model,
+            running_model=change.running_model,
+            reason=change.reason[:500],
         )
+        self.outbox.add_message(message.model_dump_json())
 
     # --- frames ----------------------------------------------------------------------------
     def process(self, observation: Observation) -> FrameResult:
         if self._last_ts is not None and observation.timestamp < self._last_ts:
             self._restart_stream(observation.timestamp)
         self._last_ts = observation.timestamp
-        patient = self.tracker.update(observation).patient
-        if patient is None:
-            frame = SkeletonFrame(empty_keypoints(), timestamp=observation.timestamp)
-        else:
-            depth = patient.depth
-            if observation.depth_image is not None and self.depth_sampler is not None:
-                depth = self.depth_sampler(
-                    observation.depth_image, patient.keypoints, observation.depth_scale_mm
-                )
-            floor = patient.floor
-            if self.camera_mount is not None and np.isnan(floor).all():
-                floor = floor_measures(patient.keypoints, depth, self.camera_mount)
-            frame = SkeletonFrame(patient.keypoints, depth, observation.timestamp, floor)
-            self._check_floor(frame)
-        self._history.append(frame)
+        detected = self.detector.process(observation)
+        frame = detected.frame
         shadow = self.shadow.classify(frame) if self.shadow is not None else None
-        classification = None
-        if self.classifier is not None:
-            classification = self.classifier.classify(frame)
+        classification = detected.classification
+        if classification is not None:
             decision = classification.decision
         elif self.ground_truth_fallback and observation.truth is not None:
             decision = DEFAULT_TAXONOMY.decision(observation.truth, self.mode)
@@ -229,13 +246,16 @@ class Pipeline:
             self._clock_offset = anchor - observation.timestamp
         wall_ts = observation.timestamp + self._clock_offset
         self._last_wall_ts = wall_ts
+        self._counts.add(observation.timestamp, detected.people, detected.seen)
+        if detected.status is not None:
+            self._report_status(detected.status, wall_ts)
         body = self._frame_body(frame, wall_ts, decision, classification, shadow)
         seq = self.outbox.add_frame(body, _priority(classification, decision))
         changed = decision is not None and decision != self.last_decision
         if changed and (decision != Decision.NORMAL or self.last_decision is not None):
             log.info("transport %s frame %d: %s", self.transport_id, seq, decision.value.upper())
         self.last_decision = decision
-        return FrameResult(seq, decision, classification, patient is not None)
+        return FrameResult(seq, decision, classification, detected.seen)
 
     def _frame_body(
         self,

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
+
 from robot_agent.agent import AgentOptions, RobotAgent
 from robot_agent.config import AgentSettings, ConfigError, SourceKind
 from robot_agent.models import last_running, load_initial_model
@@ -58,6 +60,37 @@ def agent_options(settings: AgentSettings, speed: float | None = None) -> AgentO
     )
 
 
+def source_inputs(settings: AgentSettings) -> list[str]:
+    """What this robot's source can feed a model (vigil.inputs), told to the backend in the
+    hello so that it assigns only models the robot can feed."""
+    kind = settings.source
+    if kind == SourceKind.GENERATED:  # the generator knows depth and its camera's mount
+        return ["keypoints", "depth", "floor"]
+    has_depth = settings.depth_dir is not None
+    has_floor = has_depth and settings.mount is not None
+    if kind == SourceKind.REPLAY:
+        path = settings.source_path or ""
+        if path.endswith(".json"):
+            return _export_inputs(path) if Path(path).is_file() else ["keypoints"]
+        has_floor = True  # a URFD recording carries URFD's own floor measures
+    inputs = ["keypoints"]
+    inputs += ["depth"] if has_depth else []
+    inputs += ["floor"] if has_floor else []
+    return inputs
+
+
+def _export_inputs(path: str) -> list[str]:
+    from robot_agent.sources.replay import VigilExportSource
+
+    frames = VigilExportSource(path, speed=0).frames
+    inputs = ["keypoints"]
+    if any(np.isfinite(depth).any() for _, _, _, depth, _ in frames):
+        inputs.append("depth")
+    if any(not np.isnan(floor).all() for *_, floor in frames):
+        inputs.append("floor")
+    return inputs
+
+
 def build_robot(settings: AgentSettings) -> RobotAgent:
     if not settings.robot_id:
         raise ConfigError("robot_id: required (flag --robot-id or VIGIL_ROBOT_ROBOT_ID)")
@@ -72,6 +105,7 @@ def build_robot(settings: AgentSettings) -> RobotAgent:
         classifier,
         ground_truth_fallback=settings.source == SourceKind.GENERATED,
         camera_mount=settings.mount,
+        available_inputs=source_inputs(settings),
     )
     # A camera paces itself; recorded, generated and video frames are paced by the agent.
     camera = settings.source == SourceKind.MEDIAPIPE and (settings.source_path or "").isdigit()

@@ -5,6 +5,7 @@ from __future__ import annotations
 import importlib
 import itertools
 from collections.abc import Iterator
+from pathlib import Path
 
 from robot_agent.agent import TransportPlan
 from robot_agent.config import AgentSettings, ConfigError, SourceKind
@@ -41,6 +42,7 @@ def generated_transports(
             patient=f"{patient_prefix}-{(seed + number) % 1000:03d}",
             location=GENERATED_LOCATION,
             materialise=True,
+            fps=source.fps,
         )
 
 
@@ -49,6 +51,33 @@ def _module(name: str, kind: SourceKind):
         return importlib.import_module(f"robot_agent.sources.{name}")
     except ImportError as error:
         raise ConfigError(f"source: {kind.value} is not available here ({error})") from None
+
+
+def _urfd_sequence(path: str) -> tuple[str, str | None]:
+    """``fall-01`` / ``urfd:fall-01`` (the dataset's own file), ``FILE#fall-01``, or ``FILE``
+    holding a single sequence -> (sequence, keypoint file or None)."""
+    file, _, sequence = path.partition("#")
+    if not Path(file).is_file():
+        if sequence:
+            raise ConfigError(f"source_path: {file} is not a file")
+        return path.removeprefix("urfd:"), None
+    if not sequence:
+        names = {s.name for s in _all_sequences(file)}
+        if len(names) != 1:
+            raise ConfigError(
+                f"source_path: {file} holds {len(names)} sequences; name one as {file}#<sequence>"
+            )
+        (sequence,) = names
+    return sequence, file
+
+
+def _all_sequences(file: str):
+    from vigil.datasets import urfd
+
+    try:
+        return urfd.load(names=None, keypoints_file=file)
+    except (OSError, ValueError, EOFError) as error:
+        raise ConfigError(f"source_path: {file}: {error}") from None
 
 
 def transports_for(settings: AgentSettings) -> Iterator[TransportPlan]:
@@ -70,11 +99,12 @@ def transports_for(settings: AgentSettings) -> Iterator[TransportPlan]:
 
             def make():
                 return module.VigilExportSource(path, speed=0)
-        else:  # a URFD sequence name, e.g. fall-01 (real data)
+        else:  # a URFD sequence (real data): fall-01, or FILE#fall-01 for a file in its format
+            sequence, keypoints_file = _urfd_sequence(path)
 
             def make():
                 return module.UrfdReplaySource(
-                    path.removeprefix("urfd:"), speed=0, depth_dir=settings.depth_dir
+                    sequence, speed=0, depth_dir=settings.depth_dir, keypoints_file=keypoints_file
                 )
     elif kind == SourceKind.OPENPOSE:
         module = _module("openpose_dir", kind)
@@ -98,7 +128,14 @@ def transports_for(settings: AgentSettings) -> Iterator[TransportPlan]:
 
     def plans() -> Iterator[TransportPlan]:
         while True:
-            yield TransportPlan(make(), patient=settings.patient, location=settings.location)
+            source = make()
+            fps = getattr(source, "fps", None)
+            yield TransportPlan(
+                source,
+                patient=settings.patient,
+                location=settings.location,
+                fps=float(fps) if fps else None,
+            )
             if not settings.loop:
                 return
 

@@ -20,10 +20,16 @@ from backend.models.taxonomy import TaxonomyLabel
 from backend.models.videos import Frame, Split, Video
 from vigil.classes import MODE_CLASSES, Decision, TransportMode
 from vigil.datasets import urfd
-from vigil.features import extract_arrays
-from vigil.skeleton import decode_depth, decode_floor, decode_keypoints, encode_keypoints
+from vigil.observation import Observation
+from vigil.skeleton import (
+    SkeletonFrame,
+    decode_depth,
+    decode_floor,
+    decode_keypoints,
+    encode_keypoints,
+)
 from vigil.taxonomy import DEFAULT_TAXONOMY
-from worker.training.data import FrameData
+from worker.training.data import FrameData, sequence_arrays
 
 # URFD official label -> fine label (walking mode: the first two are Emergency, the rest Normal).
 URFD_FALL_LABELS = {0.0: "falling", 1.0: "lying_on_floor", -1.0: "standing"}
@@ -142,6 +148,7 @@ def frame_data(
     decisions = label_decisions(session, mode)
     digest = hashlib.sha256()
     feats, targets, groups, times, usable, positive, generated = [], [], [], [], [], [], False
+    recordings = []
     for i, video in enumerate(videos):
         rows = session.execute(
             select(Frame.index, Frame.ts, Frame.keypoints, Frame.depth, Frame.floor)
@@ -160,6 +167,17 @@ def frame_data(
         floor = np.stack([decode_floor(r.floor) for r in rows])
         ts = np.array([r.ts for r in rows], np.float64)
         ts = ts - ts[0]
+        no_depth = np.full(keypoints.shape[1], np.nan, np.float32)
+        observations = tuple(
+            Observation(
+                float(ts[j]),
+                [SkeletonFrame(keypoints[j], depth[j] if depth is not None else no_depth,
+                               float(ts[j]), floor[j])]
+                if (keypoints[j, :, 2] > 0).any() else [],
+                j,
+            )
+            for j in range(len(rows))
+        )  # fmt: skip
         index_of = {r.index: j for j, r in enumerate(rows)}
         target = np.full(len(rows), -1, np.int64)
         segments = session.scalars(
@@ -184,11 +202,13 @@ def frame_data(
         digest.update(json.dumps([video.name, len(rows)]).encode())
         digest.update(keypoints.tobytes())
         digest.update(target.tobytes())
-        feats.append(extract_arrays(keypoints, depth, ts, feature_set, floor))
+        features, seen = sequence_arrays(list(observations), feature_set)
+        feats.append(features)
         targets.append(target)
         groups.append(np.full(len(rows), i))
         times.append(ts)
-        usable.append((keypoints[:, :, 2] > 0).any(axis=1))
+        usable.append(seen)
+        recordings.append(observations)
         positive.append(bool(np.any(target == classes.index(Decision.EMERGENCY))))
         generated = generated or video.generated
     return FrameData(
@@ -202,4 +222,5 @@ def frame_data(
         mode=TransportMode(mode),
         data_sha256=digest.hexdigest(),
         generated=generated,
+        recordings=tuple(recordings),
     )

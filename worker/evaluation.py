@@ -1,5 +1,7 @@
-"""Evaluate a model file on recordings: scores through the exported ONNX graph (what the robot
-runs), the detection code's Table 3 / per-event evaluation, per-frame latency, and PNG plots."""
+"""Evaluate a model file on recordings: every recording replayed through the robot's frame path
+(tracker, depth, floor measures, streaming features, the exported ONNX graph, threshold and
+delay: worker.training.robot_path), the detection code's Table 3 / per-event evaluation,
+per-frame latency, and PNG plots. The promotion gate reads these figures."""
 
 from __future__ import annotations
 
@@ -9,11 +11,11 @@ from pathlib import Path
 import numpy as np
 
 from vigil.classes import Decision
-from vigil.features import FEATURE_SETS
 from vigil.model_file import Classifier, load_classifier
 from vigil.runtime import FrameClassifier
 from vigil.skeleton import SkeletonFrame
 from worker.training.data import FrameData
+from worker.training.robot_path import replay_stream
 from worker.training.selection import (
     StreamScores,
     choose_delay,
@@ -24,30 +26,46 @@ from worker.training.selection import (
 LATENCY_FRAMES = 300
 
 
-def score_stream(classifier: Classifier, data: FrameData) -> StreamScores:
-    """Class scores of every frame of every sequence, computed by the ONNX model."""
+class _AtOperatingPoint:
+    """A model with another threshold and delay (a what-if): same graph, other manifest."""
+
+    def __init__(self, classifier: Classifier, threshold: float, delay_ms: int) -> None:
+        self._classifier = classifier
+        self.manifest = classifier.manifest.model_copy(
+            update={"threshold": float(threshold), "delay_ms": int(delay_ms)}
+        )
+
+    def predict_proba(self, features: np.ndarray) -> np.ndarray:
+        return self._classifier.predict_proba(features)
+
+
+def score_stream(
+    classifier: Classifier, data: FrameData, threshold=None, delay_ms=None
+) -> StreamScores:
+    """Scores and decisions of every frame of every sequence through the robot's path."""
     manifest = classifier.manifest
-    if manifest.mode != data.mode:
-        raise ValueError(f"model is for {manifest.mode} transports, data is {data.mode}")
-    if manifest.window != 1:
-        raise ValueError("windowed models are evaluated frame by frame on the robot only")
-    # FrameData holds the full feature set; a model uses its own columns of it.
-    features = data.features[:, FEATURE_SETS[manifest.feature_set]]
-    scores = classifier.predict_proba(features)
-    return StreamScores(data, np.arange(len(data.names)), scores.astype(np.float64))
+    if threshold is not None or delay_ms is not None:
+        classifier = _AtOperatingPoint(
+            classifier,
+            manifest.threshold if threshold is None else threshold,
+            manifest.delay_ms if delay_ms is None else delay_ms,
+        )
+    stream, _ = replay_stream(FrameClassifier(classifier), data)
+    return stream
 
 
 def evaluate_model(classifier: Classifier, data: FrameData, threshold=None, delay_ms=None) -> dict:
     """Table 3 columns and per-event results at the model's (or the given) operating point."""
-    stream = score_stream(classifier, data)
     t = classifier.manifest.threshold if threshold is None else threshold
     d = classifier.manifest.delay_ms if delay_ms is None else delay_ms
+    stream = score_stream(classifier, data, t, d)
     result = evaluate(stream, float(t), d / 1000.0)
     result["threshold"], result["delay_ms"] = float(t), int(d)
     result["frames"] = int(len(data.target))
     result["sequences"] = list(data.names)
     result["data_sha256"] = data.data_sha256
     result["generated_data"] = bool(data.generated)
+    result["inputs"] = list(classifier.manifest.inputs)
     return result
 
 

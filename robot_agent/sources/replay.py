@@ -2,12 +2,11 @@
 
 Both pace themselves with ``speed`` (1 real time, 2 twice as fast, 0 as fast as possible).
 
-URFD (real data, ``vigil.datasets.urfd``): one person per frame where MoveNet found somebody,
-nobody where it did not. ``truth`` is a fine label standing in for the official per-frame label,
-chosen so its class is the dataset's: fall-* label 0 -> falling, 1 -> lying_on_floor,
--1 -> standing; adl-* 1 -> lying_down_deliberately, 0 -> sitting_down, -1 -> standing;
-unlabelled frames -> None. With ``depth_dir`` (URFD depth PNGs ``<sequence>-cam0-d-NNN.png``)
-the frame whose official index matches carries its depth image.
+URFD (real data, ``vigil.datasets.urfd``): ``Sequence.observations()``, one person per frame
+where MoveNet found somebody, nobody where it did not, each frame's truth a fine label standing
+for the official one (``urfd.TRUTH_LABELS``). The sequence comes from the dataset's keypoint
+file or from any file in its format (``keypoints_file``). With ``depth_dir`` (URFD depth PNGs
+``<sequence>-cam0-d-NNN.png``) the frame whose official index matches carries its depth image.
 
 Vigil export (``backend/labelling/export.py``, format ``vigil-labels`` version 1): a JSON object
 with ``video`` (``fps``, ``image_width``, ``image_height``, ``generated``, ...), ``frames``
@@ -21,7 +20,6 @@ from __future__ import annotations
 import csv
 import gzip
 import json
-import math
 import re
 from collections.abc import Iterator
 from pathlib import Path
@@ -36,14 +34,6 @@ from vigil.skeleton import N_FLOOR, N_KEYPOINTS, SkeletonFrame
 
 URFD_DEPTH_SCALE_MM = 6000 / 65535  # fall sequences (ADL: 7000 / 65535)
 URFD_ADL_DEPTH_SCALE_MM = 7000 / 65535
-_URFD_TRUTH = {
-    ("fall", 0.0): "falling",
-    ("fall", 1.0): "lying_on_floor",
-    ("fall", -1.0): "standing",
-    ("adl", 1.0): "lying_down_deliberately",
-    ("adl", 0.0): "sitting_down",
-    ("adl", -1.0): "standing",
-}
 EXPORT_FORMAT = "vigil-labels"
 EXPORT_VERSIONS = (1,)
 
@@ -52,10 +42,16 @@ class SourceError(ValueError):
     """A recording that cannot be replayed; the message names the file and the field."""
 
 
-def urfd_image_frames(sequence: str, directory: Path | str | None = None) -> np.ndarray:
+def urfd_image_frames(
+    sequence: str, directory: Path | str | None = None, keypoints_file: Path | str | None = None
+) -> np.ndarray:
     """Official frame index (``image_frame`` column) of every keypoint row of ``sequence``,
     in the row order of ``vigil.datasets.urfd.load`` (by ``npy_index``)."""
-    path = Path(directory or urfd.default_dir()) / urfd.KEYPOINTS_FILE
+    path = (
+        Path(keypoints_file)
+        if keypoints_file is not None
+        else Path(directory or urfd.default_dir()) / urfd.KEYPOINTS_FILE
+    )
     with gzip.open(path, "rt", newline="") as handle:
         reader = csv.reader(handle)
         header = next(reader)
@@ -108,13 +104,15 @@ class UrfdReplaySource:
         directory: Path | str | None = None,
         speed: float = 1.0,
         depth_dir: Path | str | None = None,
+        keypoints_file: Path | str | None = None,
     ) -> None:
         self.directory = Path(directory or urfd.default_dir())
+        where = keypoints_file or self.directory
         try:
-            (self.sequence,) = urfd.load(self.directory, [sequence])
+            (self.sequence,) = urfd.load(self.directory, [sequence], keypoints_file)
         except KeyError as error:
-            raise SourceError(f"urfd: no sequence {sequence!r} in {self.directory}") from error
-        except FileNotFoundError as error:
+            raise SourceError(f"urfd: no sequence {sequence!r} in {where}") from error
+        except (FileNotFoundError, ValueError) as error:
             raise SourceError(str(error)) from error
         self.name = f"urfd:{sequence}"
         self.speed = speed
@@ -122,42 +120,27 @@ class UrfdReplaySource:
         # row -> depth PNG; where two rows share an official frame (the first two), the later
         self.depth_rows: dict[int, Path] = {}
         if self.depth:
-            frames = urfd_image_frames(sequence, self.directory)
+            frames = urfd_image_frames(sequence, self.directory, keypoints_file)
             by_frame = {int(frame): row for row, frame in enumerate(frames)}
             self.depth_rows = {
                 row: self.depth[frame] for frame, row in by_frame.items() if frame in self.depth
             }
         kind = sequence.split("-")[0]
         self.depth_scale_mm = URFD_DEPTH_SCALE_MM if kind == "fall" else URFD_ADL_DEPTH_SCALE_MM
-        self.truth = [
-            None if math.isnan(label) else _URFD_TRUTH[(kind, float(label))]
-            for label in self.sequence.urfd_label
-        ]
 
     def __len__(self) -> int:
         return len(self.sequence)
 
     def __iter__(self) -> Iterator[Observation]:
         pacer = Pacer(self.speed)
-        seq = self.sequence
-        for i, (keypoints, ts) in enumerate(zip(seq.keypoints, seq.timestamps, strict=True)):
-            ts = float(ts)
-            pacer.wait(ts)
+        for i, observation in enumerate(self.sequence.observations()):
+            pacer.wait(observation.timestamp)
             depth_path = self.depth_rows.get(i)
-            depth_image = read_depth_png(depth_path) if depth_path is not None else None
-            floor = seq.floor[i]  # URFD's official depth features (vigil.datasets.urfd)
-            people = (
-                [SkeletonFrame(keypoints, timestamp=ts, floor=floor)] if seq.detected[i] else []
-            )
-            yield Observation(
-                timestamp=ts,
-                people=people,
-                index=i,
-                depth_image=depth_image,
-                depth_scale_mm=self.depth_scale_mm,
-                truth=self.truth[i],
-                patient_hint=0 if people else None,
-            )
+            if depth_path is not None:
+                observation.depth_image = read_depth_png(depth_path)
+            observation.depth_scale_mm = self.depth_scale_mm
+            observation.patient_hint = 0 if observation.people else None
+            yield observation
 
 
 def _numbers_or_nulls(frame: dict, key: str, length: int, where: str) -> np.ndarray:

@@ -10,10 +10,10 @@ import pytest
 
 from robot_agent.outbox import Outbox
 from robot_agent.pipeline import GROUND_TRUTH_VERSION, Pipeline
-from vigil.observation import Observation
 from robot_agent.sources.simulator import SimulatorSource
 from vigil.classes import TransportMode
 from vigil.floor import CameraMount
+from vigil.observation import Observation
 from vigil.protocol import FrameRecord
 from vigil.runtime import FrameClassifier
 from vigil.skeleton import N_KEYPOINTS, SkeletonFrame
@@ -181,39 +181,79 @@ def test_a_shadow_model_decides_beside_the_model_and_travels_with_the_frame(tmp_
     assert "shadow" not in frames_of(outbox)[-1]
 
 
-def test_a_model_that_needs_floor_measures_says_so_once_per_transport_when_none_come(
-    tmp_path, caplog
-):
-    from worker.training.cross_validation import select
-    from worker.training.data import from_urfd
-    from worker.training.estimators import ModelSpec
-    from worker.training.publish import publish
-    from worker.training.trainers import SklearnTrainer
+def _statuses(outbox: Outbox) -> list[dict]:
+    messages = [json.loads(m.text) for m in outbox.pending(limit=100_000) if m.seq is None]
+    return [m for m in messages if m["type"] == "detection_status"]
 
-    names = ["fall-02", "fall-03", "adl-01", "adl-02"]
-    data = from_urfd(None, names)
-    spec = ModelSpec("rf-floor", "rf", {"n_estimators": [5], "max_depth": [4],
-                     "min_samples_leaf": [5], "max_features": [0.3]})  # fmt: skip
-    trainer = SklearnTrainer(spec)
-    selected = select(trainer, data, np.arange(len(names)), n_inner=2, stride=4)
-    publish(trainer, selected, data, tmp_path / "model", version="rf-floor-1")
-    pipeline = Pipeline(
-        Outbox(tmp_path / "o.sqlite"), TransportMode.WALKING,
-        FrameClassifier.from_dir(tmp_path / "model"),
-    )  # fmt: skip
-    keypoints = np.zeros((N_KEYPOINTS, 3), np.float32)
-    keypoints[:, 0], keypoints[:, 1], keypoints[:, 2] = 50, np.arange(N_KEYPOINTS) * 8, 1
-    warnings = []
+
+def test_losing_floor_measures_switches_to_the_fallback_and_raises_degraded(tmp_path):
+    """A floor model whose frames stop carrying floor measures: after DEGRADE_AFTER_S the
+    keypoints-only fallback decides (and catches the fall the floor model would not), a
+    detection_status message says so once, and floor measures coming back end it."""
+    floor_model = FrameClassifier.from_dir(
+        write_upright_model(
+            tmp_path / "floor", "floor-1", delay_ms=0, feature_set="full", always_normal=True
+        )
+    )
+    fallback = FrameClassifier.from_dir(write_upright_model(
+        tmp_path / "kp", "kp-1", delay_ms=0, feature_set="keypoints"))  # fmt: skip
+    outbox = Outbox(tmp_path / "o.sqlite")
+    pipeline = Pipeline(outbox, TransportMode.WALKING, floor_model, fallback=fallback)
+    pipeline.start_transport("t-1", ts=1_700_000_000.0)
+    decisions = []
+    for obs in FallSource():
+        # The depth stream stops 2 s in: no floor measures from then on, until 9 s.
+        lost = 2.0 <= obs.timestamp < 9.0
+        people = [
+            SkeletonFrame(p.keypoints, p.depth, p.timestamp,
+                          np.full(3, np.nan) if lost else np.array([1.7, 0.9, 0.0]))
+            for p in obs.people
+        ]  # fmt: skip
+        result = pipeline.process(Observation(obs.timestamp, people, obs.index, truth=obs.truth))
+        decisions.append((obs.timestamp, result.decision, result.classification.model_version))
+    statuses = _statuses(outbox)
+    assert [s["degraded"] for s in statuses] == [True, False]
+    degraded, recovered = statuses
+    assert degraded["missing_inputs"] == ["floor"]
+    assert degraded["assigned_model"] == "floor-1" and degraded["running_model"] == "kp-1"
+    assert "floor measures" in degraded["reason"] and degraded["transport_id"] == "t-1"
+    assert recovered["running_model"] == "floor-1"
+    deciding = {version for ts, _, version in decisions if 2.6 <= ts < 9.0}
+    assert deciding == {"kp-1"}
+    assert {version for ts, _, version in decisions if ts < 2.4 or ts > 10.1} == {"floor-1"}
+    assert any(d.value == "emergency" for ts, d, v in decisions if v == "kp-1")
+    assert pipeline.running_model == "floor-1"  # the assigned model, what the fleet compares
+
+
+def test_a_robot_that_cannot_feed_its_model_reports_degraded_at_once_every_transport(tmp_path):
+    floor_model = FrameClassifier.from_dir(write_upright_model(
+        tmp_path / "floor", "floor-1", feature_set="full"))  # fmt: skip
+    outbox = Outbox(tmp_path / "o.sqlite")
+    pipeline = Pipeline(outbox, TransportMode.WALKING, floor_model, available_inputs=["keypoints"])
     for transport in ("t-1", "t-2"):
         pipeline.start_transport(transport, ts=1_700_000_000.0)
-        with caplog.at_level("WARNING", logger="robot_agent.pipeline"):
-            for i in range(3):
-                person = SkeletonFrame(keypoints, timestamp=float(i))
-                pipeline.process(Observation(float(i), [person]))
-            with_floor = SkeletonFrame(keypoints, timestamp=3.0, floor=[1.7, 0.9, 0.1])
-            pipeline.process(Observation(3.0, [with_floor]))
-        warnings.append([r for r in caplog.records if "uses floor measures" in r.message])
-        caplog.clear()
+        for i, obs in enumerate(FallSource()):
+            result = pipeline.process(obs)
+            assert result.decision is not None  # it keeps deciding
+            if i == 5:
+                break
         pipeline.end_transport(1_700_000_100.0)
-    assert [len(w) for w in warnings] == [1, 1]
-    assert "rf-floor-1" in warnings[0][0].getMessage()
+    statuses = _statuses(outbox)
+    assert [(s["transport_id"], s["degraded"]) for s in statuses] == [("t-1", True), ("t-2", True)]
+    assert statuses[0]["running_model"] == "floor-1"
+    assert "no keypoints-only fallback" in statuses[0]["reason"]
+
+
+def test_transport_start_carries_the_source_frame_rate_and_end_logs_counts(tmp_path, caplog):
+    outbox = Outbox(tmp_path / "o.sqlite")
+    pipeline = Pipeline(outbox, TransportMode.WALKING)
+    pipeline.start_transport("t-1", ts=1_700_000_000.0, fps=23.976)
+    for i in range(25):
+        people = [] if i % 5 == 0 else list(next(iter(FallSource())).people)
+        pipeline.process(Observation(i / 23.976, people, i))
+    with caplog.at_level("INFO", logger="robot_agent.pipeline"):
+        pipeline.end_transport(1_700_000_100.0)
+    start = json.loads(next(m.text for m in outbox.pending(limit=100) if m.seq is None))
+    assert start["type"] == "transport_start" and start["fps"] == 23.976
+    (line,) = [r.getMessage() for r in caplog.records if "ended" in r.getMessage()]
+    assert "25 frames, 20 with a person in view, 20 with the patient, 24.0 frames/s" in line

@@ -15,11 +15,18 @@ from vigil.model_file import ModelManifest, write_model
 from vigil.taxonomy import DEFAULT_TAXONOMY
 
 
-def upright_model_bytes(steepness: float = 6.0) -> bytes:
-    n_features = len(FEATURE_SETS["pose"])
+def upright_model_bytes(
+    steepness: float = 6.0, feature_set: str = "pose", always_normal: bool = False
+) -> bytes:
+    """always_normal: ignore the features and score Normal 0.99 (a model that never alarms)."""
+    columns = list(FEATURE_SETS[feature_set])
+    n_features = len(columns)
     weights = np.zeros((n_features, 2), np.float32)
-    weights[FEATURE_NAMES.index("upright")] = (steepness, -steepness)
     bias = np.array([-steepness / 2, steepness / 2], np.float32)
+    if always_normal:
+        bias = np.array([4.6, 0.0], np.float32)
+    else:
+        weights[columns.index(FEATURE_NAMES.index("upright"))] = (steepness, -steepness)
     graph = helper.make_graph(
         [
             helper.make_node("MatMul", ["features", "w"], ["product"]),
@@ -40,7 +47,12 @@ def upright_model_bytes(steepness: float = 6.0) -> bytes:
 
 
 def write_upright_model(
-    directory: Path, version: str, threshold: float = 0.5, delay_ms: int = 200
+    directory: Path,
+    version: str,
+    threshold: float = 0.5,
+    delay_ms: int = 200,
+    feature_set: str = "pose",
+    always_normal: bool = False,
 ) -> Path:
     manifest = ModelManifest(
         version=version,
@@ -48,7 +60,7 @@ def write_upright_model(
         mode=TransportMode.WALKING,
         classes=[Decision.NORMAL, Decision.EMERGENCY],
         feature_version=FEATURE_VERSION,
-        feature_set="pose",
+        feature_set=feature_set,
         taxonomy_version=DEFAULT_TAXONOMY.version,
         threshold=threshold,
         delay_ms=delay_ms,
@@ -56,4 +68,5 @@ def write_upright_model(
         generated_data=True,
         sha256="0" * 64,
     )
-    return write_model(directory, upright_model_bytes(), manifest)
+    onnx = upright_model_bytes(feature_set=feature_set, always_normal=always_normal)
+    return write_model(directory, onnx, manifest)

@@ -27,6 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from vigil.formats.coco import MOVENET13, movenet13_to_body25
+from vigil.observation import Observation
 from vigil.skeleton import SkeletonFrame
 
 FPS = 30.0
@@ -35,6 +36,16 @@ KEYPOINTS_FILE = "keypoints/urfd_movenet13.csv.gz"
 LABEL_FILES = ("labels/urfall-cam0-falls.csv", "labels/urfall-cam0-adls.csv")
 UNLABELLED = -1
 NORMAL, EMERGENCY = 0, 1  # indices into MODE_CLASSES[WALKING]
+# A fine label standing in for each official label, chosen so that its class is the dataset's
+# (vigil.taxonomy): what a replayed observation carries as its truth.
+TRUTH_LABELS = {
+    ("fall", 0.0): "falling",
+    ("fall", 1.0): "lying_on_floor",
+    ("fall", -1.0): "standing",
+    ("adl", 1.0): "lying_down_deliberately",
+    ("adl", 0.0): "sitting_down",
+    ("adl", -1.0): "standing",
+}
 
 
 def default_dir() -> Path:
@@ -74,6 +85,25 @@ class Sequence:
             for k, t, f in zip(self.keypoints, self.timestamps, self.floor, strict=True)
         ]
 
+    def truth(self) -> list[str | None]:
+        """Per frame, the fine label of TRUTH_LABELS (None where unlabelled)."""
+        kind = self.name.split("-")[0]
+        return [None if np.isnan(v) else TRUTH_LABELS[(kind, float(v))] for v in self.urfd_label]
+
+    def observations(self) -> list[Observation]:
+        """The sequence as a camera would have given it: one person where MoveNet found
+        somebody (with the official floor measures), nobody where it did not."""
+        out = []
+        for i, (truth, ts) in enumerate(zip(self.truth(), self.timestamps, strict=True)):
+            ts = float(ts)
+            people = (
+                [SkeletonFrame(self.keypoints[i], timestamp=ts, floor=self.floor[i])]
+                if self.detected[i]
+                else []
+            )
+            out.append(Observation(timestamp=ts, people=people, index=i, truth=truth))
+        return out
+
     def first_emergency_time(self) -> float | None:
         hits = np.flatnonzero(self.target == EMERGENCY)
         return float(self.timestamps[hits[0]]) if hits.size else None
@@ -96,12 +126,17 @@ def data_sha256(directory: Path | str | None = None) -> str:
     return digest.hexdigest()
 
 
-def _floor_features(directory: Path) -> dict[tuple[str, int], tuple[float, float, float]]:
-    """(sequence, official frame) -> (H m, D m, P40) from the official label files."""
+def _floor_features(
+    directory: Path, required: bool = True
+) -> dict[tuple[str, int], tuple[float, float, float]]:
+    """(sequence, official frame) -> (H m, D m, P40) from the official label files (none when
+    they are not there and not ``required``)."""
     floor = {}
     for name in LABEL_FILES:
         path = directory / name
         if not path.exists():
+            if not required:
+                return {}
             raise FileNotFoundError(f"URFD labels not found at {path} (set VIGIL_URFD_DIR)")
         with path.open(newline="") as handle:
             for row in csv.reader(handle):
@@ -111,10 +146,22 @@ def _floor_features(directory: Path) -> dict[tuple[str, int], tuple[float, float
     return floor
 
 
-def load(directory: Path | str | None = None, names: list[str] | None = None) -> list[Sequence]:
-    """All sequences (or those named), in the order fall-01..fall-30, adl-01..adl-40."""
-    directory = Path(directory or default_dir())
-    path = directory / KEYPOINTS_FILE
+def load(
+    directory: Path | str | None = None,
+    names: list[str] | None = None,
+    keypoints_file: Path | str | None = None,
+) -> list[Sequence]:
+    """All sequences (or those named), in the order fall-01..fall-30, adl-01..adl-40.
+
+    keypoints_file: a keypoint file in URFD's format anywhere (default: the dataset's own);
+    its floor measures come from the label files of the dataset layout around it
+    (``<file>/../../labels``) when they are there, else they are unknown."""
+    if keypoints_file is not None:
+        path = Path(keypoints_file)
+        directory = path.parent.parent
+    else:
+        directory = Path(directory or default_dir())
+        path = directory / KEYPOINTS_FILE
     if not path.exists():
         raise FileNotFoundError(f"URFD keypoints not found at {path} (set VIGIL_URFD_DIR)")
     rows: dict[str, list[list[str]]] = {}
@@ -122,10 +169,15 @@ def load(directory: Path | str | None = None, names: list[str] | None = None) ->
         reader = csv.reader(handle)
         header = next(reader)
         column = {name: i for i, name in enumerate(header)}
+        wanted_columns = ("sequence", "npy_index", "image_frame", "urfd_label", "detected")
+        absent = [name for name in wanted_columns if name not in column]
+        absent += [f"{kp}_{a}" for kp in MOVENET13 for a in "xy" if f"{kp}_{a}" not in column]
+        if absent:
+            raise ValueError(f"{path}: not in URFD's keypoint format, missing columns {absent[:5]}")
         xy_columns = [column[f"{kp}_{axis}"] for kp in MOVENET13 for axis in ("x", "y")]
         for row in reader:
             rows.setdefault(row[column["sequence"]], []).append(row)
-    floor_of = _floor_features(directory)
+    floor_of = _floor_features(directory, required=keypoints_file is None)
     missing_floor = (np.nan, np.nan, np.nan)
     wanted = names if names is not None else sorted(rows, key=_sequence_order)
     sequences = []
@@ -134,6 +186,13 @@ def load(directory: Path | str | None = None, names: list[str] | None = None) ->
             raise KeyError(f"URFD has no sequence {name!r}")
         seq_rows = sorted(rows[name], key=lambda r: int(r[column["npy_index"]]))
         index = np.array([int(r[column["npy_index"]]) for r in seq_rows])
+        repeated = index[1:][np.diff(index) == 0]
+        if repeated.size:
+            raise ValueError(
+                f"{path}: sequence {name} has more than one row for npy_index "
+                f"{', '.join(str(int(i)) for i in np.unique(repeated)[:5])}: every frame must "
+                "appear once (two rows for one frame would make a zero-length time step)"
+            )
         label = np.array(
             [
                 float(r[column["urfd_label"]]) if r[column["urfd_label"]] else np.nan

@@ -8,7 +8,9 @@ import numpy as np
 
 from vigil.classes import MODE_CLASSES, Decision, TransportMode
 from vigil.datasets import urfd
-from vigil.features import extract_arrays
+from vigil.detector import patient_stream
+from vigil.features import extract_sequence
+from vigil.observation import Observation
 from vigil.policy import TIME_EPSILON
 
 
@@ -29,6 +31,9 @@ class FrameData:
     # What the models are fitted to, where it differs from `target` (which thresholds, delays and
     # every evaluation use): see with_emergency_lead.
     training_target: np.ndarray | None = None
+    # Per sequence, the recording as observations: evaluations replay it through the robot's
+    # frame path (vigil.replay). Features above are computed from the same path's frames.
+    recordings: tuple[tuple[Observation, ...], ...] | None = None
 
     @property
     def classes(self):
@@ -74,17 +79,29 @@ def with_emergency_lead(data: FrameData, lead_s: float) -> FrameData:
     return replace(data, training_target=fit)
 
 
+def sequence_arrays(
+    observations: list[Observation], feature_set: str = "full"
+) -> tuple[np.ndarray, np.ndarray]:
+    """Features of one recording from the patient frames the robot's path makes of it, and
+    which frames had the patient (trainable)."""
+    frames, seen = patient_stream(observations)
+    return extract_sequence(frames, feature_set), seen
+
+
 def from_urfd(
     directory=None, names: list[str] | None = None, feature_set: str = "full"
 ) -> FrameData:
     sequences = urfd.load(directory, names)
-    feats, targets, groups, times, usable = [], [], [], [], []
+    feats, targets, groups, times, usable, recordings = [], [], [], [], [], []
     for i, seq in enumerate(sequences):
-        feats.append(extract_arrays(seq.keypoints, None, seq.timestamps, feature_set, seq.floor))
+        observations = seq.observations()
+        features, seen = sequence_arrays(observations, feature_set)
+        feats.append(features)
         targets.append(seq.target)
         groups.append(np.full(len(seq), i))
         times.append(seq.timestamps)
-        usable.append(seq.detected)
+        usable.append(seen)
+        recordings.append(tuple(observations))
     return FrameData(
         names=[s.name for s in sequences],
         is_positive_sequence=np.array([s.is_fall for s in sequences]),
@@ -95,4 +112,5 @@ def from_urfd(
         usable=np.concatenate(usable),
         mode=TransportMode.WALKING,
         data_sha256=urfd.data_sha256(directory),
+        recordings=tuple(recordings),
     )

@@ -8,9 +8,10 @@ import hashlib
 import numpy as np
 
 from vigil.classes import MODE_CLASSES, Decision, TransportMode
-from vigil.features import extract_arrays
+from vigil.observation import Observation
+from vigil.skeleton import SkeletonFrame
 from vigil.synthetic import EVENTS_BY_LOCOMOTION, GeneratedTransport, Locomotion, generate_transport
-from worker.training.data import FrameData
+from worker.training.data import FrameData, sequence_arrays
 
 LOCOMOTIONS: dict[TransportMode, tuple[Locomotion, ...]] = {
     TransportMode.WHEELCHAIR: (Locomotion.WHEELCHAIR,),
@@ -61,11 +62,22 @@ def generated_frames(
     emergency = classes.index(Decision.EMERGENCY)
     transports = generate_for_mode(mode, repeats, seed)
     feats, targets, groups, times, usable_all, positive, names = [], [], [], [], [], [], []
+    recordings = []
     digest = hashlib.sha256()
     for i, transport in enumerate(transports):
         keypoints, depth, usable, floor = patient_arrays(transport)
         timestamps = np.arange(transport.n_frames) / transport.fps
-        feats.append(extract_arrays(keypoints, depth, timestamps, floor=floor))
+        # The patient alone in view (the bystanders are the tracker's part: bench-robot).
+        observations = tuple(
+            Observation(
+                float(ts), [SkeletonFrame(keypoints[t], depth[t], float(ts), floor[t])]
+                if usable[t] else [], t,
+            )
+            for t, ts in enumerate(timestamps)
+        )  # fmt: skip
+        recordings.append(observations)
+        features, usable = sequence_arrays(list(observations))
+        feats.append(features)
         target = np.array([classes.index(d) for d in transport.decisions(mode)])
         targets.append(target)
         groups.append(np.full(len(target), i))
@@ -87,4 +99,5 @@ def generated_frames(
         mode=mode,
         data_sha256=digest.hexdigest(),
         generated=True,
+        recordings=tuple(recordings),
     )

@@ -5,8 +5,11 @@ from __future__ import annotations
 from datetime import UTC, datetime
 from pathlib import Path
 
-from vigil.features import FEATURE_VERSION
-from vigil.model_file import ModelManifest, write_model
+import numpy as np
+
+from vigil.features import FEATURE_NAMES, FEATURE_VERSION
+from vigil.inputs import model_inputs
+from vigil.model_file import ModelManifest, read_manifest, write_model
 from vigil.taxonomy import DEFAULT_TAXONOMY
 from worker.training.cross_validation import Selected
 from worker.training.data import FrameData
@@ -31,6 +34,7 @@ def publish(
         feature_version=FEATURE_VERSION,
         feature_set=trainer.feature_set,
         window=trainer.window,
+        inputs=model_inputs(trainer.feature_set, fitted_with_depth(data)),
         taxonomy_version=DEFAULT_TAXONOMY.version,
         threshold=selected.threshold,
         delay_ms=int(round(selected.delay_s * 1000)),
@@ -42,9 +46,15 @@ def publish(
     sample, expected = trainer.reference(selected.fitted, data, 256)
     verify_export(onnx_bytes, manifest, sample, expected)
     write_model(out_dir, onnx_bytes, manifest)
-    from vigil.model_file import read_manifest
-
     return read_manifest(out_dir)[0]
+
+
+def fitted_with_depth(data: FrameData) -> bool:
+    """Most frames a model is fitted on had depth at the keypoints: it needs depth to run."""
+    if data.features.shape[1] != len(FEATURE_NAMES):
+        raise ValueError("FrameData must hold the full feature set")
+    has_depth = data.features[data.trainable, FEATURE_NAMES.index("has_depth")]
+    return bool(has_depth.size and np.mean(has_depth > 0) > 0.5)
 
 
 def _plain(value):

@@ -17,6 +17,7 @@ from worker.training.cross_validation import cross_validate, select
 from worker.training.data import FrameData
 from worker.training.plots import delay_metrics, roc_pr
 from worker.training.publish import publish
+from worker.training.robot_path import robot_path_cross_validation
 from worker.training.selection import onset_bin_label
 from worker.training.trainers import Trainer
 
@@ -74,6 +75,11 @@ def _train_all(
         bar.set_postfix_str(trainer.name)
         cv = cross_validate(trainer, data, n_folds, n_inner, stride, progress=bar)
         evaluation_s += cv.seconds
+        started = time.perf_counter()
+        robot_path = (
+            robot_path_cross_validation(trainer, cv, data) if data.recordings is not None else None
+        )
+        robot_path_s = time.perf_counter() - started
         start = time.perf_counter()
         final = select(trainer, data, np.arange(len(data.names)), n_folds, stride, progress=bar)
         manifest = publish(
@@ -111,7 +117,10 @@ def _train_all(
                 "params": manifest.metrics.get("params"),
                 "fold_params": [f.params for f in cv.folds],
                 "grid": final.grid_scores,
+                "robot_path": robot_path,
+                "inputs": manifest.inputs,
                 "evaluation_s": cv.seconds,
+                "robot_path_s": robot_path_s,
                 "retrain_s": time.perf_counter() - start,
                 "model_dir": str(out_dir / "models" / trainer.name),
             }
@@ -203,5 +212,26 @@ def markdown(report: dict) -> str:
             f"sequences with a false alarm: {', '.join(alarms) or 'none'}; "
             f"missed Emergency frames by time since the first Emergency label: {by_onset or '-'}"
         )
+    robot_rows = [r for r in report["models"] if r.get("robot_path")]
+    if robot_rows:
+        lines += [
+            "",
+            "## Through the robot's frame path",
+            "",
+            "Every held-out recording replayed through tracker, depth, floor measures, streaming "
+            "features, ONNX Runtime and the delay filter, with each fold's exported model.",
+            "",
+            "| model | inputs | frame recall | frame F1 | falls | ADL false alarms "
+            "| median time to alarm s | tracker dropped frames |",
+            "|---|---|---|---|---|---|---|---|",
+        ]
+        for row in robot_rows:
+            rp = row["robot_path"]
+            lines.append(
+                f"| {row['name']} | {', '.join(row['inputs'])} | {_fmt(rp['frame_recall'])} "
+                f"| {_fmt(rp['frame_f1'])} | {rp['falls_detected']}/{rp['falls_total']} "
+                f"| {rp['adl_false_alarms']}/{rp['adl_total']} "
+                f"| {_fmt(rp['median_time_to_alarm_s'], 2)} | {rp['tracker_dropped_frames']} |"
+            )
     lines += ["", "Plots: `plots/<model>_roc_pr.png`, `plots/<model>_delay.png`."]
     return "\n".join(lines) + "\n"

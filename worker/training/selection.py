@@ -35,6 +35,15 @@ class StreamScores:
     data: FrameData
     sequences: np.ndarray  # sequence indices
     scores: np.ndarray  # (n_frames_of_those_sequences, k)
+    # The delay-filtered decisions (class index) the robot's frame path made (vigil.replay);
+    # None: derive them from the scores with the batch form of the same policy.
+    decisions: np.ndarray | None = None
+
+    def decisions_of(self, sequence: int) -> np.ndarray | None:
+        if self.decisions is None:
+            return None
+        group = self.data.group[self.data.frames_of(self.sequences)]
+        return self.decisions[group == sequence]
 
     def per_sequence(self):
         mask = self.data.frames_of(self.sequences)
@@ -56,7 +65,10 @@ def events_for(stream: StreamScores, threshold: float, delay_s: float) -> tuple[
     e, normal = classes.index(Decision.EMERGENCY), classes.index(Decision.NORMAL)
     events, filtered_all = [], []
     for s, times, target, scores in stream.per_sequence():
-        filtered = apply_delay(raw_decisions(scores, classes, threshold), times, delay_s, normal)
+        filtered = stream.decisions_of(s)
+        if filtered is None:
+            raw = raw_decisions(scores, classes, threshold)
+            filtered = apply_delay(raw, times, delay_s, normal)
         filtered_all.append(filtered)
         events.append(
             SequenceEvent(
