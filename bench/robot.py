@@ -12,7 +12,14 @@
 - outbox_replay_frames_per_s: a robot whose outbox holds N frames from a time offline connects to
   the real backend (uvicorn subprocess, throwaway SQLite): frames per second from `hello` until
   the backend acknowledged the last one.
-Goals (issue 5): frame p99 <= 5 ms; MediaPipe >= 15 frames/s on 2 cores.
+- tracking: the patient tracker (vigil.tracking) on the 70 REAL URFD replays (frames with a
+  person in view but no patient passed on: `urfd_dropped_frames`) and on GENERATED transports
+  with bystanders crossing and occluding (vigil.synthetic: walking, rollator, wheelchair; 3 and
+  5 people; 15 s; seeds 100-111): frames attributed to someone else (`identity_switch_frames`),
+  transports with any, and frames where the visible patient was not passed on
+  (`patient_lost_frames`), with the generator's depth and with depth removed.
+Goals (issue 5): frame p99 <= 5 ms; MediaPipe >= 15 frames/s on 2 cores. Issue 17: 0 dropped
+frames on URFD, 0 identity switches on the generated scenes.
 """
 
 from __future__ import annotations
@@ -108,6 +115,80 @@ def bench_frames(model_dir: Path, workdir: Path, max_frames: int) -> dict:
     }
 
 
+TRACKING_MODES = ("walking", "rollator", "wheelchair")
+TRACKING_PEOPLE = (3, 5)
+TRACKING_SEEDS = range(100, 112)
+
+
+def bench_urfd_tracking() -> dict:
+    from robot_agent.sources.replay import UrfdReplaySource
+    from vigil.datasets import urfd
+    from vigil.tracking import PatientTracker
+
+    dropped, with_person, sequences_with_drops = 0, 0, []
+    for sequence in urfd.load(URFD_DIR):
+        tracker, before = PatientTracker(), dropped
+        for observation in UrfdReplaySource(sequence.name, URFD_DIR, speed=0):
+            result = tracker.update(observation)
+            with_person += bool(observation.people)
+            dropped += bool(observation.people) and result.patient is None
+        if dropped > before:
+            sequences_with_drops.append(sequence.name)
+    return {
+        "urfd_sequences": 70,
+        "urfd_frames_with_a_person": with_person,
+        "urfd_dropped_frames": dropped,
+        "urfd_sequences_with_drops": sequences_with_drops,
+    }
+
+
+def bench_generated_tracking(with_depth: bool) -> dict:
+    from dataclasses import replace
+
+    from robot_agent.sources.simulator import SimulatorSource
+    from vigil.tracking import PatientTracker
+
+    switched = lost = visible = transports = 0
+    switched_transports = []
+    for mode in TRACKING_MODES:
+        for people in TRACKING_PEOPLE:
+            for seed in TRACKING_SEEDS:
+                tracker, wrong = PatientTracker(), 0
+                transports += 1
+                source = SimulatorSource(mode, seed=seed, duration_s=15, n_people=people, speed=0)
+                for observation in source:
+                    if not with_depth:
+                        no_depth = np.full(25, np.nan, np.float32)
+                        observation = replace(
+                            observation,
+                            people=[replace(p, depth=no_depth) for p in observation.people],
+                        )
+                    index = tracker.update(observation).index
+                    hint = observation.patient_hint
+                    visible += hint is not None
+                    lost += hint is not None and index is None
+                    wrong += index is not None and index != hint
+                switched += wrong
+                if wrong:
+                    switched_transports.append(f"{mode}/{people}/{seed}")
+    return {
+        "transports": transports,
+        "patient_visible_frames": visible,
+        "identity_switch_frames": switched,
+        "transports_with_a_switch": switched_transports,
+        "patient_lost_frames": lost,
+    }
+
+
+def bench_tracking() -> dict:
+    return {
+        **bench_urfd_tracking(),
+        "generated_with_depth": bench_generated_tracking(with_depth=True),
+        "generated_without_depth": bench_generated_tracking(with_depth=False),
+        "data": "REAL URFD replays; GENERATED transports with bystanders (vigil.synthetic)",
+    }
+
+
 def bench_mediapipe() -> dict:
     try:
         from robot_agent.sources.mediapipe_video import URFD_RGB_CROP, MediaPipeVideoSource
@@ -176,13 +257,32 @@ def bench_outbox_replay(workdir: Path, n: int) -> dict:
     }
 
 
+def tracking_goals(tracking: dict) -> dict:
+    return {
+        "urfd_dropped_frames_met": tracking["urfd_dropped_frames"] == 0,
+        "identity_switches_met": tracking["generated_with_depth"]["identity_switch_frames"] == 0,
+    }
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--frames", type=int, default=5000, help="frames for the frame timing")
     parser.add_argument("--replay-frames", type=int, default=20000)
     parser.add_argument("--skip-mediapipe", action="store_true")
+    parser.add_argument(
+        "--tracking-only",
+        action="store_true",
+        help="only the tracking figures, merged into an existing --output",
+    )
     parser.add_argument("--output", type=Path, default=RESULTS)
     args = parser.parse_args(argv)
+    if args.tracking_only:
+        result = json.loads(args.output.read_text()) if args.output.exists() else {}
+        result["tracking"] = bench_tracking()
+        result.setdefault("goals", {}).update(tracking_goals(result["tracking"]))
+        args.output.write_text(json.dumps(result, indent=2) + "\n")
+        print(json.dumps(result["tracking"], indent=2))
+        return 0
     model_dir = ensure_model()
     result: dict = {
         "benchmark": "robot",
@@ -201,7 +301,9 @@ def main(argv: list[str] | None = None) -> int:
             result.update(bench_mediapipe())
         print(json.dumps(result), flush=True)
         result.update(bench_outbox_replay(workdir, args.replay_frames))
+    result["tracking"] = bench_tracking()
     result["goals"] = {
+        **tracking_goals(result["tracking"]),
         "frame_p99_ms": GOAL_FRAME_P99_MS,
         "frame_p99_met": result["frame_p99_ms"] <= GOAL_FRAME_P99_MS,
         "frame_cpu_p99_met": result["frame_cpu_p99_ms"] <= GOAL_FRAME_P99_MS,

@@ -73,7 +73,7 @@ def make_trainers(names: list[str]):
     return trainers
 
 
-ALL_MODELS = "svm-paper,svm,mlp,rf,gbt,tcn"
+ALL_MODELS = "svm-paper,svm,mlp,rf,gbt,gbt-keypoints,tcn"
 MULTI = "mlp,rf,tcn"
 
 

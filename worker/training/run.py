@@ -13,6 +13,7 @@ from threadpoolctl import threadpool_limits
 from tqdm import tqdm
 
 from vigil.classes import Decision
+from vigil.inputs import is_keypoints_only
 from worker.training.cross_validation import cross_validate, select
 from worker.training.data import FrameData
 from worker.training.plots import delay_metrics, roc_pr
@@ -43,8 +44,10 @@ TRAIN_STRIDE = 3
 
 
 def rank_key(row: dict) -> tuple:
-    """Best model: most falls detected minus sequences with a false alarm, then frame F1."""
-    return (row["falls_detected"] - row["adl_false_alarms"], row["frame_f1"])
+    """Best model: most falls detected minus sequences with a false alarm, then frame F1, on
+    the robot's frame path where it was measured."""
+    figures = row.get("robot_path") or row
+    return (figures["falls_detected"] - figures["adl_false_alarms"], figures["frame_f1"])
 
 
 def train_all(*args, blas_threads: int = 1, **kwargs) -> dict:
@@ -127,12 +130,15 @@ def _train_all(
         )
     bar.close()
     best = max(rows, key=rank_key)["name"]
+    keypoints_only = [r for r in rows if is_keypoints_only(r["inputs"])]
+    best_keypoints_only = max(keypoints_only, key=rank_key)["name"] if keypoints_only else None
     report = {
         "dataset": "generated" if data.generated else "urfd",
         "generated": data.generated,
         "mode": data.mode.value,
         "folds": n_folds,
         "best": best,
+        "best_keypoints_only": best_keypoints_only,
         "retrain_s": retrain_s,
         "evaluation_s": evaluation_s,
         "frames": int(len(data.target)),
