@@ -1,5 +1,7 @@
-"""`make run`: migrate, seed demo users and robots, then start the backend, the worker and a
-simulated fleet of 3 robots; Ctrl-C stops every child process."""
+"""`make run`: migrate, seed demo users and robots, train (first run) and register both walking
+models (depth/floor and keypoints-only), then start the backend, the worker and a simulated
+fleet of 3 robots; once the robots said what they can feed, each gets a model it can feed.
+Ctrl-C stops every child process."""
 
 from __future__ import annotations
 
@@ -15,7 +17,9 @@ ROOT = Path(__file__).resolve().parent.parent
 VAR = ROOT / "var"
 PY = sys.executable
 HOST, PORT = "127.0.0.1", int(os.environ.get("VIGIL_PORT", "8000"))
-MODEL_DIR = VAR / "models" / "default-walking"
+MODEL_DIR = VAR / "models" / "default-walking"  # feature set "full": keypoints + floor measures
+KEYPOINTS_MODEL_DIR = VAR / "models" / "keypoints-walking"  # every walking robot's fallback
+ROBOTS = 3
 TOKENS = VAR / "robot_tokens.json"
 
 
@@ -52,16 +56,39 @@ def stop(children: list[subprocess.Popen]) -> None:
             os.killpg(child.pid, signal.SIGKILL)
 
 
-def default_model_is_current() -> bool:
-    """A default model exists and was trained with this code's features."""
+def model_is_current(directory: Path = MODEL_DIR) -> bool:
+    """A model exists there and was trained with this code's features."""
     from vigil.features import FEATURE_VERSION
     from vigil.model_file import read_manifest
 
     try:
-        manifest, _ = read_manifest(MODEL_DIR / "manifest.json")
+        manifest, _ = read_manifest(directory / "manifest.json")
     except (OSError, ValueError):
         return False
     return manifest.feature_version == FEATURE_VERSION
+
+
+def default_model_is_current() -> bool:
+    return model_is_current(MODEL_DIR)
+
+
+def train_missing_models() -> None:
+    """Train the models that are missing or stale, side by side (the machine has two cores)."""
+    jobs = []
+    if not model_is_current(MODEL_DIR):
+        train = ["-m", "worker.training.cli", "train-default", "--out", str(MODEL_DIR)]
+        jobs.append(("the default walking model (depth/floor measures) on URFD", train))
+    if not model_is_current(KEYPOINTS_MODEL_DIR):
+        jobs.append(("the keypoints-only walking model on URFD",
+                     ["-m", "worker.bootstrap", "train-keypoints", "--out",
+                      str(KEYPOINTS_MODEL_DIR)]))  # fmt: skip
+    running = []
+    for title, args in jobs:
+        print(f"==> training {title} (first run, or after a feature change)", flush=True)
+        running.append((title, subprocess.Popen([PY, *args], cwd=ROOT)))
+    for title, process in running:
+        if process.wait() != 0:
+            raise SystemExit(f"training {title} failed (exit code {process.returncode})")
 
 
 def _terminate(signum, frame) -> None:
@@ -72,15 +99,14 @@ def main() -> int:
     signal.signal(signal.SIGTERM, _terminate)
     VAR.mkdir(exist_ok=True)
     step("applying database migrations", "-m", "backend.cli", "migrate")
-    step("creating demo users and robots", "-m", "backend.cli", "seed-demo", "--robots", "3")
-    if not default_model_is_current():
-        step(
-            "training the default walking model on URFD (first run, or after a feature change)",
-            "-m", "worker.training.cli", "train-default", "--out", str(MODEL_DIR),
-        )  # fmt: skip
+    step("creating demo users and robots", "-m", "backend.cli", "seed-demo", "--robots",
+         str(ROBOTS))  # fmt: skip
+    train_missing_models()
+    models = ["--floor-model", str(MODEL_DIR), "--keypoints-model", str(KEYPOINTS_MODEL_DIR)]
     step(
-        "model registry: URFD training and gold recordings, default model (idempotent)",
-        "-m", "worker.cli", "bootstrap", "--default-model", str(MODEL_DIR),
+        "model registry: URFD training and gold recordings, both walking models registered "
+        "and promoted to robots that can feed them (idempotent)",
+        "-m", "worker.bootstrap", "demo", *models,
     )  # fmt: skip
     children: list[subprocess.Popen] = []
     try:
@@ -98,13 +124,19 @@ def main() -> int:
                 "--backend",
                 f"ws://{HOST}:{PORT}/ws/robot",
                 "--robots",
-                "3",
+                str(ROBOTS),
                 "--tokens-file",
                 str(TOKENS),
                 "--model-dir",
-                str(MODEL_DIR),
+                str(KEYPOINTS_MODEL_DIR),  # any robot can feed it; the backend assigns the rest
             )  # fmt: skip
         )
+        # The robots' hellos said what they feed: the floor model goes to those that can.
+        step(
+            "promoting the depth/floor model to the robots that feed floor measures",
+            "-m", "worker.bootstrap", "demo", *models, "--promote-only",
+            "--wait-for-robots", str(ROBOTS), "--timeout", "30",
+        )  # fmt: skip
         print(
             f"\nVigil is running: open http://{HOST}:{PORT} and sign in as nurse "
             "(password printed above). Ctrl-C stops everything.\n",
