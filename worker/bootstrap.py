@@ -172,7 +172,7 @@ def _signer(session: Session):
 
 
 def promote_demo_models(
-    session: Session, floor: ModelVersion | None, keypoints: ModelVersion
+    session: Session, floor: ModelVersion | None, keypoints: ModelVersion, settings=None
 ) -> list[str]:
     """Give every robot a model it can feed, through the registry's own promotion (gate and
     sign-off by the demo engineer; one deployment per robot, so no canary waits):
@@ -189,7 +189,7 @@ def promote_demo_models(
     from backend.registry.gate import gate_report
     from backend.settings import Settings
 
-    settings = Settings()
+    settings = settings or Settings()
     signer = _signer(session)
     if signer is None:
         return ["no engineer account: demo models not promoted (run backend.cli seed-demo)"]
