@@ -189,3 +189,38 @@ def test_board_reconnects_and_shows_alarms_raised_while_disconnected(live_server
     expect(technical).to_have_class(re.compile(r"alarm-technical"))
     expect(_card(page).last).to_have_attribute("data-alarm-id", str(offline.id))
     page.screenshot(path=str(SCREENSHOTS / "nurse_board_kinds.png"), full_page=True)
+
+
+def test_detection_degraded_shows_as_a_technical_card_and_leaves_on_recovery(live_server, page):
+    from vigil.protocol import DetectionStatus
+
+    sign_in(page, live_server.base_url)
+    expect(page.locator("main.board")).to_have_attribute("data-link", "live")
+    with SimulatedRobot(live_server.robot_ws_url, "robot-a", ROBOT_TOKEN) as robot:
+        robot.start_transport("t-9", patient="P-9", location="lift 1")
+        frames = fall_frames(500, time.time() - 5, "t-9")[:5]
+        robot.stream(frames[:2])
+        robot.send(DetectionStatus(
+            ts=time.time(), transport_id="t-9", degraded=True, missing_inputs=["depth", "floor"],
+            assigned_model="gbt-floor-2", running_model="gbt-kp-3",
+            reason="depth stream stopped",
+        ))  # fmt: skip
+        robot.stream(frames[2:4])  # acknowledged: the status before them is committed
+        card = page.locator("article.alarm-technical")
+        expect(card).to_have_count(1)
+        expect(card.locator(".kind")).to_have_text(
+            "Detection degraded: no depth/floor measures, running keypoints-only fallback gbt-kp-3"
+        )
+        expect(card).to_contain_text("depth stream stopped")
+        expect(card).to_contain_text("P-9")
+        robot.send(
+            DetectionStatus(
+                ts=time.time() + 1,
+                transport_id="t-9",
+                degraded=False,
+                assigned_model="gbt-floor-2",
+                running_model="gbt-floor-2",
+            )
+        )
+        robot.stream(frames[4:])
+        expect(card).to_have_count(0)  # cleared: the cause ended
