@@ -88,8 +88,19 @@ def test_engineer_registry_gate_promote_what_if_and_rollback(system, page):
 
     page.get_by_label("Scope").select_option("robot")
     page.get_by_label("Robot id").fill("robot-a")
+    qualifying = page.get_by_role("table", name="Qualifying robots")
+    expect(qualifying.get_by_role("row", name="robot-a")).to_contain_text("no: lacks floor")
+    expect(page.get_by_text("The model needs keypoints, floor in every frame")).to_be_visible()
+    # robot-a never said what it feeds (keypoints only): the floor model is refused.
+    page.get_by_role("button", name="Sign off and promote").click()
+    expect(page.get_by_role("alert")).to_have_text(
+        "robot robot-a cannot feed model rf-test-1: it has no floor measures"
+    )
+    with transaction(factory) as session:  # its hello said it has a calibrated depth camera
+        session.get(Robot, "robot-a").inputs = ["keypoints", "depth", "floor"]
     page.get_by_role("button", name="Sign off and promote").click()
     expect(page.get_by_role("status")).to_contain_text("active")
+    expect(qualifying.get_by_role("row", name="robot-a")).to_contain_text("yes")
     with factory() as session:
         assert session.get(Robot, "robot-a").assigned_model_id is not None
 
@@ -97,6 +108,7 @@ def test_engineer_registry_gate_promote_what_if_and_rollback(system, page):
     fleet = page.get_by_role("table", name="Fleet")
     expect(fleet.get_by_role("row", name="robot-a")).to_contain_text("rf-test-1")
     expect(fleet.get_by_role("row", name="robot-a")).to_contain_text("pending: robot offline")
+    expect(fleet.get_by_role("row", name="robot-a")).to_contain_text("keypoints, depth, floor")
     page.screenshot(path=SCREENSHOTS / "engineer-fleet.png", full_page=True)
     page.get_by_role("table", name="Deployments").get_by_role("button", name="Roll back").click()
     expect(page.get_by_role("table", name="Deployments")).to_contain_text("rolled_back")
