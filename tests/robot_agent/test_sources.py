@@ -205,3 +205,24 @@ def test_simulator_source_several_people_truth_and_back_to_back_transports():
     assert source.generated and "generated" in source.name
     with pytest.raises(ValueError, match="n_people"):
         SimulatorSource(n_people=9)
+
+
+def test_replay_source_path_takes_a_keypoint_file_in_urfds_format(tmp_path):
+    from robot_agent.config import ConfigError, load_settings
+    from robot_agent.source_factory import transports_for
+    from tests.vigil.test_urfd import _keypoint_rows, _write
+
+    header, rows = _keypoint_rows("adl-03")
+    path = _write(tmp_path / "one.csv.gz", header, rows)
+    for source_path in (str(path), f"{path}#adl-03"):
+        settings = load_settings(None, source="replay", source_path=source_path)
+        plan = next(transports_for(settings))
+        assert plan.observations.name == "urfd:adl-03" and plan.fps == 30.0
+        assert len(list(plan.observations)) == len(rows)
+    settings = load_settings(None, source="replay", source_path=f"{path}#adl-99")
+    with pytest.raises(ConfigError, match="source_path: .*no sequence 'adl-99'"):
+        transports_for(settings)
+    two = _write(tmp_path / "two.csv.gz", header, rows + _keypoint_rows("adl-04")[1])
+    settings = load_settings(None, source="replay", source_path=str(two))
+    with pytest.raises(ConfigError, match="holds 2 sequences; name one"):
+        transports_for(settings)

@@ -39,3 +39,56 @@ def test_floor_measures_come_from_the_official_depth_features():
     assert np.isnan(adl.floor[unlisted]).all() and np.isfinite(adl.floor[~unlisted]).all()
     frames = fall.frames()
     assert np.array_equal(frames[first].floor, fall.floor[first])
+
+
+def _keypoint_rows(sequence: str) -> tuple[list[str], list[list[str]]]:
+    import csv
+    import gzip
+
+    with gzip.open(urfd.default_dir() / urfd.KEYPOINTS_FILE, "rt", newline="") as handle:
+        reader = csv.reader(handle)
+        header = next(reader)
+        return header, [row for row in reader if row[0] == sequence]
+
+
+def _write(path, header, rows):
+    import csv
+    import gzip
+
+    with gzip.open(path, "wt", newline="") as handle:
+        writer = csv.writer(handle)
+        writer.writerow(header)
+        writer.writerows(rows)
+    return path
+
+
+def test_a_keypoint_file_in_urfds_format_loads_from_anywhere(tmp_path):
+    header, rows = _keypoint_rows("fall-05")
+    (sequence,) = urfd.load(names=["fall-05"], keypoints_file=_write(tmp_path / "k.csv.gz",
+                                                                      header, rows))  # fmt: skip
+    (original,) = urfd.load(names=["fall-05"])
+    np.testing.assert_array_equal(sequence.keypoints, original.keypoints)
+    np.testing.assert_array_equal(sequence.target, original.target)
+    assert np.isnan(sequence.floor).all()  # no label files beside it: floor measures unknown
+
+
+def test_duplicated_frame_rows_are_refused_with_the_sequence_and_frame(tmp_path):
+    header, rows = _keypoint_rows("fall-05")
+    path = _write(tmp_path / "k.csv.gz", header, [*rows, rows[10]])
+    frame = rows[10][header.index("npy_index")]
+    with pytest.raises(ValueError, match=rf"fall-05 has more than one row for npy_index {frame}"):
+        urfd.load(names=["fall-05"], keypoints_file=path)
+
+
+def test_a_file_of_another_format_is_refused_naming_the_missing_columns(tmp_path):
+    path = _write(tmp_path / "k.csv.gz", ["sequence", "frame"], [["fall-01", "1"]])
+    with pytest.raises(ValueError, match="not in URFD's keypoint format, missing columns"):
+        urfd.load(keypoints_file=path)
+
+
+def test_observations_carry_the_person_where_detected_and_the_truth():
+    (sequence,) = urfd.load(names=["fall-01"])
+    observations = sequence.observations()
+    assert [bool(o.people) for o in observations] == list(sequence.detected)
+    truth = {o.truth for o in observations}
+    assert {"standing", "falling", "lying_on_floor"} <= truth
