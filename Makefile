@@ -10,8 +10,8 @@ PYTEST_ARGS ?=
 
 .PHONY: run test test-python test-sqlite test-postgresql test-frontend test-browser setup \
 	frontend chromium lint format bench-detection bench-detection-splits bench-fall-onset \
-	bench-floor bench-ingest bench-robot bench-labelling bench-registry bench-alarm-latency \
-	readme screenshots clean
+	bench-floor bench-ingest bench-robot bench-video bench-labelling bench-registry \
+	bench-alarm-latency readme screenshots clean
 
 setup: $(STAMP) frontend
 
@@ -76,6 +76,9 @@ bench-ingest: $(STAMP)
 
 bench-robot: $(STAMP)
 	$(PY) -m bench.robot
+
+bench-video: $(STAMP)
+	$(PY) -m bench.video_end_to_end
 
 bench-labelling: $(STAMP)
 	$(PY) -m bench.labelling
