@@ -94,6 +94,8 @@ class MediaPipeVideoSource:
         self.max_frames = max_frames
         self.name = f"mediapipe:{'camera ' if self.camera else ''}{video}"
         self.fps = 30.0
+        if not self.camera:  # the file's real frame rate (23.976 is not 30), known before a frame
+            self._open().release()
         self.frames_read = 0
         self.frames_with_person = 0
         self.busy_seconds = 0.0
