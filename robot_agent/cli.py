@@ -31,6 +31,7 @@ SHARED_FLAGS = {
     "--backend": "backend_url",
     "--mode": "mode",
     "--model-dir": "model_dir",
+    "--fallback-model-dir": "fallback_model_dir",
     "--models-dir": "models_dir",
     "--outbox-budget-bytes": "outbox_budget_bytes",
     "--heartbeat-s": "heartbeat_s",

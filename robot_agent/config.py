@@ -96,6 +96,11 @@ class AgentSettings(BaseSettings):
     model_dir: Path | None = Field(
         default=None, description="model to start with (manifest.json + model.onnx)"
     )
+    fallback_model_dir: Path | None = Field(
+        default=None,
+        description="keypoints-only model to decide with when the model lacks an input "
+        "(the backend sends one too)",
+    )
     models_dir: Path = Field(
         default=DEFAULT_VAR / "robot-models", description="where assigned models are stored"
     )

@@ -12,26 +12,40 @@ from robot_agent.models import last_running, load_initial_model
 from robot_agent.outbox import Outbox
 from robot_agent.pipeline import Pipeline
 from robot_agent.source_factory import transports_for
+from vigil.inputs import is_keypoints_only
 from vigil.model_file import ModelIntegrityError
 from vigil.runtime import FrameClassifier
 
 DEFAULT_OUTBOX_DIR = Path("var/robot-outbox")
 
 
-def initial_classifier(settings: AgentSettings) -> FrameClassifier | None:
-    """The --model-dir model, checked (exists, sha256, feature version, mode) or ConfigError."""
+def initial_classifier(settings: AgentSettings, field: str = "model_dir") -> FrameClassifier | None:
+    """The model of setting ``field`` (--model-dir), checked (exists, sha256, feature version,
+    mode) or ConfigError naming the setting."""
+    path = getattr(settings, field)
     try:
-        classifier = load_initial_model(settings.model_dir)
+        classifier = load_initial_model(path)
     except FileNotFoundError as error:
-        raise ConfigError(f"model_dir: {error.filename or settings.model_dir} not found") from None
+        raise ConfigError(f"{field}: {error.filename or path} not found") from None
     except ModelIntegrityError as error:
-        raise ConfigError(f"model_dir: refused, {error}") from None
+        raise ConfigError(f"{field}: refused, {error}") from None
     except ValueError as error:
-        raise ConfigError(f"model_dir: {error}") from None
+        raise ConfigError(f"{field}: {error}") from None
     if classifier is not None and classifier.manifest.mode != settings.mode:
         raise ConfigError(
-            f"model_dir: the model is for {classifier.manifest.mode.value} transports, "
+            f"{field}: the model is for {classifier.manifest.mode.value} transports, "
             f"mode is {settings.mode.value}"
+        )
+    return classifier
+
+
+def fallback_classifier(settings: AgentSettings) -> FrameClassifier | None:
+    """The --fallback-model-dir model: checked like model_dir, and keypoints-only."""
+    classifier = initial_classifier(settings, "fallback_model_dir")
+    if classifier is not None and not is_keypoints_only(classifier.manifest.inputs):
+        raise ConfigError(
+            f"fallback_model_dir: model {classifier.manifest.version} needs "
+            f"{', '.join(classifier.manifest.inputs)}; a fallback must need keypoints only"
         )
     return classifier
 
@@ -105,6 +119,7 @@ def build_robot(settings: AgentSettings) -> RobotAgent:
         classifier,
         ground_truth_fallback=settings.source == SourceKind.GENERATED,
         camera_mount=settings.mount,
+        fallback=fallback_classifier(settings),
         available_inputs=source_inputs(settings),
     )
     # A camera paces itself; recorded, generated and video frames are paced by the agent.

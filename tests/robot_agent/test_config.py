@@ -100,3 +100,19 @@ def test_a_camera_mount_is_read_into_its_geometry(tmp_path):
     assert (mount.fx, mount.cy, mount.height_m, mount.pitch_deg) == (570.3, 239.5, 1.1, 12.0)
     config.write_text("")
     assert load_settings(config).mount is None
+
+
+def test_fallback_model_dir_must_be_keypoints_only(tmp_path):
+    from robot_agent.runner import fallback_classifier
+
+    from .tiny_model import write_upright_model
+
+    floor = write_upright_model(tmp_path / "floor", "floor-1", feature_set="full")
+    keypoints = write_upright_model(tmp_path / "kp", "kp-1", feature_set="keypoints")
+    settings = load_settings(None, fallback_model_dir=str(floor))
+    with pytest.raises(ConfigError, match="fallback_model_dir: model floor-1 needs keypoints, "):
+        fallback_classifier(settings)
+    settings = load_settings(None, fallback_model_dir=str(keypoints))
+    assert fallback_classifier(settings).manifest.version == "kp-1"
+    with pytest.raises(ConfigError, match="fallback_model_dir: .* not found"):
+        fallback_classifier(load_settings(None, fallback_model_dir=str(tmp_path / "none")))
