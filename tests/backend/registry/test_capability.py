@@ -173,7 +173,8 @@ def test_robots_keep_the_keypoints_only_fallback_which_cannot_be_rolled_away(
         # A newer keypoints-only model becomes the fallback: robot-a hears of it (here through
         # the reconcile loop, as for a change made by another replica or the worker).
         assert promote(client, engineer, kp2, scope="robot", target="robot-b").status_code == 201
-        assert client.portal.call(push.reconcile, client.app) == ["robot-a"]
+        pushed = client.portal.call(push.reconcile, client.app)
+        assert pushed in (["robot-a"], [])  # [] if the app's own reconcile loop came first
         newer = json.loads(ws.receive_text())
         assert (newer["version"], newer["fallback"]) == ("rf-kp-test-2", True)
         assert client.portal.call(push.reconcile, client.app) == []  # sent once
