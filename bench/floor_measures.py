@@ -22,9 +22,9 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from backend.labelling.importers.urfd import KINECT_INTRINSICS
-from vigil.depth import sample_depth
 from robot_agent.sources.replay import URFD_DEPTH_SCALE_MM, read_depth_png, urfd_image_frames
 from vigil.datasets import urfd
+from vigil.depth import sample_depth
 from vigil.floor import CameraMount, floor_measures
 from vigil.skeleton import FLOOR_FIELDS
 

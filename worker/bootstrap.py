@@ -52,9 +52,9 @@ def bootstrap(session: Session, default_model_dir: Path | None, urfd_dir=None) -
 
 def add_floor_measures(session: Session, names: list[str], urfd_dir=None) -> int:
     """Give the frames of the imported URFD recordings URFD's own floor measures where they
-    have none (worker.db_data.import_urfd stores keypoints only), so that a model that needs
-    floor measures is trained and judged on the gold set with them; idempotent. Returns the
-    recordings filled."""
+    have none (databases made before worker.db_data.import_urfd stored them), so that a model
+    that needs floor measures is trained and judged on the gold set with them; idempotent.
+    Returns the recordings filled."""
     from sqlalchemy import bindparam, update
 
     from backend.models.videos import Frame

@@ -26,6 +26,7 @@ from vigil.skeleton import (
     decode_depth,
     decode_floor,
     decode_keypoints,
+    encode_floor,
     encode_keypoints,
 )
 from vigil.taxonomy import DEFAULT_TAXONOMY
@@ -69,8 +70,11 @@ def import_urfd(
                     "index": i,
                     "ts": float(t),
                     "keypoints": encode_keypoints(k),
+                    "floor": encode_floor(f),  # URFD's own depth features (vigil.datasets.urfd)
                 }  # fmt: skip
-                for i, (k, t) in enumerate(zip(seq.keypoints, seq.timestamps, strict=True))
+                for i, (k, t, f) in enumerate(
+                    zip(seq.keypoints, seq.timestamps, seq.floor, strict=True)
+                )
             ],
         )
         mapping = URFD_FALL_LABELS if seq.is_fall else URFD_ADL_LABELS
