@@ -350,8 +350,49 @@ def _registry() -> str | None:
     return text
 
 
+def _video() -> str | None:
+    data = _load("video_end_to_end.json")
+    if data is None:
+        return None
+    goal = data["goal"]
+    labels = data["labels"]
+    parts = []
+    for name, run in data["runs"].items():
+        model = data["models"][name]
+        outcome = (
+            f"Emergency alarm {_fmt(run['label_to_alarm_s'], 2)} s after the first "
+            "Emergency-labelled frame"
+            if run["emergency_alarm"]
+            else "no Emergency alarm"
+        )
+        degraded = (
+            f", {run['detection_degraded_alarms']} detection-degraded alarm"
+            if run["detection_degraded_alarms"]
+            else ""
+        )
+        reference = run.get("reference_urfd_keypoints") or {}
+        parts.append(
+            f"`{run['model']}` ({', '.join(model['inputs'])}): person found in "
+            f"{run['frames_with_person']} of {run['frames_stored']} frames, highest Emergency "
+            f"score {_fmt(run['highest_emergency_score'])} against threshold "
+            f"{_fmt(model['threshold'])}, {outcome}{degraded}; the same model on URFD's own "
+            f"keypoints of the clip decides Emergency "
+            f"{_fmt(reference.get('first_emergency_decision_after_label_s'), 2)} s after the label"
+        )
+    return (
+        "**End to end from video** (`make bench-video` → `bench/results/video_end_to_end.json`, "
+        "REAL: URFD fall-01, held out of training): `vigil-robot run --source mediapipe` on the "
+        "clip's RGB half, streaming to the real backend, alarms read back from its API; first "
+        f"Emergency label at {_fmt(labels['first_emergency_time_s'], 2)} s. "
+        + "; ".join(parts)
+        + f". Goal (Emergency alarm within {_fmt(goal['max_s'], 1)} s): "
+        + ("**met**." if goal["met"] else "**not met**.")
+    )
+
+
 BENCH_SECTIONS = (
     _detection,
+    _video,
     _detection_splits,
     _fall_onset,
     _floor_measures,
