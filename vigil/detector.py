@@ -187,7 +187,7 @@ class Detector:
         return self.classifier
 
     @property
-    def running_model(self) -> str | None:
+    def deciding_model(self) -> str | None:
         model = self.deciding
         return None if model is None else model.manifest.version
 
@@ -203,11 +203,7 @@ class Detector:
         self._judge_again()
 
     def set_fallback(self, fallback: FrameClassifier | None) -> None:
-        if fallback is not None:
-            if not is_keypoints_only(fallback.manifest.inputs):
-                raise ValueError(
-                    f"fallback model {fallback.manifest.version} is not keypoints-only"
-                )
+        if _checked_fallback(fallback) is not None:
             self._warm(fallback)
         self.fallback = fallback
         if self.degraded_:
@@ -269,12 +265,12 @@ class Detector:
         if self.degraded_:
             reason = describe_missing(assigned or "-", self.missing_)
             if self.fallback is not None:
-                reason += f"; deciding with the keypoints-only model {self.running_model}"
+                reason += f"; deciding with the keypoints-only model {self.deciding_model}"
             else:
                 reason += "; no keypoints-only fallback on this robot, the model decides on what "
                 reason += "it has"
         else:
             reason = f"every input of model {assigned} is back; it decides again"
         return DetectionStatusChange(
-            ts, self.degraded_, self.missing_, assigned, self.running_model, reason
+            ts, self.degraded_, self.missing_, assigned, self.deciding_model, reason
         )
