@@ -132,3 +132,42 @@ def test_annotator_labels_fall_stages_reviewer_accepts_export_matches(live_serve
                                  .where(AnnotationSegment.status == "accepted")).all()  # fmt: skip
         assert {s.annotator_id for s in stored} != {None}
         assert sorted((s.first_frame, s.last_frame, s.label_key) for s in stored) == sorted(stages)
+
+
+def test_label_search_applies_only_a_chosen_label_and_overlaps_get_sub_rows(live_server, page, db):
+    with transaction(db) as session:
+        import_urfd(session, urfd.default_dir(), ["fall-01"], labels=False)
+    sign_in(page, live_server.base_url, "anna")
+    page.get_by_role("link", name="fall-01").click()
+    expect(page.get_by_test_id("frame-counter")).to_contain_text("frame 0 / 159")
+    segments = page.locator("[data-testid=segment]")
+
+    frame = 0
+    page.keyboard.press("i")
+    frame = _go_to(page, frame, 20)
+    page.keyboard.press("o")
+    page.keyboard.press("/")
+    page.keyboard.type("lying")
+    expect(page.get_by_test_id("label-matches").get_by_role("button")).to_have_count(2)
+    page.keyboard.press("Enter")  # two labels match: Enter alone must not pick one
+    expect(page.get_by_test_id("status")).to_contain_text("2 labels match")
+    expect(segments).to_have_count(0)
+    page.keyboard.press("ArrowDown")
+    page.keyboard.press("ArrowDown")
+    page.keyboard.press("Enter")
+    expect(page.locator("[data-testid=segment][data-label=lying_on_floor]")).to_have_count(1)
+
+    # A second segment overlapping the first goes to its own sub-row instead of covering it.
+    frame = _go_to(page, frame, 10)
+    page.keyboard.press("i")
+    frame = _go_to(page, frame, 30)
+    page.keyboard.press("o")
+    page.keyboard.press(QUICK["walking"])
+    expect(segments).to_have_count(2)
+    floor = page.locator("[data-testid=segment][data-label=lying_on_floor]")
+    walking = page.locator("[data-testid=segment][data-label=walking]")
+    assert floor.get_attribute("data-sub-row") != walking.get_attribute("data-sub-row")
+    fills = {
+        s.locator("rect").first.get_attribute("fill") for s in (floor, walking)
+    }  # each label its own colour
+    assert len(fills) == 2

@@ -9,8 +9,11 @@ import {
   QUICK_LABELS,
   UndoStack,
   clampFrame,
+  labelColours,
+  moveActive,
   nextSpeed,
   playbackAdvance,
+  searchChoice,
   searchLabels,
   segmentAt,
   spanFromMarks,
@@ -45,6 +48,7 @@ export function LabelPage() {
   const [outPoint, setOutPoint] = useState<number | null>(null);
   const [selectedId, setSelectedId] = useState<number | null>(null);
   const [query, setQuery] = useState("");
+  const [activeMatch, setActiveMatch] = useState<number | null>(null);
   const [help, setHelp] = useState(false);
   const [showRgb, setShowRgb] = useState(true);
   const [blur, setBlur] = useState(true);
@@ -181,6 +185,9 @@ export function LabelPage() {
     },
     [apply, loadSegments],
   );
+
+  const colours = useMemo(() => labelColours(labels.map((l) => l.key)), [labels]);
+  const labelColour = useCallback((key: string) => colours.get(key) ?? "#64748b", [colours]);
 
   const labelName = useCallback(
     (key: string) => labels.find((l) => l.key === key)?.name ?? key,
@@ -368,7 +375,7 @@ export function LabelPage() {
             {quick.map((l, i) => (
               <li key={l.key}>
                 <button type="button" onClick={() => void applyLabel(l.key)}
-                  style={{ borderLeft: `6px solid ${classColour(l[video.mode])}` }}>
+                  style={{ borderLeft: `6px solid ${labelColour(l.key)}`, borderRight: `4px solid ${classColour(l[video.mode])}` }}>
                   <kbd>{i + 1}</kbd> {l.name}
                 </button>
               </li>
@@ -379,21 +386,44 @@ export function LabelPage() {
             type="search"
             placeholder="Search labels ( / )"
             aria-label="Search labels"
+            aria-controls="label-matches"
             value={query}
-            onChange={(e) => setQuery(e.target.value)}
+            onChange={(e) => {
+              setQuery(e.target.value);
+              setActiveMatch(null);
+            }}
             onKeyDown={(e) => {
-              if (e.key === "Enter" && matches[0]) {
-                void applyLabel(matches[0].key);
+              if (e.key === "ArrowDown" || e.key === "ArrowUp") {
+                e.preventDefault();
+                setActiveMatch((a) => moveActive(a, e.key === "ArrowDown" ? 1 : -1, matches.length));
+              } else if (e.key === "Enter") {
+                const choice = searchChoice(matches, activeMatch);
+                if (!choice) {
+                  setMessage(
+                    matches.length === 0
+                      ? `No label matches “${query}”`
+                      : `${matches.length} labels match “${query}”: choose one with ↓ ↑ and Enter, or click it`,
+                  );
+                  return;
+                }
+                void applyLabel(choice.key);
                 setQuery("");
+                setActiveMatch(null);
                 e.currentTarget.blur();
               } else if (e.key === "Escape") e.currentTarget.blur();
             }}
           />
           {query && (
-            <ul className="label-matches">
-              {matches.map((l) => (
+            <ul className="label-matches" id="label-matches" data-testid="label-matches">
+              {matches.map((l, i) => (
                 <li key={l.key}>
-                  <button type="button" onClick={() => { void applyLabel(l.key); setQuery(""); }}>
+                  <button
+                    type="button"
+                    className={i === activeMatch ? "active" : undefined}
+                    aria-current={i === activeMatch ? "true" : undefined}
+                    style={{ borderLeft: `6px solid ${labelColour(l.key)}` }}
+                    onClick={() => { void applyLabel(l.key); setQuery(""); setActiveMatch(null); }}
+                  >
                     {l.name} <span className="muted">{l[video.mode]}</span>
                   </button>
                 </li>
@@ -430,6 +460,7 @@ export function LabelPage() {
         onSelect={setSelectedId}
         onResize={onResize}
         onAcceptSuggestion={acceptSuggestion}
+        labelColour={labelColour}
       />
       {help && <ShortcutsHelp onClose={() => setHelp(false)} />}
     </main>

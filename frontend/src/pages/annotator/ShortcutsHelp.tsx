@@ -5,7 +5,7 @@ export const SHORTCUTS: [string, string][] = [
   ["Home / End", "first / last frame"],
   ["I / O", "set in / out point at the playhead"],
   ["1 … 9", "label the in–out span (or the selected segment) with a quick label"],
-  ["/", "search all labels; Enter applies the first match"],
+  ["/", "search all labels; ↓ ↑ choose a match, Enter applies it (or the only match)"],
   ["Delete", "delete the selected segment"],
   ["Ctrl + Z", "undo"],
   ["Ctrl + Shift + Z", "redo"],

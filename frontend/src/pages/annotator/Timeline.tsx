@@ -1,6 +1,6 @@
 import { useEffect, useRef, useState, type PointerEvent } from "react";
 import { classColour, type Segment } from "./types";
-import { dragEdge, frameToX, xToFrame, type Span } from "./timelineLogic";
+import { dragEdge, frameToX, packSubRows, xToFrame, type Span } from "./timelineLogic";
 
 export interface TimelineRow {
   title: string;
@@ -26,6 +26,8 @@ interface Props {
   onSelect: (id: number | null) => void;
   onResize: (id: number, span: Span) => void;
   onAcceptSuggestion: (span: Span) => void;
+  /** The fill of a segment: every fine label has its own colour. */
+  labelColour: (labelKey: string) => string;
 }
 
 const ROW = 30;
@@ -39,8 +41,9 @@ interface Drag {
   span: Span;
 }
 
-/** Segments per annotator (coloured by class, named by fine label), the model lane, the
- * playhead, in/out marks. Click to seek, drag a segment edge to move it. */
+/** Segments per annotator (filled in their fine label's colour with a stripe of their class's
+ * colour; overlapping segments go to sub-rows of the lane so none hides another), the model
+ * lane, the playhead, in/out marks. Click to seek, drag a segment edge to move it. */
 export function Timeline(props: Props) {
   const { frameCount, fps, frame, rows, probability, threshold } = props;
   const box = useRef<HTMLDivElement>(null);
@@ -60,7 +63,9 @@ export function Timeline(props: Props) {
     return xToFrame(event.clientX - rect.left - TITLE, frameCount, width);
   };
   const lanesTop = RULER;
-  const modelTop = lanesTop + rows.length * ROW + 6;
+  const lanes = rows.map((row) => packSubRows(row.segments));
+  const laneTops = lanes.reduce<number[]>((tops, lane, r) => [...tops, tops[r] + lane.count * ROW], [lanesTop]);
+  const modelTop = laneTops[rows.length] + 6;
   const height = modelTop + LANE + 4;
   const seconds = Math.floor(frameCount / fps);
   const tickEvery = seconds > 40 ? 10 : seconds > 15 ? 5 : 1;
@@ -120,12 +125,15 @@ export function Timeline(props: Props) {
             </g>
           ))}
         {rows.map((row, r) => {
-          const top = lanesTop + r * ROW;
+          const laneTop = laneTops[r];
+          const laneBottom = laneTops[r + 1];
           return (
-            <g key={row.title} data-row={row.title}>
-              <text x={4} y={top + 19} fontSize={12} fill="#334155">{row.title}</text>
-              <line x1={TITLE} x2={TITLE + width} y1={top + ROW} y2={top + ROW} stroke="#e2e8f0" />
+            <g key={row.title} data-row={row.title} data-sub-rows={lanes[r].count}>
+              <text x={4} y={laneTop + 19} fontSize={12} fill="#334155">{row.title}</text>
+              <line x1={TITLE} x2={TITLE + width} y1={laneBottom} y2={laneBottom} stroke="#e2e8f0" />
               {row.segments.map((segment) => {
+                const subRow = lanes[r].subRow.get(segment.id) ?? 0;
+                const top = laneTop + subRow * ROW;
                 const span = drag?.id === segment.id ? drag.span : segment;
                 const left = x(span.first_frame);
                 const right = x(span.last_frame + 1);
@@ -140,6 +148,7 @@ export function Timeline(props: Props) {
                     data-last={span.last_frame}
                     data-label={segment.label_key}
                     data-status={segment.status}
+                    data-sub-row={subRow}
                     onPointerDown={(event) => {
                       event.stopPropagation();
                       props.onSelect(segment.id);
@@ -152,8 +161,8 @@ export function Timeline(props: Props) {
                       width={Math.max(right - left, 2)}
                       height={ROW - 6}
                       rx={4}
-                      fill={classColour(segment.decision)}
-                      fillOpacity={segment.status === "rejected" ? 0.25 : 0.8}
+                      fill={props.labelColour(segment.label_key)}
+                      fillOpacity={segment.status === "rejected" ? 0.25 : 0.85}
                       stroke={selected ? "#0f172a" : "#ffffff"}
                       strokeWidth={selected ? 2.5 : 1}
                       strokeDasharray={dashed ? "4 3" : undefined}
@@ -162,6 +171,14 @@ export function Timeline(props: Props) {
                         {`${segment.label_name ?? segment.label_key} · frames ${span.first_frame}–${span.last_frame} · ${segment.status}`}
                       </title>
                     </rect>
+                    <rect
+                      x={left + 1}
+                      y={top + ROW - 8}
+                      width={Math.max(right - left - 2, 1)}
+                      height={4}
+                      fill={classColour(segment.decision)}
+                      pointerEvents="none"
+                    />
                     <text x={left + 4} y={top + 19} fontSize={11} fill="#fff" pointerEvents="none">
                       {right - left > 40 ? (segment.label_name ?? segment.label_key) : ""}
                     </text>

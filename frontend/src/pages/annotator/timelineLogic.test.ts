@@ -5,7 +5,11 @@ import {
   dragEdge,
   frameToX,
   inverse,
+  labelColours,
+  moveActive,
   nextSpeed,
+  packSubRows,
+  searchChoice,
   searchLabels,
   segmentAt,
   spanFromMarks,
@@ -112,5 +116,67 @@ describe("labels and segments", () => {
     expect(segmentAt(segs, 100)?.id).toBe(2);
     expect(segmentAt(segs, 10)?.id).toBe(1);
     expect(segmentAt(segs, 200)).toBeNull();
+  });
+});
+
+describe("label search never guesses", () => {
+  const labels = [
+    { key: "lying_deliberately", name: "Lying down deliberately" },
+    { key: "lying_on_floor", name: "Lying on the floor" },
+    { key: "walking", name: "Walking" },
+  ];
+
+  it("applies nothing on Enter while several labels match and none is chosen", () => {
+    const matches = searchLabels(labels, "lying");
+    expect(matches).toHaveLength(2);
+    expect(searchChoice(matches, null)).toBeNull();
+  });
+
+  it("applies the label the user moved to, or the only match", () => {
+    const matches = searchLabels(labels, "lying");
+    const second = moveActive(moveActive(null, 1, matches.length), 1, matches.length);
+    expect(second).toBe(1);
+    expect(searchChoice(matches, second)?.key).toBe("lying_on_floor");
+    expect(searchChoice(searchLabels(labels, "walk"), null)?.key).toBe("walking");
+    expect(searchChoice([], null)).toBeNull();
+  });
+
+  it("keeps the highlight inside the list", () => {
+    expect(moveActive(null, -1, 3)).toBe(2);
+    expect(moveActive(2, 1, 3)).toBe(2);
+    expect(moveActive(0, -1, 3)).toBe(0);
+    expect(moveActive(1, 1, 0)).toBeNull();
+  });
+});
+
+describe("overlapping segments in one lane", () => {
+  it("puts overlapping segments on different sub-rows and reuses free ones", () => {
+    const segments = [
+      { id: 1, first_frame: 83, last_frame: 159 },
+      { id: 2, first_frame: 80, last_frame: 108 },
+      { id: 3, first_frame: 0, last_frame: 79 },
+      { id: 4, first_frame: 109, last_frame: 120 },
+    ];
+    const { subRow, count } = packSubRows(segments);
+    expect(count).toBe(2);
+    expect(subRow.get(1)).not.toBe(subRow.get(2));
+    expect(subRow.get(3)).toBe(0);
+    expect(subRow.get(4)).toBe(subRow.get(2));
+    for (const a of segments)
+      for (const b of segments)
+        if (a.id < b.id && a.first_frame <= b.last_frame && b.first_frame <= a.last_frame)
+          expect(subRow.get(a.id)).not.toBe(subRow.get(b.id));
+  });
+
+  it("keeps an empty lane one row high", () => {
+    expect(packSubRows([]).count).toBe(1);
+  });
+});
+
+describe("label colours", () => {
+  it("gives every label of the taxonomy its own colour", () => {
+    const keys = Array.from({ length: 22 }, (_, i) => `label_${i}`);
+    const colours = labelColours(keys);
+    expect(new Set(colours.values()).size).toBe(22);
   });
 });

@@ -182,3 +182,47 @@ export function segmentAt<T extends Span>(segments: readonly T[], frame: number)
       if (!best || s.last_frame - s.first_frame < best.last_frame - best.first_frame) best = s;
   return best;
 }
+
+/** The label Enter applies from the search box: the one the user moved to with the arrow keys,
+ * or the only match. Never a guess among several matches. */
+export function searchChoice<T>(matches: readonly T[], active: number | null): T | null {
+  if (active !== null && active >= 0 && active < matches.length) return matches[active];
+  return matches.length === 1 ? matches[0] : null;
+}
+
+/** The highlighted match after an arrow key, clamped to the list (null: nothing highlighted). */
+export function moveActive(active: number | null, delta: 1 | -1, count: number): number | null {
+  if (count === 0) return null;
+  if (active === null) return delta > 0 ? 0 : count - 1;
+  return Math.min(Math.max(active + delta, 0), count - 1);
+}
+
+/** Sub-row of every segment in a lane so that overlapping segments never share one and so never
+ * hide each other: greedy interval partitioning by first frame (longer first on ties). */
+export function packSubRows<T extends Span & { id: number }>(
+  segments: readonly T[],
+): { subRow: Map<number, number>; count: number } {
+  const order = [...segments].sort(
+    (a, b) =>
+      a.first_frame - b.first_frame ||
+      b.last_frame - b.first_frame - (a.last_frame - a.first_frame) ||
+      a.id - b.id,
+  );
+  const ends: number[] = [];
+  const subRow = new Map<number, number>();
+  for (const s of order) {
+    let row = ends.findIndex((end) => end < s.first_frame);
+    if (row === -1) {
+      row = ends.length;
+      ends.push(s.last_frame);
+    } else ends[row] = s.last_frame;
+    subRow.set(s.id, row);
+  }
+  return { subRow, count: Math.max(ends.length, 1) };
+}
+
+/** One colour per fine label, in taxonomy order: hues spread by the golden angle so that
+ * neighbouring labels (the stages of a fall) differ, dark enough for white text. */
+export function labelColours(keys: readonly string[]): Map<string, string> {
+  return new Map(keys.map((key, i) => [key, `hsl(${((i * 137.508) % 360).toFixed(1)}, 62%, 40%)`]));
+}
