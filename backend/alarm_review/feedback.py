@@ -45,7 +45,22 @@ def proposed_label(verdict: Verdict, reason: FalseAlarmReason | None) -> str:
     """
     if verdict == Verdict.FALSE_ALARM and reason in REASON_LABEL:
         return REASON_LABEL[reason]
-    return f"verdict:{verdict}" + (f":{reason}" if reason else "")
+    return f"{PLACEHOLDER_PREFIX}{verdict}" + (f":{reason}" if reason else "")
+
+
+PLACEHOLDER_PREFIX = "verdict:"
+
+
+def placeholder_name(label_key: str) -> str | None:
+    """How a person reads a verdict placeholder (``verdict:false_alarm:other``): the nurse's
+    verdict in words and what the annotator still has to do. None for any other key."""
+    if not label_key.startswith(PLACEHOLDER_PREFIX):
+        return None
+    verdict, _, reason = label_key.removeprefix(PLACEHOLDER_PREFIX).partition(":")
+    words = verdict.replace("_", " ")
+    if reason:
+        words += f" ({reason.replace('_', ' ')})"
+    return f"Nurse verdict: {words}; choose the fine label"
 
 
 def alarm_frame_span(session: Session, alarm: Alarm) -> tuple[int, int] | None:

@@ -12,6 +12,7 @@ from fastapi import Path as FastPath
 from fastapi.responses import JSONResponse
 from sqlalchemy import select
 
+from backend.alarm_review.feedback import placeholder_name
 from backend.deps import MAX_DB_INT, CurrentUser, DbId, SessionDep
 from backend.labelling import exchange, export, segments
 from backend.labelling.agreement import agreement
@@ -193,7 +194,7 @@ def _segment_outs(session, items: list[AnnotationSegment]) -> list[SegmentOut]:
     for s in items:
         label = taxonomy.labels.get(s.label_key)
         item = SegmentOut.model_validate(s)
-        item.label_name = label.name if label else None
+        item.label_name = label.name if label else placeholder_name(s.label_key)
         item.decision = label.decision(modes[s.video_id]) if label else None
         item.annotator = names.get(s.annotator_id)
         item.reviewer = names.get(s.reviewer_id)

@@ -109,6 +109,13 @@ def test_annotator_labels_fall_stages_reviewer_accepts_export_matches(live_serve
     expect(page.get_by_test_id("status")).to_contain_text("Submitted 3 segment(s)")
     expect(page.locator("[data-testid=segment][data-status=submitted]")).to_have_count(3)
 
+    # Nobody reviews their own segments: the queue shows anna's rows without Accept or Reject.
+    page.goto(f"{live_server.base_url}/annotate")
+    page.get_by_role("link", name="Review queue").click()
+    expect(page.get_by_test_id("queue-row")).to_have_count(3)
+    expect(page.get_by_test_id("own-segment")).to_have_count(3)
+    expect(page.get_by_role("button", name="Accept")).to_have_count(0)
+
     page.get_by_role("button", name="Sign out").click()
     sign_in(page, live_server.base_url, "rita")
     expect(page.get_by_text("rita · annotator")).to_be_visible()

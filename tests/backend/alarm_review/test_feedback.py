@@ -2,6 +2,7 @@ from sqlalchemy import select
 
 from backend.alarm_review.feedback import (
     alarm_frame_span,
+    placeholder_name,
     propose_label_from_verdict,
     proposed_label,
     review_queue,
@@ -18,6 +19,18 @@ def test_proposed_label_names_a_fine_label_only_when_the_reason_does():
         proposed_label(Verdict.FALSE_ALARM, FalseAlarmReason.OTHER) == "verdict:false_alarm:other"
     )
     assert proposed_label(Verdict.TRUE_EMERGENCY, None) == "verdict:true_emergency"
+
+
+def test_a_verdict_placeholder_reads_as_words_not_as_its_key():
+    assert (
+        placeholder_name(proposed_label(Verdict.TRUE_EMERGENCY, None))
+        == "Nurse verdict: true emergency; choose the fine label"
+    )
+    assert (
+        placeholder_name(proposed_label(Verdict.FALSE_ALARM, FalseAlarmReason.OTHER))
+        == "Nurse verdict: false alarm (other); choose the fine label"
+    )
+    assert placeholder_name("bending") is None
 
 
 def test_verdict_becomes_pending_segment_on_exact_span(session):

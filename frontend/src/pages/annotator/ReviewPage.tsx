@@ -1,10 +1,12 @@
 import { useCallback, useEffect, useState } from "react";
 import { Link } from "react-router-dom";
 import { api, errorMessage } from "../../api/client";
+import { useAuth } from "../../auth/AuthContext";
 import { classColour, type QueueItem } from "./types";
 
 /** Reviewers accept or reject submitted and proposed segments, most informative first. */
 export function ReviewPage() {
+  const { user } = useAuth();
   const [queue, setQueue] = useState<QueueItem[] | null>(null);
   const [comments, setComments] = useState<Record<number, string>>({});
   const [error, setError] = useState<string | null>(null);
@@ -61,8 +63,14 @@ export function ReviewPage() {
                     onChange={(e) => setComments({ ...comments, [s.id]: e.target.value })} />
                 </td>
                 <td className="actions">
-                  <button type="button" className="primary" onClick={() => void review(s.id, "accept")}>Accept</button>
-                  <button type="button" onClick={() => void review(s.id, "reject")}>Reject</button>
+                  {s.annotator !== null && s.annotator === user?.username ? (
+                    <span className="muted" data-testid="own-segment">your segment: another reviewer decides</span>
+                  ) : (
+                    <>
+                      <button type="button" className="primary" onClick={() => void review(s.id, "accept")}>Accept</button>
+                      <button type="button" onClick={() => void review(s.id, "reject")}>Reject</button>
+                    </>
+                  )}
                 </td>
               </tr>
             ))}
