@@ -19,6 +19,8 @@ from backend.labelling.agreement import agreement
 from backend.labelling.errors import Forbidden, LabellingError, NotFound
 from backend.labelling.probability import SUGGESTED_LABEL, LaneComputer
 from backend.labelling.queries import (
+    agreement_annotators,
+    agreement_spans,
     progress_by_video,
     user_by_name,
     usernames,
@@ -372,28 +374,26 @@ async def import_file(
 
 @router.get("/videos/{video_id}/annotators")
 def video_annotators(video_id: DbId, session: SessionDep, user: CurrentUser) -> AnnotatorsOut:
+    """The video's annotators, and `(imported)` when it holds a dataset's own labels."""
     segments.get_video(session, video_id)
-    ids = {s.annotator_id for s in video_segments(session, video_id) if s.annotator_id}
-    return AnnotatorsOut(annotators=sorted(usernames(session, ids).values()))
+    return AnnotatorsOut(annotators=agreement_annotators(session, video_id))
 
 
 @router.get("/videos/{video_id}/agreement")
 def video_agreement(
     video_id: DbId, a: str, b: str, session: SessionDep, user: CurrentUser
 ) -> AgreementOut:
+    """Agreement of two annotators, or of an annotator with the imported labels (`(imported)`)."""
     video = segments.get_video(session, video_id)
     taxonomy = load_taxonomy(session)
-    live = [s for s in video_segments(session, video_id) if s.status != SegmentStatus.REJECTED]
     spans = {}
-    for param, username in (("a", a), ("b", b)):
-        owner = user_by_name(session, username)
-        if owner is None:
-            raise NotFound(f"{param}: no user {username!r}")
-        spans[param] = [
-            (s.first_frame, s.last_frame, s.label_key) for s in live if s.annotator_id == owner.id
-        ]
-        if not spans[param]:
-            raise LabellingError(f"{param}: {username} has no segments on video {video.name}")
+    for param, who in (("a", a), ("b", b)):
+        found = agreement_spans(session, video_id, who)
+        if found is None:
+            raise NotFound(f"{param}: no user {who!r}")
+        if not found:
+            raise LabellingError(f"{param}: {who} has no segments on video {video.name}")
+        spans[param] = found
     stages = {
         key for key, label in taxonomy.labels.items()
         if label.decision(video.mode) == Decision.EMERGENCY

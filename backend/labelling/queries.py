@@ -8,7 +8,7 @@ import numpy as np
 from sqlalchemy import select
 from sqlalchemy.orm import Session
 
-from backend.models.annotations import AnnotationSegment, SegmentStatus
+from backend.models.annotations import AnnotationSegment, SegmentSource, SegmentStatus
 from backend.models.users import User
 from backend.models.videos import Frame, Split, Video
 from vigil.classes import TransportMode
@@ -107,3 +107,31 @@ def progress_by_video(session: Session) -> dict[int, dict[str, int]]:
     for video_id, frames in covered.items():
         out[video_id]["labelled_frames"] = len(frames)
     return out
+
+
+#: The name under which a video's imported labels (a dataset's own, e.g. URFD's) take part in
+#: agreement, so that an annotator can be compared with them.
+IMPORTED_LABELS = "(imported)"
+
+
+def agreement_annotators(session: Session, video_id: int) -> list[str]:
+    """Who can be compared on a video: its annotators by name, then the imported labels."""
+    live = video_segments(session, video_id)
+    names = sorted(usernames(session, {s.annotator_id for s in live if s.annotator_id}).values())
+    if any(s.annotator_id is None and s.source == SegmentSource.IMPORT for s in live):
+        names.append(IMPORTED_LABELS)
+    return names
+
+
+def agreement_spans(session: Session, video_id: int, who: str) -> list[tuple[int, int, str]] | None:
+    """(first, last, label) of one side of an agreement: a user's live segments that were not
+    rejected, or the imported labels; None when no such user exists."""
+    live = [s for s in video_segments(session, video_id) if s.status != SegmentStatus.REJECTED]
+    if who == IMPORTED_LABELS:
+        chosen = [s for s in live if s.annotator_id is None and s.source == SegmentSource.IMPORT]
+    else:
+        owner = user_by_name(session, who)
+        if owner is None:
+            return None
+        chosen = [s for s in live if s.annotator_id == owner.id]
+    return [(s.first_frame, s.last_frame, s.label_key) for s in chosen]

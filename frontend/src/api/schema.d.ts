@@ -957,7 +957,10 @@ export interface paths {
             path?: never;
             cookie?: never;
         };
-        /** Video Annotators */
+        /**
+         * Video Annotators
+         * @description The video's annotators, and `(imported)` when it holds a dataset's own labels.
+         */
         get: operations["video_annotators_api_labelling_videos__video_id__annotators_get"];
         put?: never;
         post?: never;
@@ -974,7 +977,10 @@ export interface paths {
             path?: never;
             cookie?: never;
         };
-        /** Video Agreement */
+        /**
+         * Video Agreement
+         * @description Agreement of two annotators, or of an annotator with the imported labels (`(imported)`).
+         */
         get: operations["video_agreement_api_labelling_videos__video_id__agreement_get"];
         put?: never;
         post?: never;
