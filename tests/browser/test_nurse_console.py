@@ -224,3 +224,37 @@ def test_detection_degraded_shows_as_a_technical_card_and_leaves_on_recovery(liv
         )
         robot.stream(frames[4:])
         expect(card).to_have_count(0)  # cleared: the cause ended
+
+
+def test_nurse_acknowledges_and_resolves_on_the_replay_page(live_server, page, db):
+    sign_in(page, live_server.base_url)
+    expect(page.locator("main.board")).to_have_attribute("data-link", "live")
+    with SimulatedRobot(live_server.robot_ws_url, "robot-a", ROBOT_TOKEN) as robot:
+        robot.start_transport("t-9", patient="P-9", location="lift 2")
+        robot.stream(fall_frames(0, time.time() - 5, "t-9"))
+    card = _card(page)
+    expect(card).to_have_count(1)
+    alarm_id = int(card.get_attribute("data-alarm-id"))
+
+    card.get_by_role("link", name="Replay").click()
+    replay = page.locator("main.replay")
+    expect(replay.locator(".pill.state-open")).to_have_count(1)
+    replay.get_by_role("button", name="Acknowledge").click()
+    expect(replay.locator(".pill.state-acknowledged")).to_have_count(1)
+    expect(page.get_by_role("table", name="Audit trail")).to_contain_text("acknowledge")
+
+    replay.get_by_role("button", name="Resolve…").click()
+    dialog = page.get_by_role("dialog", name="Resolve alarm")
+    dialog.get_by_label("False alarm").check()
+    resolve = dialog.get_by_role("button", name="Resolve")
+    expect(resolve).to_be_disabled()
+    expect(dialog.get_by_test_id("resolve-hint")).to_contain_text("needs a reason")
+    dialog.get_by_label("Bending").check()
+    expect(dialog.get_by_test_id("resolve-hint")).to_have_count(0)
+    resolve.click()
+    expect(dialog).to_have_count(0)
+    expect(replay.locator(".pill.state-resolved")).to_have_count(1)
+    expect(replay.get_by_role("button", name="Resolve…")).to_have_count(0)
+    with db() as session:
+        alarm = session.get(Alarm, alarm_id)
+        assert (alarm.state, alarm.verdict, alarm.reason) == ("resolved", "false_alarm", "bending")

@@ -1,14 +1,17 @@
-import { useEffect, useMemo, useState } from "react";
+import { useCallback, useEffect, useMemo, useState } from "react";
 import { Link, useParams } from "react-router-dom";
 import { api, errorMessage } from "../api/client";
 import type { components } from "../api/schema";
+import type { Alarm } from "../api/types";
 import { KIND_LABEL } from "../lib/alarmBoard";
 import { delayFilter } from "../lib/replay";
 import { clockTime } from "../lib/time";
 import { AuditTrail } from "./AuditTrail";
 import { verdictText } from "./labels";
 import { ProbabilityChart } from "./ProbabilityChart";
+import { ResolveDialog } from "./ResolveDialog";
 import { SkeletonCanvas } from "./SkeletonCanvas";
+import { useAlarmActions } from "./useAlarmActions";
 
 type Replay = components["schemas"]["AlarmReplayOut"];
 
@@ -21,6 +24,13 @@ export function AlarmDetailPage() {
   const [error, setError] = useState<string | null>(null);
   const [index, setIndex] = useState(0);
   const [playing, setPlaying] = useState(false);
+  const [resolving, setResolving] = useState(false);
+  const [auditVersion, setAuditVersion] = useState(0);
+  const onUpdated = useCallback((alarm: Alarm) => {
+    setReplay((r) => (r ? { ...r, alarm } : r));
+    setAuditVersion((v) => v + 1);
+  }, []);
+  const actions = useAlarmActions(onUpdated);
 
   useEffect(() => {
     let live = true;
@@ -85,6 +95,21 @@ export function AlarmDetailPage() {
         <dt>Delay</dt><dd>{alarm.delay_ms != null ? `${alarm.delay_ms} ms` : "–"}</dd>
         <dt>Verdict</dt><dd>{verdictText(alarm.verdict, alarm.reason)}</dd>
       </dl>
+      {alarm.state !== "resolved" && (
+        <div className="actions replay-actions">
+          {alarm.state === "open" && (
+            <button type="button" className="ack" disabled={actions.busyId === alarm.id}
+              onClick={() => void actions.acknowledge(alarm)}>
+              Acknowledge
+            </button>
+          )}
+          <button type="button" className="resolve" disabled={actions.busyId === alarm.id}
+            onClick={() => { actions.setError(null); setResolving(true); }}>
+            Resolve…
+          </button>
+        </div>
+      )}
+      {actions.error && !resolving && <p role="alert" className="error">{actions.error}</p>}
       <section className="replay-view">
         <div>
           <SkeletonCanvas frames={frames} index={index}
@@ -109,7 +134,12 @@ export function AlarmDetailPage() {
           span={span} index={index} onSelect={(i) => { setPlaying(false); setIndex(i); }} />
       </section>
       <h2>Audit trail</h2>
-      <AuditTrail alarmId={alarm.id} />
+      <AuditTrail key={auditVersion} alarmId={alarm.id} />
+      {resolving && (
+        <ResolveDialog alarm={alarm} error={actions.error} busy={actions.busyId === alarm.id}
+          onSubmit={(r) => void actions.resolve(alarm, r).then((done) => done && setResolving(false))}
+          onCancel={() => setResolving(false)} />
+      )}
     </main>
   );
 }

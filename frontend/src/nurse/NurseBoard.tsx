@@ -1,11 +1,11 @@
 import { useEffect, useMemo, useState } from "react";
-import { api, errorMessage } from "../api/client";
 import type { Alarm } from "../api/types";
 import { useAuth } from "../auth/AuthContext";
 import { inWard, needsAttention, soundRequired, sortForBoard, wardsOf } from "../lib/alarmBoard";
 import { useNow } from "../lib/useNow";
 import { AlarmCard } from "./AlarmCard";
 import { ResolveDialog, type Resolution } from "./ResolveDialog";
+import { useAlarmActions } from "./useAlarmActions";
 import { useAlarmBoard } from "./useAlarmBoard";
 import { useAlarmSound } from "./useAlarmSound";
 
@@ -13,9 +13,8 @@ export function NurseBoard() {
   const { user } = useAuth();
   const { board, status, update } = useAlarmBoard();
   const [ward, setWard] = useState<string | null>(user?.ward ?? null);
-  const [busyId, setBusyId] = useState<number | null>(null);
   const [resolving, setResolving] = useState<Alarm | null>(null);
-  const [error, setError] = useState<string | null>(null);
+  const { busyId, error, setError, acknowledge, resolve: resolveAlarm } = useAlarmActions(update);
   const now = useNow(1000);
 
   const shown = useMemo(() => sortForBoard(inWard(board.values(), ward)), [board, ward]);
@@ -26,29 +25,8 @@ export function NurseBoard() {
   }, [board, user]);
   const sound = useAlarmSound(soundRequired(shown));
 
-  async function acknowledge(alarm: Alarm) {
-    setBusyId(alarm.id);
-    setError(null);
-    const { data, error } = await api.POST("/api/alarms/{alarm_id}/acknowledge", {
-      params: { path: { alarm_id: alarm.id } },
-    });
-    setBusyId(null);
-    if (data) update(data);
-    else setError(errorMessage(error, `Could not acknowledge alarm ${alarm.id}`));
-  }
-
   async function resolve(alarm: Alarm, resolution: Resolution) {
-    setBusyId(alarm.id);
-    setError(null);
-    const { data, error } = await api.POST("/api/alarms/{alarm_id}/resolve", {
-      params: { path: { alarm_id: alarm.id } },
-      body: resolution,
-    });
-    setBusyId(null);
-    if (data) {
-      update(data);
-      setResolving(null);
-    } else setError(errorMessage(error, `Could not resolve alarm ${alarm.id}`));
+    if (await resolveAlarm(alarm, resolution)) setResolving(null);
   }
 
   const openCount = shown.filter(needsAttention).length;
@@ -97,7 +75,7 @@ export function NurseBoard() {
         <section className="alarm-grid" aria-label="Open alarms">
           {shown.map((alarm) => (
             <AlarmCard key={alarm.id} alarm={alarm} now={now} busy={busyId === alarm.id}
-              onAcknowledge={acknowledge} onResolve={(a) => { setError(null); setResolving(a); }} />
+              onAcknowledge={(a) => void acknowledge(a)} onResolve={(a) => { setError(null); setResolving(a); }} />
           ))}
         </section>
       )}

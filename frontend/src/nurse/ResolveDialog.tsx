@@ -70,6 +70,13 @@ export function ResolveDialog({ alarm, error, busy, onSubmit, onCancel }: Props)
           <textarea name="comment" rows={2} maxLength={1000} value={comment}
             onChange={(e) => setComment(e.target.value)} />
         </label>
+        {!ready && (
+          <p className="muted" data-testid="resolve-hint">
+            {verdict === null
+              ? "Choose a verdict to resolve."
+              : "Choose what the patient was doing: a false alarm needs a reason, so the model learns from it."}
+          </p>
+        )}
         {error && <p role="alert" className="error">{error}</p>}
         <div className="actions">
           <button type="button" onClick={onCancel}>Cancel</button>
