@@ -1,4 +1,8 @@
-"""Alarm-fatigue statistics: load per shift and ward, false-alarm share, time to acknowledge."""
+"""Alarm-fatigue statistics: load per shift and ward, false-alarm share, time to acknowledge.
+
+Every figure comes with its sample size. Time to acknowledge counts the alarms nobody
+acknowledged too, at the time they went without (until resolved, or until the end of the
+period): leaving them out would make the slowest responses look fast."""
 
 from __future__ import annotations
 
@@ -42,17 +46,24 @@ class _Tally:
     emergencies: int = 0
     resolved: int = 0
     false_alarms: int = 0
+    acknowledged: int = 0
+    unacknowledged: int = 0
     ack_seconds: list[float] | None = None
 
-    def add(self, alarm: AlarmFacts) -> None:
+    def add(self, alarm: AlarmFacts, until: datetime) -> None:
         self.alarms += 1
         self.emergencies += alarm.kind == AlarmKind.EMERGENCY
         if alarm.verdict is not None:
             self.resolved += 1
             self.false_alarms += alarm.verdict == Verdict.FALSE_ALARM
         if alarm.acknowledged_at is not None:
-            self.ack_seconds = self.ack_seconds or []
-            self.ack_seconds.append((alarm.acknowledged_at - alarm.raised_at).total_seconds())
+            self.acknowledged += 1
+            waited_until = alarm.acknowledged_at
+        else:
+            self.unacknowledged += 1
+            waited_until = min(alarm.resolved_at or until, until)
+        self.ack_seconds = self.ack_seconds or []
+        self.ack_seconds.append(max((waited_until - alarm.raised_at).total_seconds(), 0.0))
 
     @property
     def median_ack_s(self) -> float | None:
@@ -63,15 +74,17 @@ class _Tally:
         return round(self.false_alarms / self.resolved, 4) if self.resolved else None
 
 
-def fatigue_stats(alarms: Iterable[AlarmFacts]) -> dict:
-    """Per (shift, ward) and per model version; technical alarms count for load only by shift."""
+def fatigue_stats(alarms: Iterable[AlarmFacts], until: datetime) -> dict:
+    """Per (shift, ward) and per model version; technical alarms count for load only by shift.
+    `until` is the end of the period: an alarm still unacknowledged then counts as waiting
+    until it."""
     by_shift: dict[tuple[datetime, ShiftName, str], _Tally] = defaultdict(_Tally)
     by_model: dict[str | None, _Tally] = defaultdict(_Tally)
     for alarm in alarms:
         start, name = shift_of(alarm.raised_at)
-        by_shift[(start, name, alarm.ward)].add(alarm)
+        by_shift[(start, name, alarm.ward)].add(alarm, until)
         if alarm.kind not in TECHNICAL_KINDS:
-            by_model[alarm.model_version].add(alarm)
+            by_model[alarm.model_version].add(alarm, until)
     shifts = [
         {
             "shift_start": start,
@@ -81,6 +94,8 @@ def fatigue_stats(alarms: Iterable[AlarmFacts]) -> dict:
             "emergencies": t.emergencies,
             "resolved": t.resolved,
             "false_alarms": t.false_alarms,
+            "acknowledged": t.acknowledged,
+            "unacknowledged": t.unacknowledged,
             "median_ack_s": t.median_ack_s,
         }
         for (start, name, ward), t in sorted(by_shift.items(), key=lambda kv: (kv[0][0], kv[0][2]))
@@ -92,6 +107,8 @@ def fatigue_stats(alarms: Iterable[AlarmFacts]) -> dict:
             "resolved": t.resolved,
             "false_alarms": t.false_alarms,
             "false_share": t.false_share,
+            "acknowledged": t.acknowledged,
+            "unacknowledged": t.unacknowledged,
             "median_ack_s": t.median_ack_s,
         }
         for version, t in sorted(by_model.items(), key=lambda kv: (kv[0] is None, kv[0] or ""))

@@ -38,7 +38,12 @@ class ShiftRow(BaseModel):
     emergencies: int
     resolved: int
     false_alarms: int
-    median_ack_s: float | None
+    acknowledged: int
+    unacknowledged: int
+    median_ack_s: float | None = Field(
+        description="over acknowledged and unacknowledged alarms; an unacknowledged one counts"
+        " the time until it was resolved or the period ended"
+    )
 
 
 class ModelRow(BaseModel):
@@ -47,7 +52,12 @@ class ModelRow(BaseModel):
     resolved: int
     false_alarms: int
     false_share: float | None
-    median_ack_s: float | None
+    acknowledged: int
+    unacknowledged: int
+    median_ack_s: float | None = Field(
+        description="over acknowledged and unacknowledged alarms; an unacknowledged one counts"
+        " the time until it was resolved or the period ended"
+    )
 
 
 class FatigueOut(BaseModel):

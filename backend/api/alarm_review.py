@@ -114,7 +114,7 @@ def alarm_fatigue(
             status.HTTP_422_UNPROCESSABLE_CONTENT, f"at most {MAX_FATIGUE_DAYS} days at once"
         )
     alarms = queries.alarms_between(session, since, until, _ward_of(user, ward))
-    return FatigueOut(since=since, until=until, **fatigue_stats(alarms))
+    return FatigueOut(since=since, until=until, **fatigue_stats(alarms, min(until, utcnow())))
 
 
 @router.get("/review-queue")

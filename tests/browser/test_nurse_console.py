@@ -142,9 +142,12 @@ def test_fall_alarm_sounds_is_acknowledged_resolved_and_becomes_a_label(live_ser
     page.screenshot(path=str(SCREENSHOTS / "alarm_history.png"), full_page=True)
 
     page.goto(f"{live_server.base_url}/nurse/fatigue")
-    by_model = page.get_by_role("img", name="Share false by model version")
+    by_model = page.get_by_role("img", name="Share false by model version (n = resolved alarms)")
     expect(by_model.locator("rect")).to_have_count(1)
-    expect(by_model).to_contain_text("mlp-7")
+    expect(by_model).to_contain_text("mlp-7 (n=1, few)")
+    sizes = page.get_by_role("table", name="Sample sizes").get_by_test_id("fatigue-row")
+    expect(sizes).to_have_count(1)
+    expect(sizes.first).to_contain_text("100 % (n=1, few)")
     page.screenshot(path=str(SCREENSHOTS / "alarm_fatigue.png"), full_page=True)
 
 

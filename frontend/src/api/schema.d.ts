@@ -1674,7 +1674,14 @@ export interface components {
             false_alarms: number;
             /** False Share */
             false_share: number | null;
-            /** Median Ack S */
+            /** Acknowledged */
+            acknowledged: number;
+            /** Unacknowledged */
+            unacknowledged: number;
+            /**
+             * Median Ack S
+             * @description over acknowledged and unacknowledged alarms; an unacknowledged one counts the time until it was resolved or the period ended
+             */
             median_ack_s: number | null;
         };
         /**
@@ -2059,7 +2066,14 @@ export interface components {
             resolved: number;
             /** False Alarms */
             false_alarms: number;
-            /** Median Ack S */
+            /** Acknowledged */
+            acknowledged: number;
+            /** Unacknowledged */
+            unacknowledged: number;
+            /**
+             * Median Ack S
+             * @description over acknowledged and unacknowledged alarms; an unacknowledged one counts the time until it was resolved or the period ended
+             */
             median_ack_s: number | null;
         };
         /**

@@ -12,6 +12,9 @@ const PERIODS = [
 ];
 
 const pct = (v: number) => `${Math.round(v * 100)} %`;
+/** Fewer resolved or acknowledged alarms than this and a share or median says little. */
+const SMALL_SAMPLE = 5;
+const n = (count: number) => ` (n=${count}${count < SMALL_SAMPLE ? ", few" : ""})`;
 const secs = (v: number) =>
   v < 1 ? `${v.toFixed(2)} s` : v < 10 ? `${v.toFixed(1)} s` : `${Math.round(v)} s`;
 
@@ -50,20 +53,42 @@ export function FatiguePage() {
         <div className="charts">
           <BarChart title="Alarms per shift and ward" integer
             data={stats.shifts.map((s) => ({ key: `${s.shift_start}-${s.ward}`, label: shiftLabel(s), value: s.alarms }))} />
-          <BarChart title="Share resolved as false alarm, per shift and ward" max={1} format={pct} color="#d97706"
-            data={stats.shifts.map((s) => ({ key: `${s.shift_start}-${s.ward}`, label: shiftLabel(s),
-              value: s.resolved ? s.false_alarms / s.resolved : 0 }))} />
-          <BarChart title="Median time to acknowledge, per shift and ward" format={secs} color="#059669"
+          <BarChart title="Share resolved as false alarm, per shift and ward (n = resolved alarms)" max={1} format={pct} color="#d97706"
+            data={stats.shifts.filter((s) => s.resolved > 0).map((s) => ({ key: `${s.shift_start}-${s.ward}`,
+              label: shiftLabel(s) + n(s.resolved), value: s.false_alarms / s.resolved }))} />
+          <BarChart title="Median time to acknowledge, per shift and ward (n = alarms, unacknowledged ones at their wait so far)" format={secs} color="#059669"
             data={stats.shifts.filter((s) => s.median_ack_s != null)
-              .map((s) => ({ key: `${s.shift_start}-${s.ward}`, label: shiftLabel(s), value: s.median_ack_s! }))} />
+              .map((s) => ({ key: `${s.shift_start}-${s.ward}`, label: shiftLabel(s) + n(s.acknowledged + s.unacknowledged),
+                value: s.median_ack_s! }))} />
           <BarChart title="Alarms by model version" integer
             data={stats.by_model.map((m) => ({ key: modelLabel(m), label: modelLabel(m), value: m.alarms }))} />
-          <BarChart title="Share false by model version" max={1} format={pct} color="#d97706"
-            data={stats.by_model.map((m) => ({ key: modelLabel(m), label: modelLabel(m), value: m.false_share ?? 0 }))} />
+          <BarChart title="Share false by model version (n = resolved alarms)" max={1} format={pct} color="#d97706"
+            data={stats.by_model.filter((m) => m.false_share != null)
+              .map((m) => ({ key: modelLabel(m), label: modelLabel(m) + n(m.resolved), value: m.false_share! }))} />
           <BarChart title="Median time to acknowledge by model version" format={secs} color="#059669"
             data={stats.by_model.filter((m) => m.median_ack_s != null)
-              .map((m) => ({ key: modelLabel(m), label: modelLabel(m), value: m.median_ack_s! }))} />
+              .map((m) => ({ key: modelLabel(m), label: modelLabel(m) + n(m.acknowledged + m.unacknowledged),
+                value: m.median_ack_s! }))} />
         </div>
+      )}
+      {stats && (
+        <table className="videos" aria-label="Sample sizes">
+          <caption>Every figure with its sample size (“few”: fewer than {SMALL_SAMPLE}, read with care)</caption>
+          <thead>
+            <tr><th>Shift · ward</th><th>Alarms</th><th>Resolved</th><th>False alarms</th><th>False share</th>
+              <th>Acknowledged</th><th>Never acknowledged</th><th>Median time to acknowledge</th></tr>
+          </thead>
+          <tbody>
+            {stats.shifts.map((s) => (
+              <tr key={`${s.shift_start}-${s.ward}`} data-testid="fatigue-row">
+                <td>{shiftLabel(s)}</td><td>{s.alarms}</td><td>{s.resolved}</td><td>{s.false_alarms}</td>
+                <td>{s.resolved ? `${pct(s.false_alarms / s.resolved)}${n(s.resolved)}` : "–"}</td>
+                <td>{s.acknowledged}</td><td>{s.unacknowledged}</td>
+                <td>{s.median_ack_s != null ? `${secs(s.median_ack_s)}${n(s.acknowledged + s.unacknowledged)}` : "–"}</td>
+              </tr>
+            ))}
+          </tbody>
+        </table>
       )}
     </main>
   );

@@ -53,11 +53,14 @@ def test_fatigue_stats_counts_false_share_and_ack_time(session):
     alarm(session, video, transport_key="b", verdict="true_emergency", acknowledged_at=ack(30))
     alarm(session, video, transport_key="c", model_version="m2", acknowledged_at=ack(20))
     alarm(session, video, transport_key="", kind="robot_offline", model_version=None)
-    stats = fatigue_stats(alarm_history(session, HistoryFilter(), 100, 0)[1])
+    until = T0 + timedelta(seconds=65)
+    stats = fatigue_stats(alarm_history(session, HistoryFilter(), 100, 0)[1], until)
     [shift] = stats["shifts"]
     assert shift["shift"] == "early" and shift["alarms"] == 4 and shift["emergencies"] == 3
     assert shift["resolved"] == 2 and shift["false_alarms"] == 1
-    assert shift["median_ack_s"] == 20.0
+    assert (shift["acknowledged"], shift["unacknowledged"]) == (3, 1)
+    # 10, 20, 30 s and the unacknowledged one waiting 60 s until the period's end
+    assert shift["median_ack_s"] == 25.0
     m1, m2 = stats["by_model"]
     assert (m1["model_version"], m1["alarms"], m1["false_share"], m1["median_ack_s"]) == (
         "m1",
@@ -66,3 +69,4 @@ def test_fatigue_stats_counts_false_share_and_ack_time(session):
         20.0,
     )
     assert (m2["model_version"], m2["false_share"]) == ("m2", None)
+    assert (m1["acknowledged"], m1["unacknowledged"], m1["resolved"]) == (2, 0, 2)
