@@ -154,6 +154,16 @@ async def robot_socket(websocket: WebSocket) -> None:
         if previous is not None:
             log.info("robot %s reconnected: closing its older connection", hello.robot_id)
             await previous.close(protocol.CLOSE_REPLACED, "replaced by a newer connection")
+
+        def _token_still_valid() -> bool:
+            with state.session_factory() as session:
+                return service.token_still_valid(session, hello)
+
+        # A rotation or revocation committed between the check above and `connect` found no
+        # connection to close: checked again now that this one is registered (one committed
+        # later finds it and closes it).
+        if not await run_in_threadpool(_token_still_valid):
+            raise CloseConnection(protocol.CLOSE_UNAUTHORIZED, "robot token rotated or revoked")
         await websocket.send_text(
             Welcome(
                 robot_id=hello.robot_id, last_seq=last_seq, model_sha256=model_sha256

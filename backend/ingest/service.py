@@ -45,6 +45,11 @@ def authenticate(session: Session, hello: Hello) -> Robot:
     return robot
 
 
+def token_still_valid(session: Session, hello: Hello) -> bool:
+    token_hash = session.scalar(select(Robot.token_hash).where(Robot.id == hello.robot_id))
+    return robot_token_matches(token_hash, hello.token)
+
+
 def registry_sha256_for(session: Session, hello: Hello) -> dict[str, str] | None:
     """What the welcome tells a robot whose hello gave a sha256: the registry's sha256 of the
     versions it named (running and fallback) that the registry knows; None for older agents."""

@@ -8,12 +8,14 @@ from collections.abc import Iterator
 
 import httpx
 import pytest
+from starlette.websockets import WebSocketDisconnect
 from websockets.exceptions import ConnectionClosed
 from websockets.sync.client import connect
 
 from backend.db import make_engine, make_session_factory, transaction
-from backend.models import Role, User
-from backend.security import hash_password
+from backend.models import Robot, Role, User
+from backend.security import hash_password, hash_robot_token
+from tests.backend.conftest import ROBOT_TOKEN as TEST_ROBOT_TOKEN
 from tests.support.live_backend import PASSWORD, ROBOT_ID, ROBOT_TOKEN, LiveServer
 from vigil import protocol
 from vigil.protocol import Heartbeat, Hello
@@ -67,3 +69,26 @@ def test_changing_the_token_closes_the_live_robot_socket(server, method, reason)
         fresh, welcome = connect_robot(server, response.json()["token"])
         assert welcome["type"] == "welcome"
         fresh.close()
+
+
+def test_a_rotation_committed_while_the_robot_connects_still_closes_it(
+    client, robot, session_factory
+):
+    """The rotation commits after the hello's token check but before the connection is
+    registered, so the rotation finds no socket to close: the robot socket checks again."""
+    registry = client.app.state.robots
+    register = registry.connect
+
+    def rotate_then_register(robot_id, connection):
+        with transaction(session_factory) as session:
+            session.get(Robot, robot_id).token_hash = hash_robot_token("the-new-token")
+        return register(robot_id, connection)
+
+    registry.connect = rotate_then_register
+    with client.websocket_connect("/ws/robot") as ws:
+        ws.send_text(Hello(robot_id=robot, token=TEST_ROBOT_TOKEN).model_dump_json())
+        with pytest.raises(WebSocketDisconnect) as closed:
+            ws.receive_text()
+    assert (closed.value.code, closed.value.reason) == (
+        protocol.CLOSE_UNAUTHORIZED, "robot token rotated or revoked",
+    )  # fmt: skip
