@@ -15,12 +15,12 @@ from pathlib import Path
 from robot_agent.alarm import LocalAlarm
 from robot_agent.backoff import Backoff
 from robot_agent.client import LinkFatal, RobotLink
-from robot_agent.models import ModelRefused, fetch_model, remember_running
+from robot_agent.models import ModelRefused, fetch_model, forget_running, remember_running
 from robot_agent.outbox import Outbox
 from robot_agent.pipeline import Pipeline
 from vigil.inputs import is_keypoints_only
 from vigil.observation import Observation
-from vigil.protocol import ModelAssignment
+from vigil.protocol import ModelAssignment, Welcome
 
 log = logging.getLogger(__name__)
 
@@ -75,6 +75,7 @@ class RobotAgent:
             inputs=pipeline.detector.available_inputs,
             on_assignment=self.on_assignment,
             on_welcome=self._on_welcome,
+            loaded_models=pipeline.loaded_models,
             heartbeat_s=options.heartbeat_s,
             batch_frames=options.batch_frames,
             backoff=Backoff(options.backoff_initial_s, options.backoff_max_s),
@@ -90,12 +91,46 @@ class RobotAgent:
         self.frames = 0
         self.source_done = asyncio.Event()
         self._fetching: set[str] = set()
+        # The registry's sha256 of versions, as the backend told (welcome, assignments).
+        self.registry_sha256: dict[str, str] = {}
 
     # --- models ------------------------------------------------------------------------------
-    def _on_welcome(self) -> None:
+    def _on_welcome(self, welcome: Welcome) -> None:
         # A shadow model lasts one connection: the backend sends it again after each welcome
         # while it is still assigned, and has no message to withdraw it.
         self.pipeline.set_shadow(None)
+        if welcome.model_sha256 is not None:  # an older backend does not say
+            self.check_against_registry(welcome.model_sha256)
+
+    def check_against_registry(self, registry: dict[str, str]) -> None:
+        """Refuse a model this robot runs whose file is not the registry's (the file and its
+        local manifest may both have been replaced): it stops deciding at once, the fallback
+        decides if its own file verifies, and the nurse board shows why. A version the registry
+        does not know (a model given with --model-dir) is left alone."""
+        self.registry_sha256.update(registry)
+        registry = self.registry_sha256
+        fallback = self.pipeline.fallback
+        fallback_ok = fallback is not None and registry.get(fallback.version) == fallback.sha256
+        if fallback is not None and not fallback_ok and fallback.version in registry:
+            reason = _mismatch(fallback.version, fallback.sha256, registry[fallback.version])
+            log.error("robot %s: keypoints-only fallback %s", self.robot_id, reason)
+            if self.pipeline.classifier is fallback:
+                self._refuse_running(reason, None)
+            self.pipeline.set_fallback(None)
+            self.link.model_error = reason[:500]
+        classifier = self.pipeline.classifier
+        if classifier is None or classifier.version not in registry:
+            return
+        if classifier.sha256 != registry[classifier.version]:
+            reason = _mismatch(classifier.version, classifier.sha256, registry[classifier.version])
+            self._refuse_running(reason, fallback if fallback_ok else None)
+
+    def _refuse_running(self, reason: str, replacement) -> None:
+        version = self.pipeline.running_model or "-"
+        self.pipeline.refuse_model(version, reason, replacement)
+        forget_running(self.models_dir)  # a restart must not start with it either
+        self.link.model_error = reason[:500]
+        self.link.heartbeat_now()
 
     async def on_assignment(self, assignment: ModelAssignment) -> None:
         if assignment.stop_shadow and self.pipeline.shadow is not None:
@@ -103,16 +138,24 @@ class RobotAgent:
             self.pipeline.set_shadow(None)
             self.link.heartbeat_now()
         running = self.pipeline.running_model
+        # A model already here with the assigned version runs on only if its file is the one
+        # the registry holds (the assignment's sha256); else it is refused and fetched again.
         if assignment.fallback:
             fallback = self.pipeline.fallback
-            if fallback is not None and fallback.manifest.version == assignment.version:
-                return
+            if fallback is not None and fallback.version == assignment.version:
+                if fallback.sha256 == assignment.sha256:
+                    return
+                self.check_against_registry({assignment.version: assignment.sha256})
         elif assignment.shadow:
             shadow = self.pipeline.shadow
-            if shadow is not None and shadow.manifest.version == assignment.version:
-                return
+            if shadow is not None and shadow.version == assignment.version:
+                if shadow.sha256 == assignment.sha256:
+                    return
+                self.pipeline.set_shadow(None)
         elif assignment.version == running:
-            return
+            if self.pipeline.classifier.sha256 == assignment.sha256:
+                return
+            self.check_against_registry({assignment.version: assignment.sha256})
         kind = "fallback" if assignment.fallback else "shadow" if assignment.shadow else "model"
         key = f"{kind}:{assignment.version}"
         if key in self._fetching:
@@ -139,6 +182,7 @@ class RobotAgent:
             return
         finally:
             self._fetching.discard(key)
+        self.registry_sha256[assignment.version] = assignment.sha256  # fetch_model checked it
         # Every swap runs on the event loop, so it happens between two frames.
         if assignment.fallback:
             self.pipeline.set_fallback(classifier)
@@ -146,7 +190,7 @@ class RobotAgent:
             self.pipeline.set_shadow(classifier)
         else:
             self.pipeline.swap_model(classifier)
-            remember_running(self.models_dir, assignment.version)
+            remember_running(self.models_dir, assignment.version, assignment.sha256)
             self.link.model_error = None
         self.link.heartbeat_now()
 
@@ -240,3 +284,7 @@ class RobotAgent:
             self.robot_id,
             self.frames,
         )
+
+
+def _mismatch(version: str, actual: str, registry: str) -> str:
+    return f"model {version} refused: sha256 of its file is {actual}, the registry's is {registry}"

@@ -2,9 +2,10 @@
 
 hello -> welcome{last_seq}: the outbox forgets what the backend already has, then everything
 still unacknowledged is sent again in order (frame batches and transport messages), new frames
-follow as they are queued, `ack{seq}` trims the outbox, heartbeats report the running model and
-the outbox's state, `assign_model` goes to the agent. A lost connection is retried with
-exponential backoff and jitter; a refused token or protocol version stops the link (LinkFatal).
+follow as they are queued, `ack{seq}` trims the outbox, heartbeats report the running model (and
+the sha256 of its file) and the outbox's state, `assign_model` goes to the agent. A lost
+connection is retried with exponential backoff and jitter; a refused token or protocol version
+stops the link (LinkFatal).
 """
 
 from __future__ import annotations
@@ -55,7 +56,8 @@ class RobotLink:
         running_model: Callable[[], str | None],
         inputs: Iterable[str] | None = None,
         on_assignment: Callable[[ModelAssignment], Awaitable[None]] | None = None,
-        on_welcome: Callable[[], None] | None = None,
+        on_welcome: Callable[[Welcome], None] | None = None,
+        loaded_models: Callable[[], dict[str, str]] | None = None,
         heartbeat_s: float = 5.0,
         batch_frames: int = 100,
         backoff: Backoff | None = None,
@@ -66,6 +68,8 @@ class RobotLink:
         self.inputs = None if inputs is None else normalise(inputs)  # told in the hello
         self.on_assignment = on_assignment
         self.on_welcome = on_welcome
+        # sha256 of the model files it runs (hello: running_sha256, fallback_model/_sha256).
+        self.loaded_models = loaded_models or dict
         self.heartbeat_s = heartbeat_s
         self.batch_frames = batch_frames
         self.backoff = backoff or Backoff()
@@ -137,6 +141,7 @@ class RobotLink:
             agent_version=AGENT_VERSION,
             running_model=self.running_model(),
             inputs=self.inputs,
+            **self.loaded_models(),
         )
         await socket.send(hello.model_dump_json(exclude_none=True))
         welcome = await self._receive_welcome(socket)
@@ -144,7 +149,7 @@ class RobotLink:
         self.outbox.on_welcome(welcome.last_seq)
         pending = self.outbox.status()
         if self.on_welcome is not None:
-            self.on_welcome()
+            self.on_welcome(welcome)  # checks the models it runs against the registry's sha256
         self.connected = True
         self.last_problem = None
         self.connections += 1
@@ -246,6 +251,7 @@ class RobotLink:
             heartbeat = Heartbeat(
                 ts=time.time(),
                 running_model=self.running_model(),
+                running_sha256=self.loaded_models().get("running_sha256"),
                 outbox_frames=status.pending_frames,
                 dropped_frames=status.dropped_total,
                 model_error=self.model_error,

@@ -18,7 +18,7 @@ from robot_agent.client import LinkFatal
 from robot_agent.config import AgentSettings, ConfigError
 from robot_agent.outbox import Outbox
 from robot_agent.pipeline import Pipeline
-from robot_agent.runner import agent_options, initial_classifier, starting_classifier
+from robot_agent.runner import agent_options, initial_classifier, starting_model
 from robot_agent.source_factory import generated_transports
 from vigil.classes import TransportMode
 
@@ -62,7 +62,7 @@ def build_fleet(
     initial_classifier(settings)  # check --model-dir once, with a clear message
     agents = []
     for number, robot_id in enumerate(sorted(tokens)[:robots]):
-        classifier = starting_classifier(settings, robot_id)  # one per robot: stream state
+        classifier, refusal = starting_model(settings, robot_id)  # one per robot: stream state
         pipeline = Pipeline(
             Outbox(outbox_dir / f"{robot_id}.sqlite", settings.outbox_budget_bytes),
             settings.mode,
@@ -70,6 +70,8 @@ def build_fleet(
             ground_truth_fallback=True,
             available_inputs=["keypoints", "depth", "floor"],  # the generator knows them all
         )
+        if refusal is not None:
+            pipeline.report_refusal(refusal.version, refusal.reason)
         plans = generated_transports(
             seed=settings.seed + 1000 * number,
             locomotion=_locomotion(settings.mode, number),

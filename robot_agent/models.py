@@ -4,6 +4,11 @@ token, check the file's sha256 against the manifest (and the assignment), store 
 
 A file whose hash does not match is refused: nothing is stored, the refusal is logged and
 reported to the backend in the next heartbeat (`model_error`), and the old model keeps running.
+
+A model already on the robot is checked against the registry's sha256 too (the file on disk and
+its local manifest may both have been changed): at start against the sha256 noted in `RUNNING`
+with the assignment, after every `welcome` against the registry's sha256 the backend sends, and
+at every assignment of the version it runs (robot_agent.agent).
 """
 
 from __future__ import annotations
@@ -15,10 +20,11 @@ import shutil
 import tempfile
 import urllib.error
 import urllib.request
+from dataclasses import dataclass
 from pathlib import Path
 
 from vigil.classes import TransportMode
-from vigil.model_file import MANIFEST_NAME, ModelManifest
+from vigil.model_file import MANIFEST_NAME, ModelIntegrityError, ModelManifest
 from vigil.protocol import ModelAssignment
 from vigil.runtime import FrameClassifier
 
@@ -28,6 +34,14 @@ DOWNLOAD_TIMEOUT_S = 30
 
 class ModelRefused(Exception):
     """An assigned model that must not run: bad hash, wrong mode, unreadable manifest."""
+
+
+@dataclass(frozen=True)
+class Refusal:
+    """A model on the robot that must not run (its file is not the registry's), and why."""
+
+    version: str
+    reason: str
 
 
 def _get(url: str, robot_id: str, token: str) -> bytes:
@@ -112,28 +126,44 @@ def fetch_model(
 RUNNING_FILE = "RUNNING"
 
 
-def remember_running(models_dir: Path, version: str) -> None:
-    """Note the assigned model now running, so that a restart starts with it."""
+def remember_running(models_dir: Path, version: str, sha256: str | None = None) -> None:
+    """Note the assigned model now running and the registry's sha256 of it (from the
+    assignment), so that a restart starts with it, and only if its file still matches."""
     models_dir.mkdir(parents=True, exist_ok=True)
     temporary = models_dir / f".{RUNNING_FILE}.tmp"
-    temporary.write_text(version + "\n")
+    temporary.write_text(version + (f" {sha256}" if sha256 else "") + "\n")
     temporary.replace(models_dir / RUNNING_FILE)
 
 
-def last_running(models_dir: Path) -> FrameClassifier | None:
-    """The assigned model that ran before a restart, verified again; None if there is none or
-    it is no longer usable (then the backend's assignment brings it back)."""
+def forget_running(models_dir: Path) -> None:
+    """A refused model: a restart must not start with it."""
+    (models_dir / RUNNING_FILE).unlink(missing_ok=True)
+
+
+def last_running(models_dir: Path) -> tuple[FrameClassifier | None, Refusal | None]:
+    """(the assigned model that ran before a restart, why it was refused). The model is checked
+    against its manifest and against the registry's sha256 noted with it: a file that does not
+    match is refused (never run) and the reason returned, so that the agent reports it. None
+    and no reason: there is none, or it is unusable (the backend's assignment brings it back)."""
     marker = models_dir / RUNNING_FILE
     if not marker.is_file():
-        return None
-    version = marker.read_text().strip()
+        return None, None
+    version, _, registry_sha256 = marker.read_text().strip().partition(" ")
     try:
         classifier = FrameClassifier.from_dir(models_dir / version)
+    except ModelIntegrityError as error:
+        reason = f"model {version} refused at start: its file does not match its manifest"
+        return None, Refusal(version, f"{reason} ({error})")
     except Exception as error:
         log.warning("model %s that ran before the restart is unusable: %s", version, error)
-        return None
+        return None, None
+    if registry_sha256 and classifier.sha256 != registry_sha256:
+        return None, Refusal(version, (
+            f"model {version} refused at start: sha256 of its file is {classifier.sha256}, "
+            f"the registry's is {registry_sha256}"
+        ))  # fmt: skip
     log.info("starting with model %s, assigned before the restart", version)
-    return classifier
+    return classifier, None
 
 
 def load_initial_model(model_dir: Path | None) -> FrameClassifier | None:

@@ -108,6 +108,7 @@ class Pipeline:
         self._last_wall_ts = 0.0
         self._counts = _TransportCounts()
         self.last_decision: Decision | None = None
+        self.refused: str | None = None  # a model refused since the last verified one
 
     @property
     def classifier(self) -> FrameClassifier | None:
@@ -124,6 +125,22 @@ class Pipeline:
         if self.classifier is not None:
             return self.classifier.manifest.version
         return GROUND_TRUTH_VERSION if self.ground_truth_fallback else None
+
+    @property
+    def running_sha256(self) -> str | None:
+        """sha256 of the file the assigned model was loaded from (what the fleet compares with
+        the registry's sha256 of its target)."""
+        return self.classifier.sha256 if self.classifier is not None else None
+
+    def loaded_models(self) -> dict[str, str]:
+        """What the hello tells about the model files this robot runs (protocol extension)."""
+        out = {}
+        if self.classifier is not None:
+            out["running_sha256"] = self.classifier.sha256
+        if self.fallback is not None:
+            out["fallback_model"] = self.fallback.version
+            out["fallback_sha256"] = self.fallback.sha256
+        return out
 
     # --- transports ------------------------------------------------------------------------
     def start_transport(
@@ -178,6 +195,48 @@ class Pipeline:
             previous,
             len(self.detector.history),
         )
+        if self.refused is not None:  # a verified model decides again: clear the refusal
+            reason = (
+                f"model {classifier.version}, verified against the registry's sha256, decides "
+                f"again (model {self.refused} was refused)"
+            )
+            self.refused = None
+            message = DetectionStatus(
+                ts=time.time(), transport_id=self.transport_id, degraded=False,
+                assigned_model=classifier.version, running_model=classifier.version,
+                reason=reason[:500],
+            )  # fmt: skip
+            self.outbox.add_message(message.model_dump_json())
+
+    def refuse_model(
+        self, version: str, reason: str, replacement: FrameClassifier | None = None
+    ) -> None:
+        """The assigned model must not run (its file is not the registry's): from the next
+        frame `replacement` (a verified keypoints-only fallback; None: nothing) decides, and the
+        refusal goes to the nurse board as degraded detection."""
+        self.detector.replace_model(replacement)
+        self.report_refusal(version, reason)
+
+    def report_refusal(self, version: str, reason: str) -> None:
+        """Queue a detection_status (degraded, no input missing) saying model `version` was
+        refused and what decides instead: a technical alarm on the nurse board, never lost."""
+        self.refused = version
+        running = self.running_model
+        if self.classifier is not None:
+            instead = f"deciding with {running}"
+            if self.fallback is self.classifier:
+                instead = f"deciding with the keypoints-only fallback {running}"
+        elif running is not None:
+            instead = f"decisions from {running}"
+        else:
+            instead = "no model decides until a verified one arrives"
+        full = f"{reason}; {instead}"
+        log.error("transport %s: %s", self.transport_id, full)
+        message = DetectionStatus(
+            ts=time.time(), transport_id=self.transport_id, degraded=True, missing_inputs=[],
+            assigned_model=version[:64], running_model=running, reason=full[:500],
+        )  # fmt: skip
+        self.outbox.add_message(message.model_dump_json())
 
     def set_fallback(self, classifier: FrameClassifier | None) -> None:
         """Keep `classifier` (keypoints only) beside the assigned model (None: none)."""

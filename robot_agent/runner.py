@@ -8,7 +8,7 @@ import numpy as np
 
 from robot_agent.agent import AgentOptions, RobotAgent
 from robot_agent.config import AgentSettings, ConfigError, SourceKind
-from robot_agent.models import last_running, load_initial_model
+from robot_agent.models import Refusal, last_running, load_initial_model
 from robot_agent.outbox import Outbox
 from robot_agent.pipeline import Pipeline
 from robot_agent.source_factory import transports_for
@@ -50,14 +50,21 @@ def fallback_classifier(settings: AgentSettings) -> FrameClassifier | None:
     return classifier
 
 
-def starting_classifier(settings: AgentSettings, robot_id: str) -> FrameClassifier | None:
-    """The model assigned by the backend before a restart (kept in models_dir) if it is still
-    usable for this mode, else the configured model_dir."""
+def starting_model(
+    settings: AgentSettings, robot_id: str
+) -> tuple[FrameClassifier | None, Refusal | None]:
+    """(the model to start with, the remembered model refused at start if any): the model
+    assigned by the backend before a restart (kept in models_dir) if it is still usable for this
+    mode and its file is still the registry's, else the configured model_dir."""
     configured = initial_classifier(settings)  # checked even when not used: a clear error
-    remembered = last_running(settings.models_dir / robot_id)
+    remembered, refusal = last_running(settings.models_dir / robot_id)
     if remembered is not None and remembered.manifest.mode == settings.mode:
-        return remembered
-    return configured
+        return remembered, None
+    return configured, refusal
+
+
+def starting_classifier(settings: AgentSettings, robot_id: str) -> FrameClassifier | None:
+    return starting_model(settings, robot_id)[0]
 
 
 def agent_options(settings: AgentSettings, speed: float | None = None) -> AgentOptions:
@@ -109,7 +116,7 @@ def build_robot(settings: AgentSettings) -> RobotAgent:
     if not settings.robot_id:
         raise ConfigError("robot_id: required (flag --robot-id or VIGIL_ROBOT_ROBOT_ID)")
     token = settings.resolve_token()
-    classifier = starting_classifier(settings, settings.robot_id)
+    classifier, refusal = starting_model(settings, settings.robot_id)
     transports = transports_for(settings)
     outbox_path = settings.outbox_path or DEFAULT_OUTBOX_DIR / f"{settings.robot_id}.sqlite"
     outbox = Outbox(outbox_path, settings.outbox_budget_bytes)
@@ -122,6 +129,8 @@ def build_robot(settings: AgentSettings) -> RobotAgent:
         fallback=fallback_classifier(settings),
         available_inputs=source_inputs(settings),
     )
+    if refusal is not None:  # never silent: a technical alarm once the backend hears of it
+        pipeline.report_refusal(refusal.version, refusal.reason)
     # A camera paces itself; recorded, generated and video frames are paced by the agent.
     camera = settings.source == SourceKind.MEDIAPIPE and (settings.source_path or "").isdigit()
     speed = 0.0 if camera else settings.speed

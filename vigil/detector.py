@@ -202,6 +202,16 @@ class Detector:
         self.classifier = classifier
         self._judge_again()
 
+    def replace_model(self, classifier: FrameClassifier | None) -> None:
+        """A refused model stops deciding at once: ``classifier`` (a verified keypoints-only
+        fallback, or None: nothing) decides from the next frame on. The caller reports why;
+        degradation is judged afresh, with nothing reported yet for this model."""
+        if classifier is not None:
+            self._warm(classifier)
+        self.classifier = classifier
+        self._judge_again()
+        self._reported_degraded = None
+
     def set_fallback(self, fallback: FrameClassifier | None) -> None:
         if _checked_fallback(fallback) is not None:
             self._warm(fallback)

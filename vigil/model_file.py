@@ -108,6 +108,7 @@ class Classifier:
         options.inter_op_num_threads = 1
         options.log_severity_level = 3
         self.manifest = manifest
+        self.sha256 = sha256_hex(onnx_bytes)  # of the bytes this session runs
         self._session = ort.InferenceSession(
             onnx_bytes, sess_options=options, providers=["CPUExecutionProvider"]
         )

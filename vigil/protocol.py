@@ -41,6 +41,7 @@ CLOSE_INTERNAL_ERROR = 1011  # the server could not store the message; reconnect
 
 
 FiniteFloat = Annotated[float, Field(allow_inf_nan=False)]
+Sha256 = Annotated[str, Field(pattern=r"^[0-9a-f]{64}$")]
 Point = Annotated[list[FiniteFloat], Field(min_length=3, max_length=3)]
 
 
@@ -60,6 +61,14 @@ class Hello(_Message):
     inputs: list[InputName] | None = Field(
         default=None, description="inputs the robot can feed a model: keypoints, depth, floor"
     )
+    # Protocol 1 extension: the sha256 of the model files the robot actually runs (computed
+    # from the bytes it loaded), and its keypoints-only fallback. The welcome answers with the
+    # registry's sha256 of those versions; the fleet compares the running one with its target.
+    running_sha256: Sha256 | None = Field(
+        default=None, description="sha256 of the model file running_model was loaded from"
+    )
+    fallback_model: str | None = Field(default=None, max_length=64)
+    fallback_sha256: Sha256 | None = None
 
 
 class TransportStart(_Message):
@@ -131,6 +140,9 @@ class Heartbeat(_Message):
     )
     model_error: str | None = Field(
         default=None, max_length=500, description="why the robot refused its assigned model"
+    )
+    running_sha256: Sha256 | None = Field(
+        default=None, description="sha256 of the file running_model was loaded from"
     )
 
 
@@ -205,6 +217,19 @@ class Welcome(_Message):
     protocol: int = PROTOCOL_VERSION
     robot_id: str
     last_seq: int | None = Field(description="highest sequence number already committed")
+    # Protocol 1 extension, sent only to a robot whose hello gave a sha256: the registry's
+    # sha256 of each version the hello named (running_model, fallback_model) that the registry
+    # knows. The robot refuses a model whose file does not match (never runs it).
+    model_sha256: dict[str, Sha256] | None = Field(
+        default=None, description="registry sha256 of the versions the hello named"
+    )
+
+    @model_serializer(mode="wrap")
+    def _omit_extensions_unless_set(self, handler: SerializerFunctionWrapHandler) -> dict:
+        data = handler(self)
+        if self.model_sha256 is None:
+            data.pop("model_sha256", None)
+        return data
 
 
 class Ack(_Message):

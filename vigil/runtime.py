@@ -42,6 +42,15 @@ class FrameClassifier:
         self.policy = DecisionPolicy(manifest.classes, manifest.threshold, manifest.delay_ms / 1000)
         self._window: deque[np.ndarray] = deque(maxlen=manifest.window)
 
+    @property
+    def version(self) -> str:
+        return self.manifest.version
+
+    @property
+    def sha256(self) -> str:
+        """sha256 of the model bytes this classifier runs (not what a manifest claims)."""
+        return self.classifier.sha256
+
     @classmethod
     def from_dir(cls, model_dir: Path | str) -> FrameClassifier:
         return cls(load_classifier(model_dir))

@@ -3,6 +3,7 @@ again by the worker. Pydantic only, so the backend can import this without train
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import TypeVar
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
@@ -39,7 +40,11 @@ class EvaluateParams(JobParams):
 
 
 class RegisterParams(JobParams):
-    path: str = Field(min_length=1, description="model directory on the worker's host")
+    path: str = Field(
+        min_length=1,
+        max_length=4096,
+        description="model directory inside the model store (absolute, or relative to it)",
+    )
 
 
 class WhatIfParams(JobParams):
@@ -71,7 +76,26 @@ def parse(model: type[P], params: dict) -> P:
         raise ValueError(f"invalid job parameter {where}: {first['msg']}") from None
 
 
-def validate(kind: JobKind, params: dict) -> dict:
-    """The parameters as stored: validated, defaults left implicit."""
-    parse(PARAMS[JobKind(kind)], params)
+def register_source(path: str, model_store_dir: Path | str) -> Path:
+    """The model directory a register job may read: inside the model store only (symlinks and
+    '..' resolved first), never elsewhere on the worker's host; ValueError naming `path`."""
+    store = Path(model_store_dir).resolve()
+    try:
+        source = (store / path).resolve()  # an absolute path replaces the store
+    except (OSError, RuntimeError, ValueError) as error:
+        raise ValueError(f"invalid job parameter path: {error}") from None
+    if source == store or not source.is_relative_to(store):
+        raise ValueError(
+            f"invalid job parameter path: {path} is not a model directory inside the model "
+            f"store ({store}); registration reads only from the model store"
+        )
+    return source
+
+
+def validate(kind: JobKind, params: dict, model_store_dir: Path | str | None = None) -> dict:
+    """The parameters as stored: validated, defaults left implicit. With `model_store_dir` (a
+    job queued by a user), a register job's path must lie inside the model store."""
+    checked = parse(PARAMS[JobKind(kind)], params)
+    if isinstance(checked, RegisterParams) and model_store_dir is not None:
+        register_source(checked.path, model_store_dir)
     return params

@@ -3,7 +3,7 @@ rules live in worker.queue (a light module: no training code is imported here)."
 
 from fastapi import APIRouter, HTTPException, status
 
-from backend.deps import CurrentUser, SessionDep
+from backend.deps import CurrentUser, SessionDep, SettingsDep
 from backend.models.jobs import Job, JobStatus
 from backend.registry import queries
 from backend.registry.schemas import JobDetail, JobIn, JobOut
@@ -27,10 +27,13 @@ def list_jobs(
 
 
 @router.post("/jobs", status_code=status.HTTP_201_CREATED)
-def create_job(body: JobIn, session: SessionDep, user: CurrentUser) -> JobOut:
-    """Queue a job; parameters are checked here (422 naming the field) and again by the worker."""
+def create_job(
+    body: JobIn, session: SessionDep, user: CurrentUser, settings: SettingsDep
+) -> JobOut:
+    """Queue a job; parameters are checked here (422 naming the field) and again by the worker.
+    A register job reads only from the model store (settings.model_store_dir)."""
     try:
-        params = job_params.validate(body.kind, body.params)
+        params = job_params.validate(body.kind, body.params, settings.model_store_dir)
     except ValueError as error:
         raise HTTPException(status.HTTP_422_UNPROCESSABLE_CONTENT, str(error)) from None
     job = queue.enqueue(session, body.kind, params, user.id)

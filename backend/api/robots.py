@@ -105,13 +105,27 @@ def get_robot(robot_id: str, session: SessionDep, user: CurrentUser, request: Re
     return _robot_out(request, _robot(session, robot_id))
 
 
+async def _close_live_connection(request: Request, robot_id: str, reason: str) -> None:
+    """Close the robot's live connection to this replica (4401): it authenticated with a token
+    that is no longer valid, and must connect again with the current one."""
+    connection = request.app.state.robots.socket(robot_id)
+    if connection is not None:
+        await connection.close(CLOSE_UNAUTHORIZED, reason)
+
+
 @router.post("/robots/{robot_id}/token")
-def rotate_token(robot_id: str, session: SessionDep, user: CurrentUser) -> RobotTokenOut:
+async def rotate_token(
+    robot_id: str, session: SessionDep, user: CurrentUser, request: Request
+) -> RobotTokenOut:
+    """A new token (shown once); the old one stops working and the robot's live connection to
+    this replica is closed, as on revocation."""
     robot = _robot(session, robot_id)
     token = new_robot_token()
     robot.token_hash = hash_robot_token(token)
     robot.token_created_at = utcnow()
-    return RobotTokenOut(robot_id=robot.id, token=token)
+    session.commit()
+    await _close_live_connection(request, robot_id, "robot token rotated")
+    return RobotTokenOut(robot_id=robot_id, token=token)
 
 
 @router.delete("/robots/{robot_id}/token", status_code=status.HTTP_204_NO_CONTENT)
@@ -121,9 +135,7 @@ async def revoke_token(
     """Revoke the robot's token and close its live connection to this replica."""
     _robot(session, robot_id).token_hash = None
     session.commit()
-    connection = request.app.state.robots.socket(robot_id)
-    if connection is not None:
-        await connection.close(CLOSE_UNAUTHORIZED, "robot token revoked")
+    await _close_live_connection(request, robot_id, "robot token revoked")
 
 
 @router.get("/transports")

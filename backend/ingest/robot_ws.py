@@ -138,12 +138,13 @@ async def robot_socket(websocket: WebSocket) -> None:
     try:
         hello = await _hello(websocket)
 
-        def _authenticate() -> int | None:
+        def _authenticate() -> tuple[int | None, dict[str, str] | None]:
             with transaction(state.session_factory) as session:
-                return service.authenticate(session, hello).last_seq
+                robot = service.authenticate(session, hello)
+                return robot.last_seq, service.registry_sha256_for(session, hello)
 
         try:
-            last_seq = await run_in_threadpool(_authenticate)
+            last_seq, model_sha256 = await run_in_threadpool(_authenticate)
         except (service.RobotAuthError, DataError):
             raise CloseConnection(
                 protocol.CLOSE_UNAUTHORIZED, "unknown robot or wrong or revoked token"
@@ -153,8 +154,20 @@ async def robot_socket(websocket: WebSocket) -> None:
         if previous is not None:
             log.info("robot %s reconnected: closing its older connection", hello.robot_id)
             await previous.close(protocol.CLOSE_REPLACED, "replaced by a newer connection")
+
+        def _token_still_valid() -> bool:
+            with state.session_factory() as session:
+                return service.token_still_valid(session, hello)
+
+        # A rotation or revocation committed between the check above and `connect` found no
+        # connection to close: checked again now that this one is registered (one committed
+        # later finds it and closes it).
+        if not await run_in_threadpool(_token_still_valid):
+            raise CloseConnection(protocol.CLOSE_UNAUTHORIZED, "robot token rotated or revoked")
         await websocket.send_text(
-            Welcome(robot_id=hello.robot_id, last_seq=last_seq).model_dump_json()
+            Welcome(
+                robot_id=hello.robot_id, last_seq=last_seq, model_sha256=model_sha256
+            ).model_dump_json()
         )
         log.info("robot %s connected (agent %s)", hello.robot_id, hello.agent_version)
         await model_push.on_robot_connected(websocket, hello.robot_id)

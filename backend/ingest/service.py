@@ -19,6 +19,7 @@ from backend.models._types import utcnow
 from backend.models.alarms import Alarm, AlarmKind, AlarmState
 from backend.models.robots import Robot, Transport
 from backend.models.videos import Frame, Video
+from backend.registry import queries as registry_queries
 from backend.security import robot_token_matches
 from vigil.classes import Decision, TransportMode
 from vigil.protocol import DetectionStatus, Hello, TransportEnd, TransportStart
@@ -37,10 +38,25 @@ def authenticate(session: Session, hello: Hello) -> Robot:
         raise RobotAuthError("unknown robot or wrong or revoked token")
     robot.agent_version = hello.agent_version
     robot.running_model_version = hello.running_model
+    robot.running_model_sha256 = hello.running_sha256
     # Said at every connect; an agent that says nothing feeds keypoints only (None).
     robot.inputs = list(hello.inputs) if hello.inputs is not None else None
     robot.last_seen_at = utcnow()
     return robot
+
+
+def token_still_valid(session: Session, hello: Hello) -> bool:
+    token_hash = session.scalar(select(Robot.token_hash).where(Robot.id == hello.robot_id))
+    return robot_token_matches(token_hash, hello.token)
+
+
+def registry_sha256_for(session: Session, hello: Hello) -> dict[str, str] | None:
+    """What the welcome tells a robot whose hello gave a sha256: the registry's sha256 of the
+    versions it named (running and fallback) that the registry knows; None for older agents."""
+    if hello.running_sha256 is None and hello.fallback_sha256 is None:
+        return None
+    versions = {v for v in (hello.running_model, hello.fallback_model) if v is not None}
+    return registry_queries.sha256_of_versions(session, versions)
 
 
 def _video_name(robot_id: str, transport_id: str | None) -> str:
@@ -94,6 +110,7 @@ class RobotState:
     last_seq: int | None
     last_seen_at: datetime | None = None
     running_model_version: str | None = None
+    running_model_sha256: str | None = None
     running_model_changed: bool = False
 
 
@@ -187,8 +204,8 @@ class IngestContext:
         robot_table = Robot.__table__
         update_rows(session, robot_table, ("id", "last_seq", "last_seen_at"),
                     [(r.id, r.last_seq, r.last_seen_at) for r in robots])  # fmt: skip
-        update_rows(session, robot_table, ("id", "running_model_version"),
-                    [(r.id, r.running_model_version) for r in robots
+        update_rows(session, robot_table, ("id", "running_model_version", "running_model_sha256"),
+                    [(r.id, r.running_model_version, r.running_model_sha256) for r in robots
                      if r.running_model_changed])  # fmt: skip
         videos = [
             v for v in self.videos.values()
@@ -382,14 +399,18 @@ def degraded_details(message: DetectionStatus) -> dict:
 
 def degraded_summary(message: DetectionStatus) -> str:
     words = {"depth": "depth", "floor": "floor measures", "keypoints": "keypoints"}
-    missing = "/".join(words.get(m, m) for m in message.missing_inputs) or "an input"
+    missing = "no " + ("/".join(words.get(m, m) for m in message.missing_inputs) or "an input")
+    if not message.missing_inputs and message.assigned_model:
+        # Degraded with every input there: the robot refused its model (its file is not the
+        # registry's) and says what decides instead (robot_agent.pipeline.refuse_model).
+        missing = f"model {message.assigned_model} refused"
     if message.running_model and message.running_model != message.assigned_model:
         running = f"running keypoints-only fallback {message.running_model}"
     elif message.running_model:
         running = f"{message.running_model} runs on what is left"
     else:
         running = "no fallback model"
-    return f"no {missing}, {running}"
+    return f"{missing}, {running}"
 
 
 def apply_detection_status(

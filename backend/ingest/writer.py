@@ -277,6 +277,7 @@ class FrameWriter:
                 robot.last_seen_at = service.utcnow()
                 if message.running_model is not None:
                     robot.running_model_version = message.running_model
+                    robot.running_model_sha256 = message.running_sha256
                     robot.running_model_changed = True
                 if message.model_error:
                     log.warning("robot %s refused a model: %s", robot.id, message.model_error)

@@ -20,6 +20,9 @@ class Robot(Base):
     assigned_model_id: Mapped[int | None] = mapped_column(ForeignKey("model_versions.id"))
     shadow_model_id: Mapped[int | None] = mapped_column(ForeignKey("model_versions.id"))
     running_model_version: Mapped[str | None] = mapped_column(String(64))
+    # sha256 of the model file the robot says it runs (hello/heartbeat; None: an older agent,
+    # or no model): the fleet is in sync only when it is the registry's sha256 of the target.
+    running_model_sha256: Mapped[str | None] = mapped_column(String(64))
     agent_version: Mapped[str | None] = mapped_column(String(64))
     # What the robot said in its last hello it can feed a model (vigil.inputs); None: it did
     # not say (an older agent, or it never connected), which counts as keypoints only.

@@ -48,21 +48,29 @@ def assignment_for(
     )
 
 
+def runs_assigned(assigned: ModelVersion, running: str | None, running_sha256: str | None) -> bool:
+    """The robot says it runs the assigned version, and no other file under that name (an
+    agent that reports no sha256 is taken at its word: resending would not change it)."""
+    if assigned.version != running:
+        return False
+    return running_sha256 is None or running_sha256 == assigned.sha256
+
+
 def _wanted(
     app: FastAPI, robot_id: str
-) -> tuple[ModelVersion | None, ModelVersion | None, ModelVersion | None, str | None]:
-    """(assigned, shadow, fallback, running version) of a robot."""
+) -> tuple[ModelVersion | None, ModelVersion | None, ModelVersion | None, str | None, str | None]:
+    """(assigned, shadow, fallback, running version, running sha256) of a robot."""
     with app.state.session_factory() as session:
         robot = session.get(Robot, robot_id)
         if robot is None:
-            return None, None, None, None
+            return None, None, None, None, None
         assigned = (
             session.get(ModelVersion, robot.assigned_model_id) if robot.assigned_model_id else None
         )
         shadow = session.get(ModelVersion, robot.shadow_model_id) if robot.shadow_model_id else None
         fallback = fallback_for(session, assigned)
         session.expunge_all()
-        return assigned, shadow, fallback, robot.running_model_version
+        return assigned, shadow, fallback, robot.running_model_version, robot.running_model_sha256
 
 
 def _sent(app: FastAPI) -> dict:
@@ -98,7 +106,9 @@ async def push_to_robot(app: FastAPI, robot_id: str, force: bool = True) -> bool
     websocket = _socket(app, robot_id)
     if websocket is None:
         return False
-    assigned, shadow, fallback, running = await run_in_threadpool(_wanted, app, robot_id)
+    assigned, shadow, fallback, running, running_sha256 = await run_in_threadpool(
+        _wanted, app, robot_id
+    )
     sent = _sent(app)
     shadows = _shadows_sent(app)
     fallbacks = _fallbacks_sent(app)
@@ -106,7 +116,7 @@ async def push_to_robot(app: FastAPI, robot_id: str, force: bool = True) -> bool
     # (protocol 1 extension). Without a production assignment the robot drops it on reconnect.
     stop_shadow = force and shadow is None and robot_id in shadows
     messages = []
-    if assigned is not None and (force or assigned.version != running):
+    if assigned is not None and (force or not runs_assigned(assigned, running, running_sha256)):
         production = assignment_for(assigned, http_base(websocket), shadow=False)
         if stop_shadow:
             production = production.model_copy(update={"stop_shadow": True})
@@ -147,10 +157,14 @@ async def on_robot_connected(websocket: WebSocket, robot_id: str) -> None:
     app = websocket.app
     _shadows_sent(app).pop(robot_id, None)  # the agent dropped its shadow model on welcome
     _fallbacks_sent(app).pop(robot_id, None)  # sent again after every welcome
-    assigned, shadow, fallback, running = await run_in_threadpool(_wanted, app, robot_id)
+    assigned, shadow, fallback, running, running_sha256 = await run_in_threadpool(
+        _wanted, app, robot_id
+    )
     if shadow is not None:
         await push_to_robot(app, robot_id, force=True)
-    elif (assigned is not None and assigned.version != running) or fallback is not None:
+    elif (
+        assigned is not None and not runs_assigned(assigned, running, running_sha256)
+    ) or fallback is not None:
         await push_to_robot(app, robot_id, force=False)
 
 
@@ -161,28 +175,29 @@ async def reconcile(app: FastAPI) -> list[str]:
 
     fallbacks = _fallbacks_sent(app)
 
-    def _assigned() -> list[tuple[str, str, str | None, str | None]]:
-        """(robot, assigned version, running version, fallback version) of robots with a model."""
+    def _assigned() -> list[tuple[str, str, bool, str | None]]:
+        """(robot, assigned version, whether it runs it, fallback version) of robots with a
+        model."""
         cache: dict = {}
         with app.state.session_factory() as session:
             rows = session.execute(
-                select(Robot.id, ModelVersion, Robot.running_model_version).join(
-                    ModelVersion, ModelVersion.id == Robot.assigned_model_id
-                )
+                select(
+                    Robot.id, ModelVersion, Robot.running_model_version, Robot.running_model_sha256
+                ).join(ModelVersion, ModelVersion.id == Robot.assigned_model_id)
             ).all()
             out = []
-            for robot_id, model, running in rows:
+            for robot_id, model, running, running_sha256 in rows:
                 fallback = fallback_for(session, model, cache)
-                out.append((robot_id, model.version, running,
+                out.append((robot_id, model.version, runs_assigned(model, running, running_sha256),
                             fallback.version if fallback else None))  # fmt: skip
             return out
 
     pushed = []
-    for robot_id, version, running, fallback in await run_in_threadpool(_assigned):
+    for robot_id, version, runs, fallback in await run_in_threadpool(_assigned):
         if _socket(app, robot_id) is None:
             continue
         new_fallback = fallback is not None and fallbacks.get(robot_id) != fallback
-        if version == running and not new_fallback:
+        if runs and not new_fallback:
             continue
         last = sent.get(robot_id)
         recent = last and last[0] == version and time.monotonic() - last[1] < resend_after

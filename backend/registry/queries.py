@@ -64,6 +64,16 @@ def model_by_version(session: Session, version: str) -> ModelVersion | None:
     return session.scalars(select(ModelVersion).where(ModelVersion.version == version)).first()
 
 
+def sha256_of_versions(session: Session, versions: set[str]) -> dict[str, str]:
+    """version -> the registry's sha256, for the versions the registry knows."""
+    if not versions:
+        return {}
+    rows = session.execute(
+        select(ModelVersion.version, ModelVersion.sha256).where(ModelVersion.version.in_(versions))
+    )
+    return {version: sha256 for version, sha256 in rows}
+
+
 def deployment_out(session: Session, deployment: Deployment) -> DeploymentOut:
     out = DeploymentOut.model_validate(deployment)
     out.model_version = session.get(ModelVersion, deployment.model_version_id).version
@@ -103,7 +113,8 @@ def fleet(
             id=robot.id, name=robot.name, ward=robot.ward, connected=robot.id in connected,
             target_version=target, running_version=robot.running_model_version,
             shadow_version=shadow.version if shadow else None,
-            in_sync=target is None or target == robot.running_model_version,
+            running_sha256=robot.running_model_sha256,
+            in_sync=in_sync(target_model, robot),
             agent_version=robot.agent_version, last_seen_at=robot.last_seen_at,
             inputs=robot.feeds, inputs_reported=robot.inputs is not None,
             fallback_version=fallback.version if fallback else None,
@@ -113,6 +124,18 @@ def fleet(
             qualifies=None if model is None else not missing, missing_inputs=missing,
         ))  # fmt: skip
     return out
+
+
+def in_sync(target: ModelVersion | None, robot: Robot) -> bool:
+    """The robot runs its target: the version, and a file whose sha256 (as the robot computed
+    it from the bytes it loaded) is the registry's. A robot that does not report the sha256 (an
+    older agent) cannot be shown to run the registry's file: not in sync."""
+    if target is None:
+        return True
+    return (
+        robot.running_model_version == target.version
+        and robot.running_model_sha256 == target.sha256
+    )
 
 
 def list_jobs(session: Session, status: JobStatus | None = None, limit: int = 100) -> list[Job]:

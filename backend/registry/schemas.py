@@ -98,8 +98,13 @@ class FleetRobot(BaseModel):
     connected: bool
     target_version: str | None
     running_version: str | None
+    running_sha256: str | None = Field(
+        description="sha256 of the model file the robot says it runs (None: it did not say)"
+    )
     shadow_version: str | None
-    in_sync: bool
+    in_sync: bool = Field(
+        description="it runs its target version, and that file's sha256 is the registry's"
+    )
     agent_version: str | None
     last_seen_at: datetime | None
     inputs: list[InputName] = Field(

@@ -23,13 +23,14 @@ def test_the_last_assigned_model_is_started_after_a_restart(tmp_path):
     assert starting_classifier(settings, "robot-a").manifest.version == "upright-7"
 
 
-def test_a_remembered_model_damaged_on_disk_is_not_started(tmp_path, caplog):
+def test_a_remembered_model_damaged_on_disk_is_not_started(tmp_path):
     robot_models = tmp_path / "robot-models" / "robot-a"
     stored = write_upright_model(robot_models / "upright-7", "upright-7")
     remember_running(robot_models, "upright-7")
     (stored / "model.onnx").write_bytes((stored / "model.onnx").read_bytes() + b"x")
-    assert last_running(robot_models) is None
-    assert "sha256 mismatch" in caplog.text
+    classifier, refusal = last_running(robot_models)
+    assert classifier is None
+    assert refusal.version == "upright-7" and "sha256 mismatch" in refusal.reason
 
 
 def test_a_tampered_shipped_model_is_a_configuration_error(tmp_path):

@@ -1,5 +1,6 @@
 """Register a model directory (ONNX + manifest, e.g. from `train-default`) as a candidate and
-evaluate it on the gold set."""
+evaluate it on the gold set. A job queued by a user (through the API) reads only from the model
+store; the bootstrap's own job (no user) registers the shipped default model where it lies."""
 
 from __future__ import annotations
 
@@ -7,7 +8,7 @@ from pathlib import Path
 
 from backend.db import transaction
 from vigil.model_file import read_manifest
-from worker.job_params import RegisterParams, parse
+from worker.job_params import RegisterParams, parse, register_source
 from worker.jobs.common import gold_evaluation, reload, started_by
 from worker.registration import register, store_path
 from worker.runner import JobContext
@@ -16,6 +17,8 @@ from worker.runner import JobContext
 def run(context: JobContext) -> dict:
     params = parse(RegisterParams, context.params)
     source = Path(params.path)
+    if context.created_by_id is not None:  # queued by a user: the model store only
+        source = register_source(params.path, context.settings.model_store_dir)
     if not source.exists():
         raise ValueError(f"invalid job parameter path: {source} does not exist")
     classifier = reload(source)  # verifies the sha256 before anything is copied

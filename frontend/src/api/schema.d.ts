@@ -151,7 +151,11 @@ export interface paths {
         };
         get?: never;
         put?: never;
-        /** Rotate Token */
+        /**
+         * Rotate Token
+         * @description A new token (shown once); the old one stops working and the robot's live connection to
+         *     this replica is closed, as on revocation.
+         */
         post: operations["rotate_token_api_robots__robot_id__token_post"];
         /**
          * Revoke Token
@@ -698,6 +702,7 @@ export interface paths {
         /**
          * Create Job
          * @description Queue a job; parameters are checked here (422 naming the field) and again by the worker.
+         *     A register job reads only from the model store (settings.model_store_dir).
          */
         post: operations["create_job_api_jobs_post"];
         delete?: never;
@@ -1357,9 +1362,17 @@ export interface components {
             target_version: string | null;
             /** Running Version */
             running_version: string | null;
+            /**
+             * Running Sha256
+             * @description sha256 of the model file the robot says it runs (None: it did not say)
+             */
+            running_sha256: string | null;
             /** Shadow Version */
             shadow_version: string | null;
-            /** In Sync */
+            /**
+             * In Sync
+             * @description it runs its target version, and that file's sha256 is the registry's
+             */
             in_sync: boolean;
             /** Agent Version */
             agent_version: string | null;

@@ -123,6 +123,8 @@ describe("alarm titles", () => {
     expect(alarmTitle(degraded)).toBe("Detection degraded: no depth/floor measures, running keypoints-only fallback gbt-kp-3");
     const noFallback = alarm({ kind: "detection_degraded", priority: "technical", details: { missing_inputs: ["floor"], assigned_model: "m", running_model: null } });
     expect(alarmTitle(noFallback)).toBe("Detection degraded: no floor measures, no fallback model");
+    const refused = alarm({ kind: "detection_degraded", priority: "technical", details: { missing_inputs: [], assigned_model: "rf-7", running_model: "kp-2" } });
+    expect(alarmTitle(refused)).toBe("Detection degraded: model rf-7 refused, running keypoints-only fallback kp-2");
     expect(alarmTitle(alarm({ kind: "robot_offline", priority: "technical" }))).toBe("Robot offline");
   });
 });

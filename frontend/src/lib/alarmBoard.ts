@@ -94,7 +94,9 @@ export function alarmTitle(alarm: Alarm): string {
   const missing = Array.isArray(details.missing_inputs) ? (details.missing_inputs as string[]) : [];
   const running = typeof details.running_model === "string" ? details.running_model : null;
   const assigned = typeof details.assigned_model === "string" ? details.assigned_model : null;
-  const what = missing.length ? `no ${missing.map((m) => INPUT_WORDS[m] ?? m).join("/")}` : "an input is missing";
+  // Degraded with no input missing: the robot refused its model (its file is not the registry's).
+  const what = missing.length ? `no ${missing.map((m) => INPUT_WORDS[m] ?? m).join("/")}`
+    : assigned ? `model ${assigned} refused` : "an input is missing";
   const how = running && running !== assigned ? `running keypoints-only fallback ${running}`
     : running ? `${running} runs on what is left` : "no fallback model";
   return `${label}: ${what}, ${how}`;

@@ -50,7 +50,10 @@ export function FleetPage() {
               <td className="fallback">{r.fallback_version ?? "–"}</td>
               <td>{r.shadow_version ?? "–"}</td>
               <td>
-                {r.in_sync ? "in sync" : r.connected ? "switching…" : "pending: robot offline"}
+                {r.in_sync ? "in sync" : !r.connected ? "pending: robot offline"
+                  : r.running_version === r.target_version
+                    ? (r.running_sha256 ? "not the registry's file" : "file not verified (no sha256 reported)")
+                    : "switching…"}
                 {r.detection_degraded && <> <span className="pill kind-detection_degraded">detection degraded</span></>}
               </td>
             </tr>))}</tbody>
