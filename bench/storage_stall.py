@@ -169,13 +169,15 @@ async def stall_scenario(
     emergencies = [(t, a) for t, a in board if a["kind"] == "emergency"]
     stalled = [(t, a) for t, a in board if a["kind"] == "storage_stalled"]
     first_emergency = emergencies[0] if emergencies else None
-    first_stored = next(((t, a) for t, a in emergencies if a["stored"]), None)
+    first_stored = next(((t, a) for t, a in emergencies if a.get("stored", True)), None)
     stalled_raised = next(((t, a) for t, a in stalled if a["state"] == "open"), None)
     stalled_cleared = next(((t, a) for t, a in stalled if a["state"] == "resolved"), None)
     return {
         "lock_seconds": round(t_release - t_lock, 2),
         "emergency_to_board_ms": ms(first_emergency[0], t_emergency) if first_emergency else None,
-        "first_emergency_stored": first_emergency[1]["stored"] if first_emergency else None,
+        "first_emergency_stored": first_emergency[1].get("stored", True)
+        if first_emergency
+        else None,
         "first_emergency": first_emergency[1] if first_emergency else None,
         "stored_emergency_after_release_ms": ms(first_stored[0], t_release)
         if first_stored
@@ -187,7 +189,12 @@ async def stall_scenario(
         else None,
         "storage_stalled": stalled_raised[1] if stalled_raised else None,
         "emergency_messages": [
-            {"at_ms": ms(t, t_emergency), "id": a["id"], "key": a["key"], "stored": a["stored"]}
+            {
+                "at_ms": ms(t, t_emergency),
+                "id": a["id"],
+                "key": a.get("key"),
+                "stored": a.get("stored", True),
+            }
             for t, a in emergencies
         ],
         "emergency_seqs": [min(emergency_seqs), max(emergency_seqs)],

@@ -5,7 +5,7 @@ from fastapi.responses import JSONResponse
 from pydantic import BaseModel, ConfigDict, Field
 from sqlalchemy import func, select
 
-from backend import health
+from backend import health as health_checks
 from backend.api.auth import UserOut
 from backend.deps import MAX_DB_INT, CurrentUser, SessionDep
 from backend.models.taxonomy import TaxonomyLabel
@@ -41,7 +41,7 @@ def live() -> LiveOut:
 
 async def _ready(request: Request) -> JSONResponse:
     state = request.app.state
-    result = await health.readiness(
+    result = await health_checks.readiness(
         state.engine, getattr(state, "bus", None), state.settings.health_timeout_s
     )
     writer = getattr(state, "writer", None)
@@ -66,7 +66,7 @@ async def ready(request: Request) -> JSONResponse:
 
 
 @router.get("/health", response_model=HealthOut, responses=READY_RESPONSES)
-async def health_(request: Request) -> JSONResponse:
+async def health(request: Request) -> JSONResponse:
     """Same as /api/health/ready (readiness); /api/health/live is liveness."""
     return await _ready(request)
 
