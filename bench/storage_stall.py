@@ -33,6 +33,7 @@ from backend.db import make_engine, make_session_factory
 from backend.models import Alarm, Frame
 from backend.models.alarms import AlarmKind
 from backend.process import BackendProcess
+from backend.settings import Settings
 from vigil.protocol import Hello, TransportStart
 
 GOAL_BOARD_MS = 1000
@@ -239,7 +240,10 @@ def run(lock_s: float) -> dict:
         and result["emergency_to_board_ms"] <= GOAL_BOARD_MS
         and result["frames_lost"] == 0,
         **result,
-        "settings": {"storage_stall_seconds": 2.0, "unstored_alarm_ms": 300},
+        "settings": {
+            name: Settings.model_fields[name].default
+            for name in ("storage_stall_seconds", "unstored_alarm_ms")
+        },  # fmt: skip
         "machine": {
             "cpus": os.cpu_count(),
             "python": platform.python_version(),
