@@ -8,6 +8,8 @@ database refuses connections, or that points at a wrong port, is alive but not r
 from __future__ import annotations
 
 import asyncio
+import weakref
+from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass, field
 
 from sqlalchemy import Engine, text
@@ -34,9 +36,19 @@ def _first_line(error: BaseException) -> str:
     return (text_[0] if text_ else type(error).__name__)[:300]
 
 
+# Its own thread, not the default executor the frame writer commits in: a database that hangs
+# on connect must not tie up threads the writer needs. One check at a time; a probe arriving
+# while the previous check still waits waits on that same check.
+_executor = ThreadPoolExecutor(max_workers=2, thread_name_prefix="health")
+_running: weakref.WeakKeyDictionary[Engine, Future] = weakref.WeakKeyDictionary()
+
+
 async def check_database(engine: Engine, timeout_s: float) -> str:
+    future = _running.get(engine)
+    if future is None or future.done():
+        future = _running[engine] = _executor.submit(_ping_database, engine)
     try:
-        await asyncio.wait_for(asyncio.to_thread(_ping_database, engine), timeout_s)
+        await asyncio.wait_for(asyncio.shield(asyncio.wrap_future(future)), timeout_s)
     except TimeoutError:
         return f"no answer within {timeout_s:g} s"
     except Exception as error:  # refused, wrong port, bad credentials, missing database...

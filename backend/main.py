@@ -87,7 +87,9 @@ def create_app(settings: Settings | None = None) -> FastAPI:
             storage_stall_s=settings.storage_stall_seconds,
         )
         writer.start()
-        app.state.monitor = monitor = AlarmMonitor(factory, settings, bus.publish)
+        app.state.monitor = monitor = AlarmMonitor(
+            factory, settings, bus.publish, waiting_robots=writer.waiting_robots
+        )
         monitor.start()
         reconcile = asyncio.create_task(model_push.reconcile_forever(app))
         try:

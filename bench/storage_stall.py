@@ -200,6 +200,7 @@ async def stall_scenario(
         ],
         "emergency_seqs": [min(emergency_seqs), max(emergency_seqs)],
         "alarms_stored": stored,
+        "kinds_on_board": sorted({a["kind"] for _, a in board}),
         "frames_sent": len(sent),
         "frames_stored": len(counts),
         "frames_lost": len(sent - counts.keys()),

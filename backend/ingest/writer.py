@@ -179,6 +179,11 @@ class FrameWriter:
         blocked = self.fail_open.stalled_for(time.perf_counter())
         return None if blocked is None else round(blocked, 3)
 
+    def waiting_robots(self) -> frozenset[str]:
+        """Robots with messages received but not committed yet (safe from any thread)."""
+        jobs = [*self._inflight, *self._pending]
+        return frozenset(job.link.robot_id for job in jobs)
+
     def unstored_alarms(self) -> list[dict]:
         """Alarms on the board that are not (yet) stored, for a browser's snapshot."""
         return self.fail_open.board()

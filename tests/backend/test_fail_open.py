@@ -9,13 +9,16 @@
 from __future__ import annotations
 
 import asyncio
+import time
 
 import pytest
 from fastapi.testclient import TestClient
 
 from backend.db import transaction
+from backend.ingest.failopen import Unstored, provisional_alarm
 from backend.main import create_app
 from backend.models import Role, User
+from backend.models.alarms import AlarmKind
 from backend.process import BackendProcess
 from backend.security import create_access_token, hash_password
 from backend.settings import Settings
@@ -85,8 +88,9 @@ def test_emergency_reaches_the_board_unstored_while_the_write_lock_is_held(
         "VIGIL_DATABASE_URL": database_url,
         "VIGIL_SECRET_KEY": SECRET,
         "VIGIL_FRONTEND_DIR": str(tmp_path / "no-frontend"),
-        "VIGIL_STREAM_STALL_SECONDS": "120",
-        "VIGIL_ROBOT_OFFLINE_SECONDS": "120",
+        # Shorter than the lock: a robot whose frames wait on storage is not offline.
+        "VIGIL_STREAM_STALL_SECONDS": "1.5",
+        "VIGIL_ROBOT_OFFLINE_SECONDS": "1.5",
         "VIGIL_STORAGE_STALL_SECONDS": "1",
         "VIGIL_UNSTORED_ALARM_MS": "300",
     }
@@ -124,6 +128,35 @@ def test_emergency_reaches_the_board_unstored_while_the_write_lock_is_held(
     assert [m["stored"] for m in messages][:2] == [False, True], messages
     assert all(m["stored"] for m in messages[1:]) and {m["key"] for m in messages} == {first["key"]}
 
+    # The robot kept streaming: no robot-offline or stream-stalled alarm for storage's fault.
+    assert result["kinds_on_board"] == ["emergency", "storage_stalled"], result
+
     # No frame lost or stored twice.
     assert result["frames_sent"] > 100
     assert result["frames_lost"] == 0 and result["frames_duplicated"] == 0, result
+
+
+def test_a_browser_connecting_during_a_stall_gets_the_unstored_alarms_of_its_ward(
+    client: TestClient, make_account
+):
+    """The snapshot holds what was pushed unstored (the stall may outlast a page reload), and
+    only for wards the user may see."""
+    fail_open = client.app.state.writer.fail_open
+    emergency = provisional_alarm(AlarmKind.EMERGENCY, "robot-a", "ward-a", "t-1", "P-1")
+    fail_open.unstored[emergency["key"]] = Unstored(emergency, since=0.0, jobs={1}, pushed=True)
+    waiting = provisional_alarm(AlarmKind.EMERGENCY, "robot-c", "ward-a", "t-3")
+    # Arrived just now: not due for a push yet (the writer's watch task is running).
+    fail_open.unstored[waiting["key"]] = Unstored(waiting, since=time.perf_counter() + 60, jobs={2})
+    elsewhere = provisional_alarm(AlarmKind.STORAGE_STALLED, "robot-b", "ward-b")
+    fail_open.stalled["robot-b"] = elsewhere
+
+    ward_a = make_account(Role.NURSE, "ward-a")
+    with client.websocket_connect(f"/ws/browser?token={ward_a.token}") as ws:
+        snapshot = ws.receive_json()
+    assert [(a["key"], a["stored"]) for a in snapshot["alarms"]] == [
+        ("robot-a/t-1/emergency", False)
+    ]
+    admin = make_account(Role.ADMIN, None, "admin")
+    with client.websocket_connect(f"/ws/browser?token={admin.token}") as ws:
+        keys = {a["key"] for a in ws.receive_json()["alarms"]}
+    assert keys == {"robot-a/t-1/emergency", "robot-b//storage_stalled"}
