@@ -30,7 +30,7 @@ from sqlalchemy import create_engine, func, select, text
 from websockets.asyncio.client import connect
 
 from backend.db import make_engine, make_session_factory
-from backend.models import Alarm, Frame
+from backend.models import Alarm, AlarmEvent, Frame
 from backend.models.alarms import AlarmKind
 from backend.process import BackendProcess
 from backend.settings import Settings
@@ -162,6 +162,17 @@ async def stall_scenario(
             )  # fmt: skip
         ).all()
         stored = [(a.id, a.first_seq, a.last_seq) for a in stored_emergencies]
+        stalls = session.scalars(
+            select(Alarm).where(
+                Alarm.robot_id == robot_id, Alarm.kind == AlarmKind.STORAGE_STALLED
+            )  # fmt: skip
+        ).all()
+        stalls_stored = [
+            {"id": a.id, "state": a.state, "blocked_s": (a.details or {}).get("blocked_s"),
+             "events": [e.action for e in session.scalars(
+                 select(AlarmEvent).where(AlarmEvent.alarm_id == a.id).order_by(AlarmEvent.id))]}
+            for a in stalls
+        ]  # fmt: skip
     engine.dispose()
 
     def ms(t: float, since: float) -> float:
@@ -189,6 +200,7 @@ async def stall_scenario(
         if stalled_cleared
         else None,
         "storage_stalled": stalled_raised[1] if stalled_raised else None,
+        "storage_stalled_cleared": stalled_cleared[1] if stalled_cleared else None,
         "emergency_messages": [
             {
                 "at_ms": ms(t, t_emergency),
@@ -200,6 +212,7 @@ async def stall_scenario(
         ],
         "emergency_seqs": [min(emergency_seqs), max(emergency_seqs)],
         "alarms_stored": stored,
+        "storage_stalled_stored": stalls_stored,
         "kinds_on_board": sorted({a["kind"] for _, a in board}),
         "frames_sent": len(sent),
         "frames_stored": len(counts),
@@ -230,7 +243,8 @@ def run(lock_s: float) -> dict:
             token = login.json()["access_token"]
             result = asyncio.run(stall_scenario(backend.ws, database_url, token, ROBOT_ID,
                                                 ROBOT_TOKEN, lock_s))  # fmt: skip
-    for heavy in ("first_emergency", "stored_emergency", "storage_stalled"):
+    for heavy in ("first_emergency", "stored_emergency", "storage_stalled",
+                  "storage_stalled_cleared"):  # fmt: skip
         result.pop(heavy)
     return {
         "what": "database write lock held while a robot streams at 30 frames/s and decides an "

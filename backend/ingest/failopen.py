@@ -8,8 +8,10 @@ board even when its frames cannot be written yet:
   identity the stored alarm shares). Once the write goes through, the stored alarm is pushed
   and replaces the provisional card (same `key`, no duplicate);
 - a write blocked longer than `storage_stall_seconds` raises a `storage_stalled` technical
-  alarm for each robot whose frames wait (also `stored: false`: storage is what is stalled),
-  pushed again as resolved once the write goes through; both are logged.
+  alarm for each robot whose frames wait (also `stored: false`: storage is what is stalled).
+  Once the write goes through it is stored, raised and cleared in one go (the audit trail
+  keeps the outage and how long it lasted), and that stored, resolved alarm (same key) takes
+  the provisional card off the board. Both are logged.
 
 Robots are still acknowledged only after the commit, so no frame is lost: their outboxes
 resend what was not acknowledged. Everything here runs on the event loop.
@@ -21,10 +23,14 @@ import itertools
 import logging
 from dataclasses import dataclass, field
 
+from sqlalchemy.orm import Session
+
+from backend.alarms import service as alarms
 from backend.alarms.schemas import AlarmOut, alarm_key
 from backend.ingest.received import ReceivedFrames
 from backend.models._types import utcnow
 from backend.models.alarms import PRIORITY_OF_KIND, AlarmKind, AlarmState
+from backend.models.robots import Robot
 from vigil.classes import Decision
 from vigil.protocol import TransportStart
 
@@ -195,6 +201,27 @@ class FailOpen:
                 )  # fmt: skip
                 self.stalled[robot_id] = alarm
                 out.append(alarm)
+        return out
+
+    def record(self, session: Session, cleared: list[dict], blocked_s: float) -> list[dict]:
+        """Store the storage_stalled alarms pushed during the stall, raised and cleared (the
+        caller commits); returns them as pushed (stored, resolved, same key)."""
+        out = []
+        note = f"storage recovered: a frame write was blocked {blocked_s:.1f} s"
+        for pushed in cleared:
+            robot = session.get(Robot, pushed["robot_id"])
+            if robot is None:
+                continue
+            evidence = alarms.DecisionEvidence(seq=robot.last_seq, ts=None)
+            with session.no_autoflush:
+                alarm, _ = alarms.raise_or_update(
+                    session, robot, None, AlarmKind.STORAGE_STALLED, evidence
+                )
+            alarm.details = {**(pushed.get("details") or {}), "pushed_at": pushed["raised_at"],
+                             "blocked_s": round(blocked_s, 1)}  # fmt: skip
+            alarms.clear(session, alarm, utcnow(), note)
+            session.flush()
+            out.append(AlarmOut.model_validate(alarm).model_dump(mode="json"))
         return out
 
     def board(self) -> list[dict]:

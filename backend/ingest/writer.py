@@ -204,14 +204,13 @@ class FrameWriter:
             outcome = await asyncio.to_thread(self._commit, jobs)
         finally:
             self._inflight = []
+            blocked = time.perf_counter() - started
             cleared = self.fail_open.on_write_done(jobs)
         self._metrics.flush_seconds.observe(time.perf_counter() - started)
         self._metrics.flush_frames.observe(outcome.stored)
         # Committed: now tell the nurses (the stored alarms replace any pushed unstored), then
         # the robots.
         for alarm in outcome.alarms:
-            await self._publish_alarm(alarm)
-        for alarm in cleared:
             await self._publish_alarm(alarm)
         self._metrics.frames_ingested.inc(outcome.stored)
         acked: dict[int, RobotLink] = {}
@@ -226,6 +225,17 @@ class FrameWriter:
                 self._metrics.ack_latency.observe(now - job.received)
         for key, link in acked.items():
             await link.send_ack(outcome.acks[key])
+        if cleared:  # storage recovered: keep the outage in the audit trail, clear the cards
+            try:
+                cleared = await asyncio.to_thread(self._record_stall, cleared, blocked)
+            except Exception:
+                log.exception("storage_stalled alarms not stored; pushed as resolved only")
+            for alarm in cleared:
+                await self._publish_alarm(alarm)
+
+    def _record_stall(self, cleared: list[dict], blocked_s: float) -> list[dict]:
+        with transaction(self._session_factory) as session:
+            return self.fail_open.record(session, cleared, blocked_s)
 
     # -- in a worker thread ----------------------------------------------------------------
     def _cached_context(self) -> service.IngestContext:

@@ -18,7 +18,8 @@ class AlarmKind(StrEnum):
     # fallback (or with what it has); raised and cleared by the robot's detection_status.
     DETECTION_DEGRADED = "detection_degraded"
     # A frame write blocked longer than storage_stall_seconds: alarms are pushed before they are
-    # stored. Pushed by the ingest writer only (never stored: storage is what is stalled).
+    # stored. Pushed unstored by the ingest writer (storage is what is stalled), then stored
+    # raised and cleared once storage recovers (backend/ingest/failopen.py).
     STORAGE_STALLED = "storage_stalled"
 
 

@@ -115,6 +115,13 @@ def test_emergency_reaches_the_board_unstored_while_the_write_lock_is_held(
     assert stalled["stored"] is False and stalled["ward"] == "ward-a"
     assert 1000 <= result["storage_stalled_after_lock_ms"] <= 2500, result
     assert result["storage_stalled_cleared_after_release_ms"] is not None, result
+    # ...and it is kept: stored raised and cleared with the outage's length, and the resolved
+    # stored alarm (same key) is what took the provisional card off the board.
+    cleared = result["storage_stalled_cleared"]
+    assert cleared["stored"] is True and cleared["id"] > 0 and cleared["key"] == stalled["key"]
+    [kept] = result["storage_stalled_stored"]
+    assert kept["id"] == cleared["id"] and kept["state"] == "resolved"
+    assert kept["events"] == ["raise", "clear"] and kept["blocked_s"] >= 2.5, kept
     assert "storage stalled" in log and "storage recovered" in log
 
     # After the release: stored, and the stored alarm has the provisional one's key.
