@@ -304,7 +304,9 @@ def _storage_stall() -> str | None:
         f"{data['machine']['database']}): the database write lock held "
         f"{data['lock_seconds']:g} s while a robot streams 30 frames/s and decides an Emergency; "
         f"{data['frames_sent']} frames sent, {data['frames_lost']} lost, "
-        f"{len(data['alarms_stored'])} alarm stored.\n\n" + _table(["step", "ms"], rows)
+        f"{len(data['alarms_stored'])} Emergency alarm stored; alarm kinds the nurse saw: "
+        f"{', '.join(data['kinds_on_board'])} (robot-offline and stream-stalled at their "
+        "defaults, shorter than the lock).\n\n" + _table(["step", "ms"], rows)
     )
 
 
