@@ -11,7 +11,7 @@ PYTEST_ARGS ?=
 .PHONY: run test test-python test-sqlite test-postgresql test-frontend test-browser setup \
 	frontend chromium lint format bench-detection bench-detection-splits bench-fall-onset \
 	bench-floor bench-ingest bench-robot bench-video bench-labelling bench-registry \
-	bench-alarm-latency readme screenshots clean
+	bench-alarm-latency bench-storage-stall readme screenshots clean
 
 setup: $(STAMP) frontend
 
@@ -88,6 +88,9 @@ bench-registry: $(STAMP)
 
 bench-alarm-latency: $(STAMP) frontend chromium
 	$(PY) -m bench.alarm_latency
+
+bench-storage-stall: $(STAMP)
+	$(PY) -m bench.storage_stall
 
 # The screenshots in docs/ come from the browser tests (a plain test run keeps them in /tmp).
 screenshots: $(STAMP) frontend chromium

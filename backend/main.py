@@ -15,6 +15,7 @@ from prometheus_client import CONTENT_TYPE_LATEST, generate_latest
 from sqlalchemy import func, select
 from sqlalchemy.exc import DataError
 
+from backend import health
 from backend.alarms.monitor import AlarmMonitor
 from backend.api import (
     alarm_review,
@@ -70,6 +71,10 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         app.state.engine = engine
         app.state.session_factory = factory = make_session_factory(engine)
         log.info("database %s", engine.url.render_as_string(hide_password=True))
+        database = await health.check_database(engine, settings.health_timeout_s)
+        if database != "ok":  # serve anyway (liveness), but say so: readiness answers 503
+            log.error("database %s: not ready (%s)",
+                      engine.url.render_as_string(hide_password=True), database)  # fmt: skip
         app.state.bus = bus = AlarmBus(app.state.hub, settings.redis_url, settings.redis_channel)
         await bus.start()
         app.state.writer = writer = FrameWriter(
@@ -78,9 +83,13 @@ def create_app(settings: Settings | None = None) -> FastAPI:
             bus.publish,
             flush_ms=settings.ingest_flush_ms,
             flush_frames=settings.ingest_flush_frames,
+            unstored_alarm_ms=settings.unstored_alarm_ms,
+            storage_stall_s=settings.storage_stall_seconds,
         )
         writer.start()
-        app.state.monitor = monitor = AlarmMonitor(factory, settings, bus.publish)
+        app.state.monitor = monitor = AlarmMonitor(
+            factory, settings, bus.publish, waiting_robots=writer.waiting_robots
+        )
         monitor.start()
         reconcile = asyncio.create_task(model_push.reconcile_forever(app))
         try:

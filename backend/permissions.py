@@ -18,6 +18,8 @@ PERMISSIONS: dict[tuple[str, str], frozenset[Role]] = {
     ("POST", "/api/auth/logout"): EVERYONE,
     ("GET", "/api/auth/me"): EVERYONE,
     ("GET", "/api/health"): PUBLIC,
+    ("GET", "/api/health/live"): PUBLIC,
+    ("GET", "/api/health/ready"): PUBLIC,
     ("GET", "/api/users"): frozenset({ADMIN}),
     ("POST", "/api/users"): frozenset({ADMIN}),
     ("GET", "/api/robots"): frozenset({NURSE, ENGINEER, ADMIN}),

@@ -62,6 +62,21 @@ class Settings(BaseSettings):
         default=10.0,
         description="no message from a robot for this long during a transport: robot offline",
     )
+    storage_stall_seconds: float = Field(
+        default=2.0,
+        description="a frame write blocked this long raises the storage-stalled technical alarm "
+        "on the nurse board (cleared when the write goes through)",
+    )
+    unstored_alarm_ms: float = Field(
+        default=300,
+        description="an Emergency not stored within this time is pushed to the nurse board "
+        "marked not yet stored, then replaced by the stored alarm (fail open)",
+    )
+    health_timeout_s: float = Field(
+        default=2.0,
+        description="readiness (/api/health/ready): longest wait for the database "
+        "and Redis to answer",
+    )
     gil_switch_interval_s: float = Field(
         default=0.0005, description="sys.setswitchinterval of the backend process (ingest latency)"
     )

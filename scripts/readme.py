@@ -287,6 +287,29 @@ def _alarm_latency() -> str | None:
     )
 
 
+def _storage_stall() -> str | None:
+    data = _load("storage_stall.json")
+    if data is None:
+        return None
+    rows = [
+        ["Emergency sent → on the nurse board (marked not yet stored)",
+         data["emergency_to_board_ms"]],
+        ["lock taken → storage-stalled technical alarm", data["storage_stalled_after_lock_ms"]],
+        ["lock released → stored alarm replaces it", data["stored_emergency_after_release_ms"]],
+        ["lock released → storage-stalled alarm cleared",
+         data["storage_stalled_cleared_after_release_ms"]],
+    ]  # fmt: skip
+    return (
+        f"**Storage stall** (`make bench-storage-stall` → `bench/results/storage_stall.json`, "
+        f"{data['machine']['database']}): the database write lock held "
+        f"{data['lock_seconds']:g} s while a robot streams 30 frames/s and decides an Emergency; "
+        f"{data['frames_sent']} frames sent, {data['frames_lost']} lost, "
+        f"{len(data['alarms_stored'])} Emergency alarm stored; alarm kinds the nurse saw: "
+        f"{', '.join(data['kinds_on_board'])} (robot-offline and stream-stalled at their "
+        "defaults, shorter than the lock).\n\n" + _table(["step", "ms"], rows)
+    )
+
+
 def _floor_measures() -> str | None:
     data = _load("floor_measures.json")
     if data is None:
@@ -407,6 +430,7 @@ BENCH_SECTIONS = (
     _ingest,
     _robot,
     _alarm_latency,
+    _storage_stall,
     _labelling,
     _registry,
 )

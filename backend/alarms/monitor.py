@@ -1,7 +1,8 @@
 """The alarm monitor: a task in the backend lifespan that, every `monitor_interval_s`,
 
 - raises technical alarms for transports under way whose robot fell silent (robot offline) or
-  whose frame stream stopped while the robot still talks (stream stalled), one per outage;
+  whose frame stream stopped while the robot still talks (stream stalled), one per outage; a
+  robot whose messages wait in the frame writer (storage stalled) is neither;
 - escalates an open Emergency not acknowledged within the ward's escalation time;
 - re-alarms an acknowledged alarm not resolved within `realarm_minutes`.
 
@@ -13,7 +14,7 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import logging
-from collections.abc import Awaitable, Callable
+from collections.abc import Awaitable, Callable, Collection
 from datetime import datetime, timedelta
 
 from sqlalchemy.orm import Session, sessionmaker
@@ -34,10 +35,14 @@ class AlarmMonitor:
         session_factory: sessionmaker[Session],
         settings: Settings,
         publish_alarm: Callable[[dict], Awaitable[None]],
+        waiting_robots: Callable[[], Collection[str]] = frozenset,
     ) -> None:
         self._session_factory = session_factory
         self._settings = settings
         self._publish_alarm = publish_alarm
+        # Robots whose messages arrived but are not stored yet: their stored last_seen_at and
+        # last_frame_at are stale because storage is, not because the robot fell silent.
+        self._waiting_robots = waiting_robots
         self._task: asyncio.Task | None = None
 
     def start(self) -> None:
@@ -79,7 +84,10 @@ class AlarmMonitor:
     def _technical(self, session: Session, now: datetime) -> list[Alarm]:
         settings = self._settings
         raised = []
+        waiting = self._waiting_robots()
         for transport, robot in queries.active_transports(session):
+            if robot.id in waiting:
+                continue
             last_seen = robot.last_seen_at
             last_frame = transport.last_frame_at or transport.started_at
             if last_seen is None or now - last_seen > timedelta(

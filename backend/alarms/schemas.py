@@ -1,6 +1,6 @@
 from datetime import datetime
 
-from pydantic import BaseModel, ConfigDict, Field, model_validator
+from pydantic import BaseModel, ConfigDict, Field, computed_field, model_validator
 
 from backend.models.alarms import (
     AlarmKind,
@@ -9,6 +9,11 @@ from backend.models.alarms import (
     FalseAlarmReason,
     Verdict,
 )
+
+
+def alarm_key(robot_id: str, transport_id: str | None, kind: str) -> str:
+    """An alarm's identity on the nurse board: at most one unresolved alarm per key."""
+    return f"{robot_id}/{transport_id or ''}/{kind}"
 
 
 class AlarmOut(BaseModel):
@@ -46,6 +51,17 @@ class AlarmOut(BaseModel):
         description="technical alarms: what it is about (detection_degraded: missing_inputs, "
         "reason, assigned_model, running_model, fallback, summary)",
     )
+    stored: bool = Field(
+        default=True,
+        description="false: pushed before it could be stored (storage stalled; a provisional "
+        "negative id). The stored alarm with the same key replaces it once storage recovers",
+    )
+
+    @computed_field(description="robot/transport/kind: the identity a not-yet-stored alarm "
+                    "shares with the stored one that replaces it")  # fmt: skip
+    @property
+    def key(self) -> str:
+        return alarm_key(self.robot_id, self.transport_id, self.kind)
 
 
 class AlarmEventOut(BaseModel):

@@ -1,7 +1,11 @@
-from fastapi import APIRouter, HTTPException, Query, status
+from typing import Literal
+
+from fastapi import APIRouter, HTTPException, Query, Request, status
+from fastapi.responses import JSONResponse
 from pydantic import BaseModel, ConfigDict, Field
 from sqlalchemy import func, select
 
+from backend import health as health_checks
 from backend.api.auth import UserOut
 from backend.deps import MAX_DB_INT, CurrentUser, SessionDep
 from backend.models.taxonomy import TaxonomyLabel
@@ -12,9 +16,59 @@ from vigil.classes import Decision
 router = APIRouter(prefix="/api", tags=["system"])
 
 
-@router.get("/health")
-def health() -> dict[str, str]:
-    return {"status": "ok"}
+class LiveOut(BaseModel):
+    status: Literal["ok"] = "ok"
+
+
+class HealthOut(BaseModel):
+    status: Literal["ok", "unavailable"]
+    checks: dict[str, str] = Field(
+        description='each dependency checked ("database", "redis" when configured): "ok" or why not'
+    )
+    detail: str | None = Field(default=None, description="why not ready")
+    storage_stalled_s: float | None = Field(
+        default=None,
+        description="how long the frame writer's current write has been blocked, when it is "
+        "longer than storage_stall_seconds (the nurse board shows a storage-stalled alarm)",
+    )
+
+
+@router.get("/health/live")
+def live() -> LiveOut:
+    """Liveness: the process answers (says nothing about the database)."""
+    return LiveOut()
+
+
+async def _ready(request: Request) -> JSONResponse:
+    state = request.app.state
+    result = await health_checks.readiness(
+        state.engine, getattr(state, "bus", None), state.settings.health_timeout_s
+    )
+    writer = getattr(state, "writer", None)
+    body = HealthOut(
+        status="ok" if result.ready else "unavailable",
+        checks=result.checks,
+        detail=None if result.ready else result.reason,
+        storage_stalled_s=writer.stalled_for() if writer is not None else None,
+    )
+    code = status.HTTP_200_OK if result.ready else status.HTTP_503_SERVICE_UNAVAILABLE
+    return JSONResponse(body.model_dump(mode="json"), status_code=code)
+
+
+READY_RESPONSES = {200: {"model": HealthOut}, 503: {"model": HealthOut, "description": "not ready"}}
+
+
+@router.get("/health/ready", response_model=HealthOut, responses=READY_RESPONSES)
+async def ready(request: Request) -> JSONResponse:
+    """Readiness: 200 when the database (and Redis when configured) answers within
+    health_timeout_s, else 503 with the reason."""
+    return await _ready(request)
+
+
+@router.get("/health", response_model=HealthOut, responses=READY_RESPONSES)
+async def health(request: Request) -> JSONResponse:
+    """Same as /api/health/ready (readiness); /api/health/live is liveness."""
+    return await _ready(request)
 
 
 class TaxonomyLabelOut(BaseModel):

@@ -86,9 +86,10 @@ async def receive_message(websocket: WebSocket) -> protocol.RobotMessage:
 class RobotConnection:
     """One robot's websocket as the FrameWriter sees it."""
 
-    def __init__(self, websocket: WebSocket, robot_id: str) -> None:
+    def __init__(self, websocket: WebSocket, robot_id: str, ward: str | None = None) -> None:
         self.websocket = websocket
         self.robot_id = robot_id
+        self.ward = ward  # where an alarm pushed before it is stored goes
         self.closed = False
 
     async def send_ack(self, seq: int) -> None:
@@ -138,18 +139,18 @@ async def robot_socket(websocket: WebSocket) -> None:
     try:
         hello = await _hello(websocket)
 
-        def _authenticate() -> tuple[int | None, dict[str, str] | None]:
+        def _authenticate() -> tuple[int | None, str, dict[str, str] | None]:
             with transaction(state.session_factory) as session:
                 robot = service.authenticate(session, hello)
-                return robot.last_seq, service.registry_sha256_for(session, hello)
+                return robot.last_seq, robot.ward, service.registry_sha256_for(session, hello)
 
         try:
-            last_seq, model_sha256 = await run_in_threadpool(_authenticate)
+            last_seq, ward, model_sha256 = await run_in_threadpool(_authenticate)
         except (service.RobotAuthError, DataError):
             raise CloseConnection(
                 protocol.CLOSE_UNAUTHORIZED, "unknown robot or wrong or revoked token"
             ) from None
-        connection = RobotConnection(websocket, hello.robot_id)
+        connection = RobotConnection(websocket, hello.robot_id, ward)
         previous = state.robots.connect(hello.robot_id, connection)
         if previous is not None:
             log.info("robot %s reconnected: closing its older connection", hello.robot_id)

@@ -4,6 +4,10 @@ them together, every `ingest_flush_ms` or as soon as `ingest_flush_frames` are w
 Only after the commit are the robots acknowledged (their highest committed sequence number)
 and the alarms their decisions raised pushed. If a shared transaction fails, each robot's work
 is retried in its own transaction so one misbehaving robot cannot hold back the others.
+
+While a commit is blocked (storage stalled) a watch task fails open (`backend.ingest.failopen`):
+Emergencies reach the nurse board marked not yet stored, and a storage-stalled technical alarm
+shows.
 """
 
 from __future__ import annotations
@@ -22,6 +26,7 @@ from sqlalchemy.orm import Session, sessionmaker
 from backend.alarms.schemas import AlarmOut
 from backend.db import transaction
 from backend.ingest import service
+from backend.ingest.failopen import FailOpen
 from backend.ingest.received import ReceivedFrame, ReceivedFrames
 from backend.metrics import Metrics
 from vigil import protocol
@@ -80,6 +85,8 @@ class FrameWriter:
         flush_ms: float = 50,
         flush_frames: int = 500,
         max_pending_frames: int = 20_000,
+        unstored_alarm_ms: float = 300,
+        storage_stall_s: float = 2.0,
     ) -> None:
         self._session_factory = session_factory
         self._metrics = metrics
@@ -96,14 +103,19 @@ class FrameWriter:
         self._task: asyncio.Task | None = None
         self._cache: service.IngestContext | None = None
         self._cache_born = 0.0
+        self.fail_open = FailOpen(unstored_alarm_ms / 1000, storage_stall_s)
+        self._inflight: list[Job] = []
+        self._watch: asyncio.Task | None = None
 
     # -- called by robot connections -------------------------------------------------------
     async def submit(self, link: RobotLink, message: RobotWork, received: float) -> Job:
         """Queue a message for the next commit; waits only when the writer is far behind."""
+        job = Job(link, message, received)
+        # Before any wait: an Emergency must reach the board even if the writer is stuck.
+        self.fail_open.on_submit(job, self._known_transport)
         while self._pending_frames >= self._max_pending_frames:
             self._room.clear()
             await self._room.wait()
-        job = Job(link, message, received)
         if not self._pending:
             self._oldest = received
         self._pending.append(job)
@@ -114,11 +126,16 @@ class FrameWriter:
     # -- lifecycle -------------------------------------------------------------------------
     def start(self) -> None:
         self._task = asyncio.create_task(self._run(), name="frame-writer")
+        self._watch = asyncio.create_task(self._watch_storage(), name="storage-watch")
 
     async def stop(self) -> None:
         """Commit what is pending, then stop."""
         if self._task is None:
             return
+        if self._watch is not None:
+            self._watch.cancel()
+            with contextlib.suppress(asyncio.CancelledError):
+                await self._watch
         self._task.cancel()
         with contextlib.suppress(asyncio.CancelledError):
             await self._task
@@ -143,16 +160,56 @@ class FrameWriter:
                 except Exception:  # never let the writer die: log, the robots will resend
                     log.exception("frame writer flush failed")
 
+    # -- fail open ---------------------------------------------------------------------------
+    WATCH_INTERVAL_S = 0.05
+
+    async def _watch_storage(self) -> None:
+        while True:
+            await asyncio.sleep(self.WATCH_INTERVAL_S)
+            try:
+                waiting = {job.link.robot_id: getattr(job.link, "ward", None)
+                           for job in (*self._inflight, *self._pending)}  # fmt: skip
+                for alarm in self.fail_open.due(time.perf_counter(), waiting):
+                    await self._publish_alarm(alarm)
+            except Exception:  # never let the watch die
+                log.exception("storage watch failed")
+
+    def stalled_for(self) -> float | None:
+        """Seconds the running commit has been blocked, once over storage_stall_seconds."""
+        blocked = self.fail_open.stalled_for(time.perf_counter())
+        return None if blocked is None else round(blocked, 3)
+
+    def waiting_robots(self) -> frozenset[str]:
+        """Robots with messages received but not committed yet (safe from any thread)."""
+        jobs = [*self._inflight, *self._pending]
+        return frozenset(job.link.robot_id for job in jobs)
+
+    def unstored_alarms(self) -> list[dict]:
+        """Alarms on the board that are not (yet) stored, for a browser's snapshot."""
+        return self.fail_open.board()
+
+    def _known_transport(self, transport_id: str):
+        cache = self._cache
+        return cache.transports.get(transport_id) if cache is not None else None
+
     async def _flush(self) -> None:
         jobs, self._pending = self._pending, []
         self._pending_frames = 0
         self._oldest = None
         self._room.set()
         started = time.perf_counter()
-        outcome = await asyncio.to_thread(self._commit, jobs)
+        self._inflight = jobs
+        self.fail_open.on_write_start(started)
+        try:
+            outcome = await asyncio.to_thread(self._commit, jobs)
+        finally:
+            self._inflight = []
+            blocked = time.perf_counter() - started
+            cleared = self.fail_open.on_write_done(jobs)
         self._metrics.flush_seconds.observe(time.perf_counter() - started)
         self._metrics.flush_frames.observe(outcome.stored)
-        # Committed: now tell the nurses, then the robots.
+        # Committed: now tell the nurses (the stored alarms replace any pushed unstored), then
+        # the robots.
         for alarm in outcome.alarms:
             await self._publish_alarm(alarm)
         self._metrics.frames_ingested.inc(outcome.stored)
@@ -168,6 +225,17 @@ class FrameWriter:
                 self._metrics.ack_latency.observe(now - job.received)
         for key, link in acked.items():
             await link.send_ack(outcome.acks[key])
+        if cleared:  # storage recovered: keep the outage in the audit trail, clear the cards
+            try:
+                cleared = await asyncio.to_thread(self._record_stall, cleared, blocked)
+            except Exception:
+                log.exception("storage_stalled alarms not stored; pushed as resolved only")
+            for alarm in cleared:
+                await self._publish_alarm(alarm)
+
+    def _record_stall(self, cleared: list[dict], blocked_s: float) -> list[dict]:
+        with transaction(self._session_factory) as session:
+            return self.fail_open.record(session, cleared, blocked_s)
 
     # -- in a worker thread ----------------------------------------------------------------
     def _cached_context(self) -> service.IngestContext:

@@ -17,6 +17,10 @@ class AlarmKind(StrEnum):
     # The robot lacks an input its assigned model needs and classifies with its keypoints-only
     # fallback (or with what it has); raised and cleared by the robot's detection_status.
     DETECTION_DEGRADED = "detection_degraded"
+    # A frame write blocked longer than storage_stall_seconds: alarms are pushed before they are
+    # stored. Pushed unstored by the ingest writer (storage is what is stalled), then stored
+    # raised and cleared once storage recovers (backend/ingest/failopen.py).
+    STORAGE_STALLED = "storage_stalled"
 
 
 class AlarmPriority(StrEnum):
@@ -31,6 +35,7 @@ PRIORITY_OF_KIND = {
     AlarmKind.ROBOT_OFFLINE: AlarmPriority.TECHNICAL,
     AlarmKind.STREAM_STALLED: AlarmPriority.TECHNICAL,
     AlarmKind.DETECTION_DEGRADED: AlarmPriority.TECHNICAL,
+    AlarmKind.STORAGE_STALLED: AlarmPriority.TECHNICAL,
 }
 #: Alarms about the system rather than the patient (no verdict statistics per model version).
 TECHNICAL_KINDS = frozenset(

@@ -35,6 +35,10 @@ async def browser_socket(websocket: WebSocket) -> None:
             AlarmOut.model_validate(a).model_dump(mode="json")
             for a in queries.unresolved_for(session, user)
         ]
+    # Fail open: alarms pushed before they could be stored (storage stalled) are on the board too.
+    writer = getattr(state, "writer", None)
+    if writer is not None:
+        alarms += [a for a in writer.unstored_alarms() if connection.can_see(a["ward"])]
     try:
         await state.hub.send(connection, {"type": "snapshot", "alarms": alarms})
         while True:

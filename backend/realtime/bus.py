@@ -46,6 +46,18 @@ class AlarmBus:
         if self._redis is not None:
             await self._redis.aclose()
 
+    @property
+    def configured(self) -> bool:
+        return bool(self._redis_url)
+
+    async def ping(self) -> None:
+        """Raise unless Redis answers (readiness); nothing to check without `redis_url`."""
+        if not self._redis_url:
+            return
+        if self._redis is None:
+            raise RuntimeError("Redis client not started")
+        await self._redis.ping()
+
     async def publish(self, alarm: dict) -> None:
         """Push one committed alarm (its AlarmOut JSON) to every browser allowed to see it."""
         await self.hub.publish_alarm(alarm)

@@ -15,7 +15,7 @@ from backend.db import transaction
 from backend.models import Alarm, AlarmEvent, AlarmKind, AnnotationSegment, Frame, Robot, User
 from backend.models._types import utcnow
 
-from .live_server import ROBOT_TOKEN, SCREENSHOTS, sign_in
+from .live_server import ROBOT_TOKEN, SCREENSHOTS, LiveServer, sign_in
 from .simulated_robot import SimulatedRobot, fall_frames
 
 pytestmark = pytest.mark.browser
@@ -261,3 +261,42 @@ def test_nurse_acknowledges_and_resolves_on_the_replay_page(live_server, page, d
     with db() as session:
         alarm = session.get(Alarm, alarm_id)
         assert (alarm.state, alarm.verdict, alarm.reason) == ("resolved", "false_alarm", "bending")
+
+
+def test_storage_stall_shows_the_emergency_not_yet_stored_then_the_stored_card(
+    tmp_path, frontend_dist, page
+):
+    """Alarms fail open: with the database write lock held, the Emergency card shows at once
+    with a "Not yet stored" badge and the storage-stalled technical card beside it; after the
+    release the stored alarm takes the card's place (one card) and the technical card leaves."""
+    from bench.storage_stall import write_lock
+
+    server = LiveServer.create(tmp_path, frontend_dist, storage_stall_seconds="1")
+    server.start()
+    try:
+        sign_in(page, server.base_url)
+        expect(page.locator("main.board")).to_have_attribute("data-link", "live")
+        with SimulatedRobot(server.robot_ws_url, "robot-a", ROBOT_TOKEN) as robot:
+            robot.start_transport("t-5", patient="P-5", location="lift 2")
+            frames = fall_frames(0, time.time() - 5, "t-5")
+            robot.stream(frames[:5])  # stored: the transport and the first frames
+            with write_lock(server.database_url):
+                for i in range(5, len(frames), 10):
+                    robot.send_batch(frames[i : i + 10])
+                unstored = page.locator("article.alarm-emergency[data-stored='false']")
+                expect(unstored).to_have_count(1, timeout=2000)
+                expect(unstored.locator(".unstored")).to_have_text("Not yet stored")
+                expect(unstored).to_contain_text("P-5")
+                expect(unstored.get_by_role("button", name="Acknowledge")).to_have_count(0)
+                stalled = page.locator("article.alarm-technical", has_text="Storage stalled")
+                expect(stalled).to_have_count(1, timeout=4000)
+            robot.wait_ack(frames[-1].seq)
+        cards = page.locator("article.alarm-emergency")
+        expect(cards).to_have_count(1)
+        expect(cards).to_have_attribute("data-stored", "true")
+        expect(cards.locator(".unstored")).to_have_count(0)
+        assert int(cards.get_attribute("data-alarm-id")) > 0
+        expect(cards.get_by_role("button", name="Acknowledge")).to_be_visible()
+        expect(stalled).to_have_count(0)
+    finally:
+        server.stop()

@@ -55,6 +55,47 @@ export interface paths {
         patch?: never;
         trace?: never;
     };
+    "/api/health/live": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /**
+         * Live
+         * @description Liveness: the process answers (says nothing about the database).
+         */
+        get: operations["live_api_health_live_get"];
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/health/ready": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /**
+         * Ready
+         * @description Readiness: 200 when the database (and Redis when configured) answers within
+         *     health_timeout_s, else 503 with the reason.
+         */
+        get: operations["ready_api_health_ready_get"];
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
     "/api/health": {
         parameters: {
             query?: never;
@@ -62,7 +103,10 @@ export interface paths {
             path?: never;
             cookie?: never;
         };
-        /** Health */
+        /**
+         * Health
+         * @description Same as /api/health/ready (readiness); /api/health/live is liveness.
+         */
         get: operations["health_api_health_get"];
         put?: never;
         post?: never;
@@ -1116,7 +1160,7 @@ export interface components {
          * AlarmKind
          * @enum {string}
          */
-        AlarmKind: "emergency" | "pause" | "robot_offline" | "stream_stalled" | "detection_degraded";
+        AlarmKind: "emergency" | "pause" | "robot_offline" | "stream_stalled" | "detection_degraded" | "storage_stalled";
         /** AlarmOut */
         AlarmOut: {
             /** Id */
@@ -1181,6 +1225,17 @@ export interface components {
             details?: {
                 [key: string]: unknown;
             } | null;
+            /**
+             * Stored
+             * @description false: pushed before it could be stored (storage stalled; a provisional negative id). The stored alarm with the same key replaces it once storage recovers
+             * @default true
+             */
+            stored: boolean;
+            /**
+             * Key
+             * @description robot/transport/kind: the identity a not-yet-stored alarm shares with the stored one that replaces it
+             */
+            readonly key: string;
         };
         /** AlarmPageOut */
         AlarmPageOut: {
@@ -1448,6 +1503,31 @@ export interface components {
             /** Detail */
             detail?: components["schemas"]["ValidationError"][];
         };
+        /** HealthOut */
+        HealthOut: {
+            /**
+             * Status
+             * @enum {string}
+             */
+            status: "ok" | "unavailable";
+            /**
+             * Checks
+             * @description each dependency checked ("database", "redis" when configured): "ok" or why not
+             */
+            checks: {
+                [key: string]: string;
+            };
+            /**
+             * Detail
+             * @description why not ready
+             */
+            detail?: string | null;
+            /**
+             * Storage Stalled S
+             * @description how long the frame writer's current write has been blocked, when it is longer than storage_stall_seconds (the nurse board shows a storage-stalled alarm)
+             */
+            storage_stalled_s?: number | null;
+        };
         /** ImportOut */
         ImportOut: {
             /** Videos */
@@ -1605,6 +1685,15 @@ export interface components {
              * @enum {string}
              */
             status: "unlabelled" | "in_progress" | "in_review" | "done";
+        };
+        /** LiveOut */
+        LiveOut: {
+            /**
+             * Status
+             * @default ok
+             * @constant
+             */
+            status: "ok";
         };
         /** LoginIn */
         LoginIn: {
@@ -2378,6 +2467,55 @@ export interface operations {
             };
         };
     };
+    live_api_health_live_get: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["LiveOut"];
+                };
+            };
+        };
+    };
+    ready_api_health_ready_get: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HealthOut"];
+                };
+            };
+            /** @description not ready */
+            503: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HealthOut"];
+                };
+            };
+        };
+    };
     health_api_health_get: {
         parameters: {
             query?: never;
@@ -2393,9 +2531,16 @@ export interface operations {
                     [name: string]: unknown;
                 };
                 content: {
-                    "application/json": {
-                        [key: string]: string;
-                    };
+                    "application/json": components["schemas"]["HealthOut"];
+                };
+            };
+            /** @description not ready */
+            503: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HealthOut"];
                 };
             };
         };

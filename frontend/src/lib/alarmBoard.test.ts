@@ -40,6 +40,8 @@ function alarm(over: Partial<Alarm>): Alarm {
     model_version: "m1",
     threshold: 0.5,
     delay_ms: 300,
+    stored: true,
+    key: "r1/t1/emergency",
     ...over,
   };
 }
@@ -75,6 +77,53 @@ describe("applyMessage", () => {
     });
     board = applyMessage(board, { type: "alarm", alarm: alarm({ id: 4, state: "open" }) });
     expect(board.get(4)?.state).toBe("acknowledged");
+  });
+});
+
+describe("alarms pushed before they are stored (fail open)", () => {
+  const unstored = alarm({ id: -1, stored: false, video_id: null });
+
+  it("shows a not-yet-stored alarm, then the stored one replaces it: one card", () => {
+    let board = applyMessage(emptyBoard, { type: "alarm", alarm: unstored });
+    expect([...board.keys()]).toEqual([-1]);
+    board = applyMessage(board, { type: "alarm", alarm: alarm({ id: 7, updated_at: "2026-01-01T10:00:03Z" }) });
+    expect([...board.keys()]).toEqual([7]);
+    expect(board.get(7)?.stored).toBe(true);
+  });
+
+  it("does not add a not-yet-stored card beside the stored live alarm of its key", () => {
+    let board = applyMessage(emptyBoard, { type: "alarm", alarm: alarm({ id: 7 }) });
+    board = applyMessage(board, { type: "alarm", alarm: { ...unstored, id: -2 } });
+    expect([...board.keys()]).toEqual([7]);
+    // Another transport's Emergency is another alarm.
+    board = applyMessage(board, { type: "alarm", alarm: { ...unstored, id: -3, key: "r1/t2/emergency" } });
+    expect([...board.keys()].sort()).toEqual([-3, 7]);
+  });
+
+  it("keeps an unrelated not-yet-stored card when a stored alarm of another key arrives", () => {
+    let board = applyMessage(emptyBoard, { type: "alarm", alarm: unstored });
+    board = applyMessage(board, { type: "alarm", alarm: alarm({ id: 8, key: "r2/t9/emergency" }) });
+    expect([...board.keys()].sort()).toEqual([-1, 8]);
+  });
+
+  it("a snapshot holding both keeps only the stored alarm", () => {
+    const board = applyMessage(emptyBoard, { type: "snapshot", alarms: [unstored, alarm({ id: 9 })] });
+    expect([...board.keys()]).toEqual([9]);
+  });
+
+  it("shows the storage-stalled technical alarm until it is pushed resolved", () => {
+    const stalled = alarm({
+      id: -5, kind: "storage_stalled", priority: "technical", stored: false, transport_id: null,
+      key: "r1//storage_stalled", details: { summary: "frame writes blocked for over 2 s" },
+    });
+    let board = applyMessage(emptyBoard, { type: "alarm", alarm: stalled });
+    expect(board.has(-5)).toBe(true);
+    expect(alarmTitle(stalled)).toBe("Storage stalled");
+    board = applyMessage(board, {
+      type: "alarm",
+      alarm: { ...stalled, state: "resolved", updated_at: "2026-01-01T10:00:09Z" },
+    });
+    expect(board.size).toBe(0);
   });
 });
 

@@ -5,18 +5,40 @@ export type Board = ReadonlyMap<number, Alarm>;
 
 export const emptyBoard: Board = new Map();
 
-/** A snapshot replaces the board (after every (re)connect); an alarm message updates one entry. */
+/** A snapshot replaces the board (after every (re)connect); an alarm message updates one entry.
+ *
+ * Fail open: while storage is stalled the server pushes alarms marked `stored: false` (with a
+ * provisional negative id). The stored alarm with the same `key` replaces such a card once
+ * storage recovers, and a not-yet-stored alarm is not shown beside a stored live one of its key:
+ * one card per alarm, never two. */
 export function applyMessage(board: Board, message: BrowserMessage): Board {
   if (message.type === "snapshot") {
-    return new Map(message.alarms.filter(isLive).map((a) => [a.id, a]));
+    let next: Board = emptyBoard;
+    for (const a of message.alarms.filter((x) => isStored(x))) next = applyMessage(next, { type: "alarm", alarm: a });
+    for (const a of message.alarms.filter((x) => !isStored(x))) next = applyMessage(next, { type: "alarm", alarm: a });
+    return next;
+  }
+  const alarm = message.alarm;
+  const known = board.get(alarm.id);
+  // Messages may overtake each other; never let an older version replace a newer one.
+  if (known && Date.parse(known.updated_at) > Date.parse(alarm.updated_at)) return board;
+  if (!isStored(alarm) && isLive(alarm)) {
+    for (const other of board.values()) {
+      if (isStored(other) && other.key === alarm.key && isLive(other)) return board; // already shown
+    }
   }
   const next = new Map(board);
-  const known = board.get(message.alarm.id);
-  // Messages may overtake each other; never let an older version replace a newer one.
-  if (known && Date.parse(known.updated_at) > Date.parse(message.alarm.updated_at)) return board;
-  if (isLive(message.alarm)) next.set(message.alarm.id, message.alarm);
-  else next.delete(message.alarm.id);
+  if (isStored(alarm)) {
+    for (const [id, other] of board) if (!isStored(other) && other.key === alarm.key) next.delete(id);
+  }
+  if (isLive(alarm)) next.set(alarm.id, alarm);
+  else next.delete(alarm.id);
   return next;
+}
+
+/** False while the alarm was pushed before storage could keep it (fail open). */
+export function isStored(alarm: Alarm): boolean {
+  return alarm.stored !== false;
 }
 
 export function isLive(alarm: Alarm): boolean {
@@ -81,6 +103,7 @@ export const KIND_LABEL: Record<Alarm["kind"], string> = {
   robot_offline: "Robot offline",
   stream_stalled: "Stream stalled",
   detection_degraded: "Detection degraded",
+  storage_stalled: "Storage stalled",
 };
 
 const INPUT_WORDS: Record<string, string> = { keypoints: "keypoints", depth: "depth", floor: "floor measures" };

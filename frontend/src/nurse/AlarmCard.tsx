@@ -1,6 +1,6 @@
 import { Link } from "react-router-dom";
 import type { Alarm } from "../api/types";
-import { alarmTitle, isRealarmed, KIND_LABEL, styleOf } from "../lib/alarmBoard";
+import { alarmTitle, isRealarmed, isStored, KIND_LABEL, styleOf } from "../lib/alarmBoard";
 import { elapsed } from "../lib/time";
 
 interface Props {
@@ -13,11 +13,14 @@ interface Props {
 
 export function AlarmCard({ alarm, now, busy, onAcknowledge, onResolve }: Props) {
   const style = styleOf(alarm);
+  const stored = isStored(alarm);
+  const summary = typeof alarm.details?.summary === "string" ? alarm.details.summary : null;
   return (
     <article
       className={`alarm alarm-${style} state-${alarm.state}${isRealarmed(alarm) ? " realarmed" : ""}`}
       data-alarm-id={alarm.id}
       data-state={alarm.state}
+      data-stored={stored ? "true" : "false"}
       aria-label={`${KIND_LABEL[alarm.kind]} alarm ${alarm.id}`}
     >
       <header>
@@ -32,11 +35,17 @@ export function AlarmCard({ alarm, now, busy, onAcknowledge, onResolve }: Props)
             Re-alarm
           </span>
         )}
+        {!stored && alarm.kind !== "storage_stalled" && (
+          <span className="unstored" title="Storage is stalled: this alarm reached you before it could be stored. It is stored as soon as storage recovers.">
+            Not yet stored
+          </span>
+        )}
         <span className="since" title={alarm.raised_at}>{elapsed(alarm.raised_at, now)} ago</span>
       </header>
       {alarm.kind === "detection_degraded" && typeof alarm.details?.reason === "string" && alarm.details.reason && (
         <p className="technical-reason">{alarm.details.reason}</p>
       )}
+      {alarm.kind === "storage_stalled" && summary && <p className="technical-reason">{summary}</p>}
       <dl>
         <dt>Robot</dt><dd>{alarm.robot_id}</dd>
         <dt>Patient</dt><dd>{alarm.patient ?? "–"}</dd>
@@ -50,17 +59,27 @@ export function AlarmCard({ alarm, now, busy, onAcknowledge, onResolve }: Props)
           </>
         )}
       </dl>
-      <footer>
-        {alarm.state === "open" && (
-          <button type="button" className="ack" disabled={busy} onClick={() => onAcknowledge(alarm)}>
-            Acknowledge
+      {!stored ? (
+        <footer>
+          <span className="unstored-note">
+            {alarm.kind === "storage_stalled"
+              ? "Clears by itself when storage recovers."
+              : "Acknowledge and resolve once stored (moments after storage recovers)."}
+          </span>
+        </footer>
+      ) : (
+        <footer>
+          {alarm.state === "open" && (
+            <button type="button" className="ack" disabled={busy} onClick={() => onAcknowledge(alarm)}>
+              Acknowledge
+            </button>
+          )}
+          <button type="button" className="resolve" disabled={busy} onClick={() => onResolve(alarm)}>
+            Resolve…
           </button>
-        )}
-        <button type="button" className="resolve" disabled={busy} onClick={() => onResolve(alarm)}>
-          Resolve…
-        </button>
-        <Link to={`/nurse/alarms/${alarm.id}`} className="replay-link">Replay</Link>
-      </footer>
+          <Link to={`/nurse/alarms/${alarm.id}`} className="replay-link">Replay</Link>
+        </footer>
+      )}
     </article>
   );
 }
