@@ -9,7 +9,7 @@ from sqlalchemy.orm import Session
 
 from backend.models.alarms import Alarm, AlarmKind, AlarmState
 from backend.models.jobs import Job, JobStatus
-from backend.models.registry import Deployment, ModelVersion
+from backend.models.registry import Deployment, DeploymentStatus, ModelVersion
 from backend.models.robots import Robot
 from backend.registry import capability
 from backend.registry.autorollback import rejection_share
@@ -29,14 +29,32 @@ def _assigned_counts(session: Session) -> dict[int, int]:
     )
 
 
-def summary(model: ModelVersion, assigned: int = 0) -> ModelSummary:
+class Reach:
+    """Where models run: robots assigned per model, the fleet's size, live canaries. Read
+    once per request so that a model's status can be said in true words."""
+
+    def __init__(self, session: Session) -> None:
+        self.assigned = _assigned_counts(session)
+        self.fleet = session.scalar(select(func.count()).select_from(Robot)) or 0
+        canaries = session.scalars(
+            select(Deployment).where(
+                Deployment.status == DeploymentStatus.CANARY, Deployment.shadow.is_(False)
+            )
+        )
+        self.canary = {d.model_version_id: (d.rollout or {}).get("canary") for d in canaries}
+
+
+def summary(model: ModelVersion, reach: Reach | None = None) -> ModelSummary:
     gold = (model.metrics or {}).get("gold")
+    assigned = reach.assigned.get(model.id, 0) if reach else 0
     return ModelSummary(
         id=model.id, version=model.version, mode=model.mode, kind=model.kind, status=model.status,
         sha256=model.sha256, created_at=model.created_at, job_id=model.job_id,
         threshold=model.manifest["threshold"], delay_ms=model.manifest["delay_ms"],
         gold={k: gold.get(k) for k in GOLD_HEADLINE} if gold else None,
         parent=(model.lineage or {}).get("parent"), robots_assigned=assigned,
+        robots_in_fleet=reach.fleet if reach else 0,
+        canary_robot=reach.canary.get(model.id) if reach else None,
         inputs=capability.model_needs(model),
         keypoints_only=capability.is_fallback_candidate(model),
     )  # fmt: skip
@@ -47,7 +65,7 @@ def plots_dir(model: ModelVersion) -> Path:
 
 
 def detail(session: Session, model: ModelVersion) -> ModelDetail:
-    base = summary(model, _assigned_counts(session).get(model.id, 0))
+    base = summary(model, Reach(session))
     directory = plots_dir(model)
     plots = sorted(p.stem for p in directory.glob("*.png")) if directory.is_dir() else []
     return ModelDetail(**base.model_dump(), manifest=model.manifest, metrics=model.metrics,
@@ -55,9 +73,9 @@ def detail(session: Session, model: ModelVersion) -> ModelDetail:
 
 
 def list_models(session: Session) -> list[ModelSummary]:
-    counts = _assigned_counts(session)
+    reach = Reach(session)
     models = session.scalars(select(ModelVersion).order_by(ModelVersion.created_at.desc()))
-    return [summary(m, counts.get(m.id, 0)) for m in models]
+    return [summary(m, reach) for m in models]
 
 
 def model_by_version(session: Session, version: str) -> ModelVersion | None:

@@ -24,6 +24,10 @@ class ModelSummary(BaseModel):
     gold: dict | None = Field(description="headline gold-set figures")
     parent: str | None
     robots_assigned: int = 0
+    robots_in_fleet: int = Field(default=0, description="robots registered, for 'on n of N'")
+    canary_robot: str | None = Field(
+        default=None, description="the robot running it as the canary of a live deployment"
+    )
     inputs: list[InputName] = Field(description="what the model needs in every frame (manifest)")
     keypoints_only: bool = Field(description="needs keypoints only: can be a robot's fallback")
 

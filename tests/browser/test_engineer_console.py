@@ -84,21 +84,32 @@ def test_engineer_registry_gate_promote_what_if_and_rollback(system, page):
     page.get_by_role("button", name="Replay labelled recordings").click()
     result = page.get_by_role("table", name="What-if result")
     expect(result).to_be_visible(timeout=30_000)
-    expect(result.get_by_role("row", name="falls_detected")).to_contain_text("-2")
+    expect(result.locator("tr[data-metric=falls_detected]")).to_contain_text("-2")
+    expect(result.locator("tr[data-metric=falls_detected]")).to_contain_text("Falls detected")
 
-    page.get_by_label("Scope").select_option("robot")
-    page.get_by_label("Robot id").fill("robot-a")
+    expect(page.get_by_label("Scope")).to_have_value("robot")  # the narrowest scope by default
+    expect(page.get_by_role("button", name="Sign off and promote")).to_be_disabled()  # no robot yet
+    page.get_by_label("Robot", exact=True).select_option("robot-a")
     qualifying = page.get_by_role("table", name="Qualifying robots")
     expect(qualifying.get_by_role("row", name="robot-a")).to_contain_text("no: lacks floor")
     expect(page.get_by_text("The model needs keypoints, floor in every frame")).to_be_visible()
     # robot-a never said what it feeds (keypoints only): the floor model is refused.
     page.get_by_role("button", name="Sign off and promote").click()
+    confirm = page.get_by_role("dialog", name="Confirm promotion")
+    expect(confirm).to_contain_text("Promote rf-test-1 to robot robot-a: 1 robot (robot-a)")
+    confirm.get_by_role("button", name="Confirm promotion").click()
     expect(page.get_by_role("alert")).to_have_text(
         "robot robot-a cannot feed model rf-test-1: it has no floor measures"
     )
     with transaction(factory) as session:  # its hello said it has a calibrated depth camera
         session.get(Robot, "robot-a").inputs = ["keypoints", "depth", "floor"]
     page.get_by_role("button", name="Sign off and promote").click()
+    page.get_by_role("button", name="Back").click()  # changing one's mind promotes nothing
+    expect(confirm).to_have_count(0)
+    with factory() as session:
+        assert session.get(Robot, "robot-a").assigned_model_id is None
+    page.get_by_role("button", name="Sign off and promote").click()
+    confirm.get_by_role("button", name="Confirm promotion").click()
     expect(page.get_by_role("status")).to_contain_text("active")
     expect(qualifying.get_by_role("row", name="robot-a")).to_contain_text("yes")
     with factory() as session:
@@ -128,6 +139,7 @@ def test_engineer_registry_gate_promote_what_if_and_rollback(system, page):
     page.get_by_label("pick blind-1").check()
     page.get_by_role("button", name="Compare the two selected").click()
     comparison = page.get_by_role("table", name="Comparison")
-    expect(comparison.get_by_role("row", name="delay_ms")).to_contain_text("10000")
-    expect(comparison.get_by_role("row", name="falls_detected")).to_contain_text("-2")
+    expect(comparison.get_by_role("row", name="Delay (ms)")).to_contain_text("10000")
+    expect(comparison.get_by_role("row", name="Falls detected")).to_contain_text("-2")
+    expect(comparison).not_to_contain_text("fp_d")
     page.screenshot(path=SCREENSHOTS / "engineer-compare.png", full_page=True)

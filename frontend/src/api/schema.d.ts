@@ -1740,6 +1740,17 @@ export interface components {
              */
             robots_assigned: number;
             /**
+             * Robots In Fleet
+             * @description robots registered, for 'on n of N'
+             * @default 0
+             */
+            robots_in_fleet: number;
+            /**
+             * Canary Robot
+             * @description the robot running it as the canary of a live deployment
+             */
+            canary_robot?: string | null;
+            /**
              * Inputs
              * @description what the model needs in every frame (manifest)
              */
@@ -1828,6 +1839,17 @@ export interface components {
              * @default 0
              */
             robots_assigned: number;
+            /**
+             * Robots In Fleet
+             * @description robots registered, for 'on n of N'
+             * @default 0
+             */
+            robots_in_fleet: number;
+            /**
+             * Canary Robot
+             * @description the robot running it as the canary of a live deployment
+             */
+            canary_robot?: string | null;
             /**
              * Inputs
              * @description what the model needs in every frame (manifest)

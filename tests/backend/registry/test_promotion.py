@@ -64,6 +64,9 @@ def test_staged_rollout_canary_then_ward_then_rollback_restores_each_robot(
     assert fleet_view["robot-a"]["target_version"] == "rf-test-1"
     assert fleet_view["robot-a"]["in_sync"] is False
     assert fleet_view["robot-b"]["target_version"] is None
+    listed = {m["id"]: m for m in client.get("/api/models", headers=engineer.headers).json()}
+    assert (listed[v1]["canary_robot"], listed[v1]["robots_assigned"]) == ("robot-a", 1)
+    assert listed[v1]["robots_in_fleet"] == 4 and listed[v2]["canary_robot"] is None
 
     advance = client.post(f"/api/deployments/{deployment['id']}/advance", headers=engineer.headers)
     assert advance.status_code == 409 and "runs no model" in advance.json()["detail"]
@@ -90,6 +93,7 @@ def test_staged_rollout_canary_then_ward_then_rollback_restores_each_robot(
     assert assigned == {"robot-a": v1, "robot-b": v1, "robot-c": v1, "robot-d": None}
     models = {m["id"]: m for m in client.get("/api/models", headers=engineer.headers).json()}
     assert models[v1]["status"] == "production" and models[v2]["status"] == "retired"
+    assert (models[v1]["robots_assigned"], models[v1]["canary_robot"]) == (3, None)
     again = client.post(f"/api/deployments/{second['id']}/rollback", headers=engineer.headers,
                         json={})  # fmt: skip
     assert again.status_code == 409

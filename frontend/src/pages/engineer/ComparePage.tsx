@@ -1,6 +1,7 @@
 import { useEffect, useState } from "react";
 import { Link, useSearchParams } from "react-router-dom";
 import { api, errorMessage } from "../../api/client";
+import { metricName } from "../../lib/registry";
 import { fmt, type Comparison, type GoldEvent } from "./types";
 
 export function ComparePage() {
@@ -22,8 +23,8 @@ export function ComparePage() {
           <th>A: <Link to={`/engineer/models/${data.a.id}`}>{data.a.version}</Link></th>
           <th>B: <Link to={`/engineer/models/${data.b.id}`}>{data.b.version}</Link></th><th>B − A</th></tr></thead>
         <tbody>{data.rows.map((r) => (
-          <tr key={String(r.metric)}>
-            <td>{String(r.metric)}</td>
+          <tr key={String(r.metric)} data-metric={String(r.metric)}>
+            <td>{metricName(String(r.metric))}</td>
             <td className={r.winner === "a" ? "better" : ""}>{fmt(r.a)}</td>
             <td className={r.winner === "b" ? "better" : ""}>{fmt(r.b)}</td>
             <td>{fmt(r.delta)}</td>

@@ -1,6 +1,7 @@
 import { Fragment, useEffect, useState, type FormEvent } from "react";
 import { useParams } from "react-router-dom";
 import { api, errorMessage } from "../../api/client";
+import { metricName, statusText } from "../../lib/registry";
 import { JobProgress } from "./JobProgress";
 import { inputsText } from "./FleetPage";
 import { fmt, type Deployment, type FleetRobot, type GateReport, type GoldEvent, type JobKind, type ModelDetail } from "./types";
@@ -40,7 +41,7 @@ export function ModelPage() {
   const events = (gold?.events ?? []) as GoldEvent[];
   return (
     <>
-      <h1>{model.version} <span className={`pill status-${model.status}`}>{model.status}</span></h1>
+      <h1>{model.version} <span className={`pill status-${model.status}`}>{statusText(model)}</span></h1>
       {error && <p role="alert" className="error">{error}</p>}
       <section className="card">
         <h2>Lineage</h2>
@@ -60,7 +61,7 @@ export function ModelPage() {
             <p className="muted">Real URFD / labelled recordings with split “test”: {fmt((gold.sequences as string[])?.length)} recordings, {fmt(gold.frames)} frames{gold.generated_data ? " (includes GENERATED data)" : ""}.</p>
             <div className="table-wrap">
               <table className="table" aria-label="Table 3">
-                <thead><tr>{TABLE3.map((k) => <th key={k}>{k}</th>)}</tr></thead>
+                <thead><tr>{TABLE3.map((k) => <th key={k} title={metricName(k)}>{k}</th>)}</tr></thead>
                 <tbody><tr>{TABLE3.map((k) => <td key={k}>{fmt(gold[k])}</td>)}</tr></tbody>
               </table>
             </div>
@@ -86,7 +87,7 @@ export function ModelPage() {
         {job?.status === "failed" && <p role="alert" className="error">{job.message}</p>}
       </section>
       <WhatIf modelId={model.id} threshold={model.threshold} delayMs={model.delay_ms} />
-      <Promote modelId={model.id} needs={model.inputs} gate={gate} onDone={load} />
+      <Promote modelId={model.id} version={model.version} needs={model.inputs} gate={gate} onDone={load} />
     </>
   );
 }
@@ -121,7 +122,7 @@ function WhatIf({ modelId, threshold, delayMs }: { modelId: number; threshold: n
         <table className="table" aria-label="What-if result">
           <thead><tr><th /><th>Current</th><th>What-if</th><th>Change</th></tr></thead>
           <tbody>{rows.map((k) => (
-            <tr key={k}><td>{k}</td><td>{fmt(result.baseline[k])}</td><td>{fmt(result.candidate[k])}</td><td>{fmt(result.change[k])}</td></tr>
+            <tr key={k} data-metric={k}><td>{metricName(k)}</td><td>{fmt(result.baseline[k])}</td><td>{fmt(result.candidate[k])}</td><td>{fmt(result.change[k])}</td></tr>
           ))}</tbody>
         </table>
       )}
@@ -135,8 +136,17 @@ export function inScope(robots: FleetRobot[], scope: "robot" | "ward" | "fleet",
   return robots.filter((r) => (scope === "robot" ? r.id === target : r.ward === target));
 }
 
-function Promote({ modelId, needs, gate, onDone }: { modelId: number; needs: string[]; gate: GateReport | null; onDone: () => void }) {
-  const [scope, setScope] = useState<"robot" | "ward" | "fleet">("fleet");
+/** What a promotion of this scope reaches, in words, for the confirmation step. */
+export function scopeText(scope: "robot" | "ward" | "fleet", target: string, robots: FleetRobot[]): string {
+  const where = scope === "fleet" ? "the whole fleet" : scope === "ward" ? `ward ${target}` : `robot ${target}`;
+  const ids = robots.map((r) => r.id).join(", ");
+  return `${where}: ${robots.length} robot${robots.length === 1 ? "" : "s"}${ids ? ` (${ids})` : ""}`;
+}
+
+function Promote({ modelId, version, needs, gate, onDone }: { modelId: number; version: string; needs: string[]; gate: GateReport | null; onDone: () => void }) {
+  // The narrowest scope by default, and nothing happens before the engineer confirms it.
+  const [scope, setScope] = useState<"robot" | "ward" | "fleet">("robot");
+  const [confirming, setConfirming] = useState(false);
   const [target, setTarget] = useState("");
   const [canary, setCanary] = useState("");
   const [comment, setComment] = useState("");
@@ -150,8 +160,13 @@ function Promote({ modelId, needs, gate, onDone }: { modelId: number; needs: str
   useEffect(loadRobots, [modelId]);
   const shown = robots ? inScope(robots, scope, target) : [];
   const refused = shown.filter((r) => r.qualifies === false);
+  const reached = onlyCapable && scope !== "robot" ? shown.filter((r) => r.qualifies !== false) : shown;
+  const wards = [...new Set((robots ?? []).map((r) => r.ward))].sort();
+  const chosen = scope === "fleet" || target !== "";
+  const changeScope = (next: typeof scope) => { setScope(next); setTarget(""); setCanary(""); setConfirming(false); };
   async function send(shadow: boolean) {
     setError(null);
+    setConfirming(false);
     const body = { scope, target: target || null, comment: comment || null, only_capable: onlyCapable };
     const response = shadow
       ? await api.POST("/api/models/{model_id}/shadow", { params: { path: { model_id: modelId } }, body })
@@ -174,14 +189,36 @@ function Promote({ modelId, needs, gate, onDone }: { modelId: number; needs: str
           {(gate.warnings ?? []).map((w) => <p key={w} className="warning">⚠ {w}</p>)}
         </div>
       )}
-      <form className="filters" onSubmit={(e) => { e.preventDefault(); void send(false); }} aria-label="Promote">
+      <form className="filters" onSubmit={(e) => { e.preventDefault(); setConfirming(true); }} aria-label="Promote">
         <label>Scope
-          <select name="scope" value={scope} onChange={(e) => setScope(e.target.value as typeof scope)}>
+          <select name="scope" value={scope} onChange={(e) => changeScope(e.target.value as typeof scope)}>
             <option value="robot">one robot</option><option value="ward">a ward</option><option value="fleet">the fleet</option>
           </select>
         </label>
-        {scope !== "fleet" && <label>{scope === "robot" ? "Robot id" : "Ward"} <input name="target" value={target} onChange={(e) => setTarget(e.target.value)} /></label>}
-        {scope !== "robot" && <label>Canary robot (optional) <input name="canary" value={canary} onChange={(e) => setCanary(e.target.value)} /></label>}
+        {scope === "robot" && (
+          <label>Robot
+            <select name="target" aria-label="Robot" value={target} onChange={(e) => { setTarget(e.target.value); setConfirming(false); }}>
+              <option value="">choose…</option>
+              {(robots ?? []).map((r) => <option key={r.id} value={r.id}>{r.id} ({r.ward})</option>)}
+            </select>
+          </label>
+        )}
+        {scope === "ward" && (
+          <label>Ward
+            <select name="target" aria-label="Ward" value={target} onChange={(e) => { setTarget(e.target.value); setConfirming(false); }}>
+              <option value="">choose…</option>
+              {wards.map((w) => <option key={w} value={w}>{w}</option>)}
+            </select>
+          </label>
+        )}
+        {scope !== "robot" && (
+          <label>Canary robot
+            <select name="canary" aria-label="Canary robot" value={canary} onChange={(e) => setCanary(e.target.value)}>
+              <option value="">first robot of the scope</option>
+              {reached.map((r) => <option key={r.id} value={r.id}>{r.id}</option>)}
+            </select>
+          </label>
+        )}
         <label>Comment <input name="comment" value={comment} onChange={(e) => setComment(e.target.value)} /></label>
         {scope !== "robot" && (
           <label className="inline">
@@ -189,9 +226,20 @@ function Promote({ modelId, needs, gate, onDone }: { modelId: number; needs: str
             {" "}leave out robots that cannot feed it
           </label>
         )}
-        <button className="primary" type="submit" disabled={!gate?.passed}>Sign off and promote</button>
-        <button type="button" onClick={() => void send(true)}>Run in shadow mode</button>
+        <button className="primary" type="submit" disabled={!gate?.passed || !chosen}>Sign off and promote</button>
+        <button type="button" disabled={!chosen} onClick={() => void send(true)}>Run in shadow mode</button>
       </form>
+      {confirming && (
+        <div className="card confirm" role="dialog" aria-label="Confirm promotion">
+          <p>
+            Promote <strong>{version}</strong> to {scopeText(scope, target, reached)}
+            {scope !== "robot" ? `, starting with canary ${canary || reached[0]?.id || "–"}` : ""}? These
+            robots then detect falls with this model.
+          </p>
+          <button type="button" className="primary" onClick={() => void send(false)}>Confirm promotion</button>
+          <button type="button" onClick={() => setConfirming(false)}>Back</button>
+        </div>
+      )}
       <h3>Robots in the scope</h3>
       <p className="muted">
         The model needs {needs.join(", ")} in every frame; a robot that cannot feed it is refused

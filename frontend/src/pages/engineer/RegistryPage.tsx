@@ -1,11 +1,24 @@
 import { useEffect, useState, type FormEvent } from "react";
 import { Link, useNavigate } from "react-router-dom";
 import { api, errorMessage } from "../../api/client";
+import { listView, statusText, type SortDirection } from "../../lib/registry";
 import { JobProgress } from "./JobProgress";
 import { fmt, type ModelSummary } from "./types";
 import { useJob } from "./useJobPolling";
 
 const SPECS = ["rf-default", "rf", "svm-paper", "svm", "mlp"];
+const PAGE_SIZE = 25;
+
+type SortColumn = "version" | "status" | "mode" | "falls" | "f1" | "robots" | "created";
+const SORT_KEYS: Record<SortColumn, (m: ModelSummary) => string | number> = {
+  version: (m) => m.version,
+  status: (m) => statusText(m),
+  mode: (m) => m.mode,
+  falls: (m) => Number(m.gold?.falls_detected ?? -1),
+  f1: (m) => Number(m.gold?.frame_f1 ?? -1),
+  robots: (m) => m.robots_assigned,
+  created: (m) => m.created_at,
+};
 
 export function RegistryPage() {
   const [models, setModels] = useState<ModelSummary[] | null>(null);
@@ -15,6 +28,20 @@ export function RegistryPage() {
   const [jobId, setJobId] = useState<number | null>(null);
   const job = useJob(jobId);
   const navigate = useNavigate();
+  const [query, setQuery] = useState("");
+  const [sort, setSort] = useState<{ column: SortColumn; direction: SortDirection }>({ column: "created", direction: "desc" });
+  const [page, setPage] = useState(0);
+  const view = listView(models ?? [], (m) => `${m.version} ${statusText(m)} ${m.mode} ${m.kind} ${m.inputs.join(" ")}`,
+    query, SORT_KEYS[sort.column], sort.direction, page, PAGE_SIZE);
+  const sortBy = (column: SortColumn) =>
+    setSort((s) => ({ column, direction: s.column === column && s.direction === "asc" ? "desc" : "asc" }));
+  const header = (column: SortColumn, label: string) => (
+    <th aria-sort={sort.column === column ? (sort.direction === "asc" ? "ascending" : "descending") : undefined}>
+      <button type="button" className="link" onClick={() => sortBy(column)}>
+        {label}{sort.column === column ? (sort.direction === "asc" ? " ▲" : " ▼") : ""}
+      </button>
+    </th>
+  );
 
   const load = () =>
     api.GET("/api/models").then(({ data, error }) => {
@@ -50,19 +77,27 @@ export function RegistryPage() {
           Compare the two selected
         </button>
       </p>
+      <div className="filters">
+        <label>Search models
+          <input type="search" value={query} placeholder="version, status, mode…"
+            onChange={(e) => { setQuery(e.target.value); setPage(0); }} />
+        </label>
+        <span className="muted" data-testid="model-count">{view.total} of {models?.length ?? 0} models</span>
+      </div>
       {models === null ? <p className="muted">Loading…</p> : models.length === 0 ? <p className="empty">No models registered yet.</p> : (
         <div className="table-wrap">
           <table className="table" aria-label="Models">
             <thead><tr>
-              <th>Pick</th><th>Version</th><th>Status</th><th>Mode</th><th>Needs</th><th>Gold falls</th>
-              <th>Gold false alarms</th><th>Frame F1</th><th>Threshold</th><th>Delay</th><th>Robots</th><th>Created</th>
+              <th>Pick</th>{header("version", "Version")}{header("status", "Status")}{header("mode", "Mode")}<th>Needs</th>
+              {header("falls", "Gold falls")}<th>Gold false alarms</th>{header("f1", "Frame F1")}<th>Threshold</th>
+              <th>Delay</th>{header("robots", "Robots")}{header("created", "Created")}
             </tr></thead>
             <tbody>
-              {models.map((m) => (
+              {view.rows.map((m) => (
                 <tr key={m.id}>
                   <td><input type="checkbox" aria-label={`pick ${m.version}`} checked={picked.includes(m.id)} onChange={() => toggle(m.id)} /></td>
                   <td><Link to={`/engineer/models/${m.id}`}>{m.version}</Link></td>
-                  <td><span className={`pill status-${m.status}`}>{m.status}</span></td>
+                  <td><span className={`pill status-${m.status}`}>{statusText(m)}</span></td>
                   <td>{m.mode}</td>
                   <td>{m.inputs.join(", ")}</td>
                   <td>{m.gold ? `${fmt(m.gold.falls_detected)}/${fmt(m.gold.falls_total)}` : "not evaluated"}</td>
@@ -76,6 +111,11 @@ export function RegistryPage() {
               ))}
             </tbody>
           </table>
+          <nav className="pager" aria-label="Model pages">
+            <button type="button" disabled={view.page === 0} onClick={() => setPage(view.page - 1)}>Previous</button>
+            <span>page {view.page + 1} of {view.pages}</span>
+            <button type="button" disabled={view.page + 1 >= view.pages} onClick={() => setPage(view.page + 1)}>Next</button>
+          </nav>
         </div>
       )}
     </>
