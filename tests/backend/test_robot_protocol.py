@@ -128,15 +128,17 @@ BAD_MESSAGES = [
     ),  # fmt: skip
     # A start or end time no datetime can hold was closed with 1011 (server error) before.
     pytest.param(
-        json.dumps({"type": "transport_start", "transport_id": "t-far", "mode": "walking",
-                    "ts": 1e300}),
+        json.dumps(
+            {"type": "transport_start", "transport_id": "t-far", "mode": "walking", "ts": 1e300}
+        ),
         protocol.CLOSE_BAD_MESSAGE,
         "invalid ts",
         id="start-ts-1e300",
     ),  # fmt: skip
     pytest.param(
-        json.dumps({"type": "transport_start", "transport_id": "t-before", "mode": "walking",
-                    "ts": -1e12}),
+        json.dumps(
+            {"type": "transport_start", "transport_id": "t-before", "mode": "walking", "ts": -1e12}
+        ),
         protocol.CLOSE_BAD_MESSAGE,
         "invalid ts",
         id="start-ts-negative",
