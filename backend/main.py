@@ -29,6 +29,7 @@ from backend.api import (
     robots,
     videos,
 )
+from backend.body_limit import BodySizeLimit
 from backend.db import make_engine, make_session_factory
 from backend.deps import CurrentUser
 from backend.gc_tuning import collector_tuned_for_ingest
@@ -109,6 +110,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         lifespan=lifespan,
     )
     app.state.settings = settings
+    app.add_middleware(BodySizeLimit, settings=settings)
     app.state.metrics = metrics = Metrics()
     app.state.hub = BrowserHub()
     app.state.robots = RobotRegistry(on_change=metrics.connected_robots.set)

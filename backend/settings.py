@@ -93,6 +93,12 @@ class Settings(BaseSettings):
     rgb_cache_frames: int = Field(default=600, description="decoded RGB frames kept in memory")
     viser_host: str = Field(default="127.0.0.1", description="3D view (viser) listens here")
     viser_port: int = Field(default=8090, description="3D view (viser) port, started on first use")
+    max_upload_bytes: int = Field(
+        default=64 * 2**20,
+        gt=0,
+        description="largest HTTP request body (a labelling import file) in bytes; a larger one "
+        "is answered 413 as it streams in, before it is read",
+    )
     robot_hello_timeout_s: float = Field(default=5.0, description="time a robot has to say hello")
     gate_false_alarm_budget: float = Field(
         default=0.15,

@@ -5,7 +5,8 @@ Robot -> server: ``hello`` (first message), ``transport_start``, ``frames``, ``t
 number committed to the database, never sent before the commit), ``assign_model``, ``error``.
 
 A message that does not validate closes the connection with one of the CLOSE_* codes and a
-reason naming the bad field; frames stored before it are unaffected.
+reason naming the bad field; frames stored before it are unaffected. Messages are parsed
+strictly: a number sent as a string ("seq": "12") is refused, not converted.
 """
 
 from __future__ import annotations
@@ -42,6 +43,10 @@ CLOSE_INTERNAL_ERROR = 1011  # the server could not store the message; reconnect
 
 FiniteFloat = Annotated[float, Field(allow_inf_nan=False)]
 Sha256 = Annotated[str, Field(pattern=r"^[0-9a-f]{64}$")]
+#: 9999-12-31T23:59:59Z, the last instant a datetime holds: a transport's start or end time
+#: beyond it (or before 1970) is the robot's error, refused with CLOSE_BAD_MESSAGE.
+MAX_UNIX_TIME = 253_402_300_799.0
+UnixTime = Annotated[float, Field(ge=0, le=MAX_UNIX_TIME, allow_inf_nan=False)]
 Point = Annotated[list[FiniteFloat], Field(min_length=3, max_length=3)]
 
 
@@ -77,7 +82,7 @@ class TransportStart(_Message):
     mode: TransportMode
     patient: str | None = Field(default=None, max_length=64, description="patient pseudonym")
     location: str | None = Field(default=None, max_length=128)
-    ts: FiniteFloat
+    ts: UnixTime
     # Protocol 1 extension: the source's real frame rate (a 23.976 fps clip is not 30 fps).
     fps: float | None = Field(default=None, gt=0, le=1000, allow_inf_nan=False)
 
@@ -85,7 +90,7 @@ class TransportStart(_Message):
 class TransportEnd(_Message):
     type: Literal["transport_end"] = "transport_end"
     transport_id: str = Field(min_length=1, max_length=64)
-    ts: FiniteFloat
+    ts: UnixTime
 
 
 class ShadowDecision(_Message):
@@ -249,5 +254,8 @@ server_message_adapter: TypeAdapter[ServerMessage] = TypeAdapter(ServerMessage)
 
 
 def parse_robot_message(raw: str | bytes) -> RobotMessage:
-    """Parse and validate one robot message; raises pydantic.ValidationError or ValueError."""
-    return robot_message_adapter.validate_json(raw)
+    """Parse and validate one robot message; raises pydantic.ValidationError or ValueError.
+
+    Strict: JSON types must match (an integer field refuses "12", a flag refuses "true");
+    enums still read their string values and a float field takes an integer."""
+    return robot_message_adapter.validate_json(raw, strict=True)

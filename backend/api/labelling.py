@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 from contextlib import asynccontextmanager
 from typing import Annotated, Literal
+from urllib.parse import quote
 
 from fastapi import APIRouter, FastAPI, Query, Request, Response, UploadFile, status
 from fastapi import Path as FastPath
@@ -320,6 +321,18 @@ def get_review_queue(
 # -- export / import ------------------------------------------------------------------------
 
 
+def attachment(filename: str) -> str:
+    """Content-Disposition for any name: an ASCII stand-in in `filename` (quotes, backslashes,
+    control and non-ASCII characters replaced) and the exact name in RFC 5987 `filename*`."""
+    fallback = "".join(c if " " <= c <= "~" and c not in '"\\' else "_" for c in filename)
+    return f"attachment; filename=\"{fallback}\"; filename*=UTF-8''{quote(filename, safe='')}"
+
+
+def _not_a_json_number(constant: str) -> float:
+    # Python's json reads NaN and Infinity, which JSON does not have: no value may hold them.
+    raise LabellingError(f"file: {constant} is not a JSON number")
+
+
 @router.get("/videos/{video_id}/export")
 def export_video(
     video_id: DbId,
@@ -331,7 +344,7 @@ def export_video(
     video = segments.get_video(session, video_id)
     statuses = status_ or [SegmentStatus.ACCEPTED]
     filename = f"{video.name}.{'csv' if format == 'csv' else 'json'}"
-    headers = {"Content-Disposition": f'attachment; filename="{filename}"'}
+    headers = {"Content-Disposition": attachment(filename)}
     if format == "csv":
         return Response(export.export_csv(session, video, statuses), media_type="text/csv",
                         headers=headers)  # fmt: skip
@@ -358,7 +371,7 @@ async def import_file(
         created = exchange.import_csv(session, text)
         return ImportOut(videos=sorted(created), segments=sum(created.values()))
     try:
-        document = json.loads(text)
+        document = json.loads(text, parse_constant=_not_a_json_number)
     except json.JSONDecodeError as error:
         raise LabellingError(f"file: not JSON ({error.msg} at line {error.lineno})") from error
     if not isinstance(document, dict):

@@ -10,40 +10,50 @@ import io
 import numpy as np
 from sqlalchemy.orm import Session
 
+from backend.labelling import validation
 from backend.labelling.errors import LabellingError
 from backend.labelling.export import CSV_COLUMNS, JSON_FORMAT
 from backend.labelling.runs import label_runs
 from backend.labelling.segments import SegmentDraft, create_segment
 from backend.labelling.store import add_video, video_by_name
+from backend.labelling.validation import (
+    CocoAnnotation,
+    CocoImage,
+    FrameHead,
+    SegmentRecord,
+    VideoMeta,
+    validated,
+)
 from backend.models.annotations import AnnotationSegment, SegmentSource, SegmentStatus
 from backend.models.videos import Split, Video
-from vigil.classes import TransportMode
 from vigil.formats.coco import coco17_to_body25
 from vigil.skeleton import N_FLOOR, N_KEYPOINTS
 
 
-def _video_from_meta(meta: dict, name: str | None) -> Video:
+def _video_from_meta(meta: object, name: str | None) -> Video:
+    """The video a file describes, every field checked (validation.VideoMeta); `name` (the
+    query parameter) replaces the file's."""
     if not isinstance(meta, dict):
         raise LabellingError("video: must be an object")
-    try:
-        return Video(
-            name=name or meta["name"],
-            source=meta.get("source") or "export",
-            generated=bool(meta.get("generated", False)),
-            mode=TransportMode(meta.get("mode", "walking")),
-            camera=meta.get("camera"),
-            location=meta.get("location"),
-            fps=float(meta.get("fps") or 30.0),
-            person=meta.get("person"),
-            split=Split(meta.get("split") or "unassigned"),
-            image_width=meta.get("image_width") or None,
-            image_height=meta.get("image_height") or None,
-            intrinsics=meta.get("intrinsics"),
-        )
-    except KeyError as error:
-        raise LabellingError(f"video.{error.args[0]}: missing") from error
-    except ValueError as error:
-        raise LabellingError(f"video: {error}") from error
+    if name is not None:
+        validation.video_name(name)
+    checked = validated(VideoMeta, meta, "video")
+    if not (name or checked.name):
+        raise LabellingError("video.name: missing")
+    return Video(
+        name=name or checked.name,
+        source=checked.source or "export",
+        generated=checked.generated,
+        mode=checked.mode,
+        camera=checked.camera,
+        location=checked.location,
+        fps=checked.fps or 30.0,
+        person=checked.person,
+        split=checked.split or Split.UNASSIGNED,
+        image_width=checked.image_width or None,
+        image_height=checked.image_height or None,
+        intrinsics=checked.intrinsics.model_dump() if checked.intrinsics else None,
+    )
 
 
 def _add_segments(
@@ -97,59 +107,54 @@ def import_json(session: Session, document: dict, name: str | None = None) -> Vi
     frames = document.get("frames")
     if not isinstance(frames, list) or not frames:
         raise LabellingError("frames: must be a non-empty list")
-    try:
-        indices = [int(f["index"]) for f in frames]
-        timestamps = [float(f["ts"]) for f in frames]
-    except (KeyError, TypeError, ValueError) as error:
-        raise LabellingError(f"frames: malformed frame ({error})") from error
+    heads = validated(list[FrameHead], frames, "frames")
+    indices = [h.index for h in heads]
+    timestamps = [h.ts for h in heads]
     keypoints = _numbers(frames, "keypoints", (N_KEYPOINTS, 3), optional=False)
     depth = _numbers(frames, "depth", (N_KEYPOINTS,), optional=True)
     floor = _numbers(frames, "floor", (N_FLOOR,), optional=True)
     if min(indices) < 0 or len(set(indices)) != len(indices):
         raise LabellingError("frames: indices must be unique and not negative")
     add_video(session, video, keypoints, timestamps, depth, indices, floor)
-    for segment in document.get("segments") or []:
-        try:
-            status = SegmentStatus(segment.get("status", "accepted"))
-            draft = SegmentDraft(
-                int(segment["first_frame"]), int(segment["last_frame"]), segment["label_key"]
-            )
-        except (KeyError, TypeError, ValueError) as error:
-            raise LabellingError(f"segments: malformed segment ({error})") from error
+    for segment in validated(list[SegmentRecord], document.get("segments") or [], "segments"):
+        draft = SegmentDraft(segment.first_frame, segment.last_frame, segment.label_key)
         created = create_segment(
-            session, video, draft, None, source=SegmentSource.IMPORT, status=status
+            session, video, draft, None, source=SegmentSource.IMPORT, status=segment.status
         )
-        created.review_comment = segment.get("review_comment")
+        created.review_comment = segment.review_comment
     return video
 
 
 def import_coco(session: Session, document: dict, name: str | None = None) -> Video:
     info = document.get("info") or {}
-    meta = dict(info.get("video") or {})
+    if not isinstance(info, dict):
+        raise LabellingError("info: must be an object")
+    meta = info.get("video") or {}
+    if not isinstance(meta, dict):
+        raise LabellingError("info.video: must be an object")
     if not meta.get("name") and not name:
         raise LabellingError("info.video.name: missing (or pass a name)")
     images = document.get("images")
     if not isinstance(images, list) or not images:
         raise LabellingError("images: must be a non-empty list")
     video = _video_from_meta(meta, name)
-    by_image = {a.get("image_id"): a for a in document.get("annotations") or []}
+    checked_images = validated(list[CocoImage], images, "images")
+    annotations = validated(list[CocoAnnotation], document.get("annotations") or [], "annotations")
+    by_image = {a.image_id: a for a in annotations}
+    frame_of = {id(im): im.id - 1 if im.frame_index is None else im.frame_index
+                for im in checked_images}  # fmt: skip
+    if len(set(frame_of.values())) != len(checked_images):
+        raise LabellingError("images: two images have the same frame number")
     indices, points, labels = [], [], []
-    for image in sorted(images, key=lambda im: im.get("frame_index", im.get("id", 0))):
-        try:
-            index = int(image.get("frame_index", image["id"] - 1))
-        except (KeyError, TypeError, ValueError) as error:
-            raise LabellingError(f"images: each image needs an integer id ({error})") from error
-        annotation = by_image.get(image["id"])
+    for image in sorted(checked_images, key=lambda im: frame_of[id(im)]):
+        annotation = by_image.get(image.id)
         coco = np.zeros((17, 3), np.float32)
         if annotation is not None:
-            flat = annotation.get("keypoints")
-            if not isinstance(flat, list) or len(flat) != 51:
-                raise LabellingError(f"annotations[{annotation.get('id')}].keypoints: need 51")
-            coco = np.array(flat, np.float32).reshape(17, 3)
+            coco = np.array(annotation.keypoints, np.float32).reshape(17, 3)
             coco[:, 2] = (coco[:, 2] > 0).astype(np.float32)
-        indices.append(index)
+        indices.append(frame_of[id(image)])
         points.append(coco)
-        labels.append(image.get("label_key"))
+        labels.append(image.label_key)
     keypoints = coco17_to_body25(np.stack(points))
     add_video(session, video, keypoints, [i / video.fps for i in indices], None, indices)
     frame_label = [None] * video.frame_count

@@ -13,6 +13,7 @@ router = APIRouter()
 
 CLOSE_UNAUTHORIZED = 4401
 CLOSE_FORBIDDEN = 4403
+CLOSE_BAD_MESSAGE = 4400  # the browser sends only the text "ping"
 
 
 @router.websocket("/ws/browser")
@@ -42,8 +43,17 @@ async def browser_socket(websocket: WebSocket) -> None:
     try:
         await state.hub.send(connection, {"type": "snapshot", "alarms": alarms})
         while True:
-            message = await websocket.receive_text()
-            if message == "ping":
+            event = await websocket.receive()
+            if event["type"] == "websocket.disconnect":
+                break
+            if event.get("text") is None:
+                # A binary frame: close with a code and a reason, never drop the connection.
+                size = len(event.get("bytes") or b"")
+                await websocket.close(
+                    CLOSE_BAD_MESSAGE, f"binary message ({size} bytes) not accepted: send text"
+                )
+                break
+            if event["text"] == "ping":
                 await state.hub.send(connection, {"type": "pong"})
     except WebSocketDisconnect:
         pass

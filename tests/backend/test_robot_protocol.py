@@ -113,6 +113,42 @@ BAD_MESSAGES = [
     pytest.param(
         frames_message(seq=-1), protocol.CLOSE_BAD_MESSAGE, "frames.0.seq", id="negative-seq"
     ),  # fmt: skip
+    # Strict types: a number sent as a string is the robot's bug, not something to guess at.
+    pytest.param(
+        frames_message(seq="12"), protocol.CLOSE_BAD_MESSAGE, "frames.0.seq", id="string-seq"
+    ),  # fmt: skip
+    pytest.param(
+        frames_message(ts="1.5"), protocol.CLOSE_BAD_MESSAGE, "frames.0.ts", id="string-ts"
+    ),  # fmt: skip
+    pytest.param(
+        frames_message(delay_ms="5"),
+        protocol.CLOSE_BAD_MESSAGE,
+        "frames.0.delay_ms",
+        id="string-delay",
+    ),  # fmt: skip
+    # A start or end time no datetime can hold was closed with 1011 (server error) before.
+    pytest.param(
+        json.dumps(
+            {"type": "transport_start", "transport_id": "t-far", "mode": "walking", "ts": 1e300}
+        ),
+        protocol.CLOSE_BAD_MESSAGE,
+        "invalid ts",
+        id="start-ts-1e300",
+    ),  # fmt: skip
+    pytest.param(
+        json.dumps(
+            {"type": "transport_start", "transport_id": "t-before", "mode": "walking", "ts": -1e12}
+        ),
+        protocol.CLOSE_BAD_MESSAGE,
+        "invalid ts",
+        id="start-ts-negative",
+    ),  # fmt: skip
+    pytest.param(
+        json.dumps({"type": "transport_end", "transport_id": "t-far", "ts": 1e300}),
+        protocol.CLOSE_BAD_MESSAGE,
+        "invalid ts",
+        id="end-ts-1e300",
+    ),  # fmt: skip
     pytest.param(
         " " * (protocol.MAX_MESSAGE_BYTES + 1) + "{}",
         protocol.CLOSE_TOO_LARGE,
