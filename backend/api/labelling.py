@@ -352,7 +352,7 @@ async def import_file(
     except UnicodeDecodeError as error:
         raise LabellingError("file: must be UTF-8 text") from error
     if format == "csv":
-        created = exchange.import_csv(session, text)
+        created = exchange.import_csv(session, text, importer=user)
         return ImportOut(videos=sorted(created), segments=sum(created.values()))
     try:
         document = json.loads(text)
@@ -361,7 +361,7 @@ async def import_file(
     if not isinstance(document, dict):
         raise LabellingError("file: JSON must be an object")
     importer = exchange.import_json if format == "json" else exchange.import_coco
-    video = importer(session, document, name)
+    video = importer(session, document, name, importer=user)
     count = len(video_segments(session, video.id))
     return ImportOut(videos=[video.name], segments=count)
 

@@ -1,6 +1,13 @@
 """Import what `export` writes: Vigil JSON (new video), COCO keypoints (new video), CSV (labels
-onto existing videos). Imported labels become segments with source `import`; a JSON import keeps
-each segment's status, CSV and COCO labels arrive accepted (the export holds accepted labels)."""
+onto existing videos).
+
+A file is untrusted input from whoever uploads it, so import never takes the fields that decide
+what reaches training or the gold set from it (issue 18): a new video's split is `unassigned`
+(only an admin changes it: `PATCH /api/labelling/videos/{id}`) and its source is `import`; a
+file may mark its recording as generated but never make generated data pass for real. Every
+imported label becomes a `pending` segment with source `import`, the importer as its annotator
+and no reviewer or review comment, whatever status the file says: it is reviewed like any other,
+by someone else."""
 
 from __future__ import annotations
 
@@ -16,10 +23,17 @@ from backend.labelling.runs import label_runs
 from backend.labelling.segments import SegmentDraft, create_segment
 from backend.labelling.store import add_video, video_by_name
 from backend.models.annotations import AnnotationSegment, SegmentSource, SegmentStatus
+from backend.models.users import User
 from backend.models.videos import Split, Video
 from vigil.classes import TransportMode
 from vigil.formats.coco import coco17_to_body25
 from vigil.skeleton import N_FLOOR, N_KEYPOINTS
+
+
+#: `Video.source` of every video created by an import (the file's own claim is not kept).
+IMPORTED_SOURCE = "import"
+#: The status of every imported segment: proposed, waiting for a reviewer.
+IMPORTED_STATUS = SegmentStatus.PENDING
 
 
 def _video_from_meta(meta: dict, name: str | None) -> Video:
@@ -28,14 +42,15 @@ def _video_from_meta(meta: dict, name: str | None) -> Video:
     try:
         return Video(
             name=name or meta["name"],
-            source=meta.get("source") or "export",
-            generated=bool(meta.get("generated", False)),
+            source=IMPORTED_SOURCE,
+            # The cautious direction only: a file can say "generated", never "real".
+            generated=meta.get("generated") is True,
             mode=TransportMode(meta.get("mode", "walking")),
             camera=meta.get("camera"),
             location=meta.get("location"),
             fps=float(meta.get("fps") or 30.0),
             person=meta.get("person"),
-            split=Split(meta.get("split") or "unassigned"),
+            split=Split.UNASSIGNED,
             image_width=meta.get("image_width") or None,
             image_height=meta.get("image_height") or None,
             intrinsics=meta.get("intrinsics"),
@@ -46,20 +61,18 @@ def _video_from_meta(meta: dict, name: str | None) -> Video:
         raise LabellingError(f"video: {error}") from error
 
 
+def _add_segment(
+    session: Session, video: Video, draft: SegmentDraft, importer: User | None
+) -> AnnotationSegment:
+    return create_segment(
+        session, video, draft, importer, source=SegmentSource.IMPORT, status=IMPORTED_STATUS
+    )
+
+
 def _add_segments(
-    session: Session, video: Video, runs, status=SegmentStatus.ACCEPTED
+    session: Session, video: Video, runs, importer: User | None
 ) -> list[AnnotationSegment]:
-    return [
-        create_segment(
-            session,
-            video,
-            SegmentDraft(first, last, label),
-            None,
-            source=SegmentSource.IMPORT,
-            status=status,
-        )  # fmt: skip
-        for first, last, label in runs
-    ]
+    return [_add_segment(session, video, SegmentDraft(*run), importer) for run in runs]
 
 
 def _numbers(frames: list, key: str, shape: tuple[int, ...], optional: bool) -> np.ndarray:
@@ -90,7 +103,9 @@ def _numbers(frames: list, key: str, shape: tuple[int, ...], optional: bool) -> 
     return out
 
 
-def import_json(session: Session, document: dict, name: str | None = None) -> Video:
+def import_json(
+    session: Session, document: dict, name: str | None = None, importer: User | None = None
+) -> Video:
     if document.get("format") != JSON_FORMAT:
         raise LabellingError(f"format: expected {JSON_FORMAT!r}, got {document.get('format')!r}")
     video = _video_from_meta(document.get("video"), name)
@@ -109,21 +124,20 @@ def import_json(session: Session, document: dict, name: str | None = None) -> Vi
         raise LabellingError("frames: indices must be unique and not negative")
     add_video(session, video, keypoints, timestamps, depth, indices, floor)
     for segment in document.get("segments") or []:
+        # status, reviewer and review_comment in the file are ignored (see the module doc).
         try:
-            status = SegmentStatus(segment.get("status", "accepted"))
             draft = SegmentDraft(
                 int(segment["first_frame"]), int(segment["last_frame"]), segment["label_key"]
             )
         except (KeyError, TypeError, ValueError) as error:
             raise LabellingError(f"segments: malformed segment ({error})") from error
-        created = create_segment(
-            session, video, draft, None, source=SegmentSource.IMPORT, status=status
-        )
-        created.review_comment = segment.get("review_comment")
+        _add_segment(session, video, draft, importer)
     return video
 
 
-def import_coco(session: Session, document: dict, name: str | None = None) -> Video:
+def import_coco(
+    session: Session, document: dict, name: str | None = None, importer: User | None = None
+) -> Video:
     info = document.get("info") or {}
     meta = dict(info.get("video") or {})
     if not meta.get("name") and not name:
@@ -155,11 +169,11 @@ def import_coco(session: Session, document: dict, name: str | None = None) -> Vi
     frame_label = [None] * video.frame_count
     for index, label in zip(indices, labels, strict=True):
         frame_label[index] = label or None
-    _add_segments(session, video, label_runs(frame_label))
+    _add_segments(session, video, label_runs(frame_label), importer)
     return video
 
 
-def import_csv(session: Session, text: str) -> dict[str, int]:
+def import_csv(session: Session, text: str, importer: User | None = None) -> dict[str, int]:
     """Labels onto videos that exist (by name); returns segments created per video."""
     # newline="": the csv module splits lines itself, so a lone \r ends a line as in any editor.
     reader = csv.DictReader(io.StringIO(text, newline=""))
@@ -190,5 +204,5 @@ def import_csv(session: Session, text: str) -> dict[str, int]:
                 f"csv: video {name!r} has frames 0..{video.frame_count - 1}, not {outside[0]}"
             )
         frame_label = [labels.get(i) for i in range(video.frame_count)]
-        created[name] = len(_add_segments(session, video, label_runs(frame_label)))
+        created[name] = len(_add_segments(session, video, label_runs(frame_label), importer))
     return created

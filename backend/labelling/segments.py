@@ -106,7 +106,9 @@ def create_segment(
         taxonomy_version=taxonomy.version,
         status=status,
         source=source,
-        annotator_id=actor.id if actor and source != SegmentSource.IMPORT else None,
+        # An imported segment's annotator is whoever imported it (none from the command line),
+        # so they cannot accept their own import.
+        annotator_id=actor.id if actor else None,
         model_version=model_version,
         priority=priority,
     )
