@@ -29,7 +29,6 @@ from vigil.classes import TransportMode
 from vigil.formats.coco import coco17_to_body25
 from vigil.skeleton import N_FLOOR, N_KEYPOINTS
 
-
 #: `Video.source` of every video created by an import (the file's own claim is not kept).
 IMPORTED_SOURCE = "import"
 #: The status of every imported segment: proposed, waiting for a reviewer.
