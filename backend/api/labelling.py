@@ -12,6 +12,7 @@ from fastapi import Path as FastPath
 from fastapi.responses import JSONResponse
 from sqlalchemy import select
 
+from backend import wards
 from backend.deps import MAX_DB_INT, CurrentUser, DbId, SessionDep
 from backend.labelling import exchange, export, segments
 from backend.labelling.agreement import agreement
@@ -429,7 +430,9 @@ def rgb_frame(
     user: CurrentUser,
     blur: bool = Query(default=True, description="blur the head; only annotators may turn off"),
 ) -> Response:
-    video = segments.get_video(session, video_id)
+    video = wards.visible_video(session, user, video_id)  # nurses: their ward's robots only
+    if video is None:
+        raise NotFound(f"video {video_id} not found")
     if video.rgb_path is None:
         raise NotFound(f"video {video.name} has no RGB clip")
     if not 0 <= frame < video.frame_count:

@@ -5,7 +5,7 @@ from __future__ import annotations
 from collections.abc import Iterable
 
 import numpy as np
-from sqlalchemy import select
+from sqlalchemy import ColumnElement, select
 from sqlalchemy.orm import Session
 
 from backend.models.annotations import AnnotationSegment, SegmentStatus
@@ -23,9 +23,13 @@ def videos_matching(
     split: Split | None = None,
     source: str | None = None,
     person: str | None = None,
+    scope: ColumnElement[bool] | None = None,
 ) -> list[Video]:
-    """Videos by name, narrowed by whichever filters are given."""
+    """Videos by name, narrowed by whichever filters are given; `scope`: the caller's wards
+    (backend.wards.videos_visible)."""
     query = select(Video).order_by(Video.name)
+    if scope is not None:
+        query = query.where(scope)
     for column, value in (
         (Video.mode, mode), (Video.split, split), (Video.source, source), (Video.person, person)
     ):  # fmt: skip
