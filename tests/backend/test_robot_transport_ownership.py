@@ -204,3 +204,43 @@ def test_the_writer_refuses_another_robots_transport_inside_its_transaction(
     assert stored(session_factory, robot) == []
     assert stored(session_factory, other_robot) == [0, 1]
     assert alarms_of(session_factory, robot) == []
+
+
+def test_over_a_real_socket_the_forger_is_closed_and_the_owner_keeps_streaming(tmp_path):
+    """The same repro against uvicorn over TCP: the code and reason reach the robot."""
+    from websockets.exceptions import ConnectionClosed
+    from websockets.sync.client import connect as ws_connect
+
+    from backend.db import make_engine, make_session_factory
+    from tests.support.live_backend import ROBOT_ID, ROBOT_TOKEN, LiveServer
+
+    server = LiveServer.create(tmp_path)
+    engine = make_engine(server.database_url)
+    factory = make_session_factory(engine)
+    with transaction(factory) as session:
+        session.add(Robot(id="robot-b1", ward="ward-b", token_hash=hash_robot_token(OTHER_TOKEN)))
+    server.start()
+    try:
+        with ws_connect(server.robot_ws_url) as b, ws_connect(server.robot_ws_url) as a:
+            b.send(Hello(robot_id="robot-b1", token=OTHER_TOKEN).model_dump_json())
+            assert json.loads(b.recv(timeout=10))["type"] == "welcome"
+            b.send(TransportStart(transport_id="t-b1", mode="walking", ts=0.0).model_dump_json())
+            b.send(FrameBatch(frames=[frame(0, transport="t-b1")]).model_dump_json())
+            assert json.loads(b.recv(timeout=10)) == {"type": "ack", "seq": 0}
+            a.send(Hello(robot_id=ROBOT_ID, token=ROBOT_TOKEN).model_dump_json())
+            assert json.loads(a.recv(timeout=10))["type"] == "welcome"
+            a.send(FrameBatch(frames=[frame(0, "emergency", "t-b1")]).model_dump_json())
+            with pytest.raises(ConnectionClosed) as closed:
+                a.recv(timeout=10)
+            assert closed.value.rcvd is not None
+            assert (closed.value.rcvd.code, closed.value.rcvd.reason) == (
+                protocol.CLOSE_FORBIDDEN, "transport_id t-b1 belongs to another robot"
+            )  # fmt: skip
+            b.send(FrameBatch(frames=[frame(1, transport="t-b1")]).model_dump_json())
+            assert json.loads(b.recv(timeout=10)) == {"type": "ack", "seq": 1}
+    finally:
+        server.stop()
+    assert stored(factory, ROBOT_ID) == []
+    assert stored(factory, "robot-b1") == [0, 1]
+    assert alarms_of(factory, ROBOT_ID) == []
+    engine.dispose()
