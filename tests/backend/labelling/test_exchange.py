@@ -193,3 +193,32 @@ def test_csv_and_coco_labels_arrive_pending(client, urfd_videos, annotator):
     for name in ("c", "bare"):
         video = _video_named(client, annotator, name)
         assert video["segment_counts"] == {"pending": 3}, video
+
+
+def test_a_command_line_import_edited_by_an_annotator_is_reviewed_by_someone_else(
+    client, urfd_videos, annotator, annotator2, session_factory
+):
+    """A command-line import has no importer; whoever edits its label owns it from then on."""
+    from backend.db import transaction
+    from backend.labelling import exchange
+
+    document = _export(client, annotator, urfd_videos["fall-01"], "json").json()
+    document["segments"] = [{"first_frame": 0, "last_frame": 9, "label_key": "walking",
+                             "status": "accepted"}]  # fmt: skip
+    with transaction(session_factory) as session:
+        exchange.import_json(session, document, "from-cli")
+    video = _video_named(client, annotator, "from-cli")
+    [segment] = client.get(f"{API}/videos/{video['id']}/segments", headers=annotator.headers).json()
+    assert (segment["status"], segment["annotator"]) == ("pending", None)
+    edited = client.patch(f"{API}/segments/{segment['id']}", json={"label_key": "bending"},
+                          headers=annotator.headers)  # fmt: skip
+    assert edited.status_code == 200, edited.text
+    review = f"{API}/segments/{segment['id']}/review"
+    assert (
+        client.post(review, json={"decision": "accept"}, headers=annotator.headers).status_code
+        == 403
+    )
+    assert (
+        client.post(review, json={"decision": "accept"}, headers=annotator2.headers).status_code
+        == 200
+    )
