@@ -34,6 +34,7 @@ MAX_FRAMES_PER_BATCH = 500
 # Websocket close codes (application range 4000-4999).
 CLOSE_BAD_MESSAGE = 4400  # not JSON, unknown type, missing or invalid field
 CLOSE_UNAUTHORIZED = 4401  # wrong or revoked robot token
+CLOSE_FORBIDDEN = 4403  # a message names a transport that belongs to another robot
 CLOSE_PROTOCOL_VERSION = 4406  # protocol version the server does not speak
 CLOSE_HELLO_TIMEOUT = 4408  # no hello in time
 CLOSE_TOO_LARGE = 4413  # message larger than MAX_MESSAGE_BYTES

@@ -8,16 +8,16 @@ from datetime import datetime
 from sqlalchemy import select
 from sqlalchemy.orm import Session
 
+from backend import wards
 from backend.models.alarms import Alarm, AlarmEvent, AlarmKind, AlarmState
 from backend.models.robots import Robot, Transport
-from backend.models.users import Role, User
+from backend.models.users import User
 
 
 def visible_to(user: User):
-    """Nurses see their own ward (every ward when they have none); others see all."""
-    if user.role == Role.NURSE and user.ward:
-        return Alarm.ward == user.ward
-    return True
+    """Nurses see their own ward (every ward when they have none); others see all
+    (the rule is backend.wards')."""
+    return wards.alarms_visible(user)
 
 
 def list_alarms(

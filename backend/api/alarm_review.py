@@ -6,6 +6,7 @@ from datetime import datetime, timedelta
 
 from fastapi import APIRouter, HTTPException, Query, status
 
+from backend import wards
 from backend.alarm_review import feedback, queries
 from backend.alarm_review.fatigue import fatigue_stats
 from backend.alarm_review.schemas import (
@@ -21,7 +22,7 @@ from backend.deps import CurrentUser, SessionDep
 from backend.models import Frame, Video
 from backend.models._types import utcnow
 from backend.models.alarms import AlarmKind, Verdict
-from backend.models.users import Role, User
+from backend.models.users import User
 from vigil.skeleton import decode_keypoints, depth_to_json
 
 router = APIRouter(prefix="/api", tags=["alarm review"])
@@ -31,10 +32,11 @@ MAX_FATIGUE_DAYS = 92
 
 def _ward_of(user: User, ward: str | None) -> str | None:
     """A nurse with a ward sees only that ward, whatever the filter asks."""
-    if user.role == Role.NURSE and user.ward:
-        if ward and ward != user.ward:
+    confined = wards.ward_of(user)
+    if confined is not None:
+        if ward and ward != confined:
             raise HTTPException(status.HTTP_403_FORBIDDEN, f"ward {ward} is not your ward")
-        return user.ward
+        return confined
     return ward
 
 

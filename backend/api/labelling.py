@@ -13,6 +13,7 @@ from fastapi import Path as FastPath
 from fastapi.responses import JSONResponse
 from sqlalchemy import select
 
+from backend import wards
 from backend.alarm_review.feedback import placeholder_name
 from backend.deps import MAX_DB_INT, CurrentUser, DbId, SessionDep
 from backend.labelling import exchange, export, segments
@@ -368,7 +369,7 @@ async def import_file(
     except UnicodeDecodeError as error:
         raise LabellingError("file: must be UTF-8 text") from error
     if format == "csv":
-        created = exchange.import_csv(session, text)
+        created = exchange.import_csv(session, text, importer=user)
         return ImportOut(videos=sorted(created), segments=sum(created.values()))
     try:
         document = json.loads(text, parse_constant=_not_a_json_number)
@@ -377,7 +378,7 @@ async def import_file(
     if not isinstance(document, dict):
         raise LabellingError("file: JSON must be an object")
     importer = exchange.import_json if format == "json" else exchange.import_coco
-    video = importer(session, document, name)
+    video = importer(session, document, name, importer=user)
     count = len(video_segments(session, video.id))
     return ImportOut(videos=[video.name], segments=count)
 
@@ -443,7 +444,9 @@ def rgb_frame(
     user: CurrentUser,
     blur: bool = Query(default=True, description="blur the head; only annotators may turn off"),
 ) -> Response:
-    video = segments.get_video(session, video_id)
+    video = wards.visible_video(session, user, video_id)  # nurses: their ward's robots only
+    if video is None:
+        raise NotFound(f"video {video_id} not found")
     if video.rgb_path is None:
         raise NotFound(f"video {video.name} has no RGB clip")
     if not 0 <= frame < video.frame_count:

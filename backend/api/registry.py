@@ -11,6 +11,7 @@ from fastapi import APIRouter, Header, HTTPException, Query, Request, status
 from fastapi.responses import FileResponse
 from starlette.concurrency import run_in_threadpool
 
+from backend import wards
 from backend.db import transaction
 from backend.deps import MAX_DB_INT, CurrentUser, SessionDep, SettingsDep
 from backend.models.registry import Deployment, ModelVersion
@@ -213,7 +214,7 @@ def fleet(
     registry = request.app.state.robots
     connected = {r.id for r in session.query(Robot.id) if registry.socket(r.id) is not None}
     model = _model(session, model_id) if model_id is not None else None
-    return queries.fleet(session, connected, model)
+    return queries.fleet(session, connected, model, scope=wards.robots_visible(user))
 
 
 # --- robots: model download, authenticated by the robot's own token ------------------------

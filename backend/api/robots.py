@@ -2,11 +2,11 @@ from datetime import datetime
 
 from fastapi import APIRouter, HTTPException, Query, Request, status
 from pydantic import BaseModel, ConfigDict, Field
-from sqlalchemy import select
 
+from backend import wards
 from backend.deps import CurrentUser, SessionDep
 from backend.models._types import utcnow
-from backend.models.robots import Robot, Transport
+from backend.models.robots import Robot
 from backend.security import hash_robot_token, new_robot_token
 from vigil.classes import TransportMode
 from vigil.inputs import InputName
@@ -72,8 +72,8 @@ def _robot_out(request: Request, robot: Robot) -> RobotOut:
 
 @router.get("/robots")
 def list_robots(session: SessionDep, user: CurrentUser, request: Request) -> list[RobotOut]:
-    robots = session.scalars(select(Robot).order_by(Robot.id)).all()
-    return [_robot_out(request, r) for r in robots]
+    """The robots of the wards the caller sees (backend.wards)."""
+    return [_robot_out(request, r) for r in wards.list_robots(session, user)]
 
 
 @router.post("/robots", status_code=status.HTTP_201_CREATED)
@@ -102,7 +102,10 @@ def _robot(session: SessionDep, robot_id: str) -> Robot:
 
 @router.get("/robots/{robot_id}")
 def get_robot(robot_id: str, session: SessionDep, user: CurrentUser, request: Request) -> RobotOut:
-    return _robot_out(request, _robot(session, robot_id))
+    robot = wards.visible_robot(session, user, robot_id)
+    if robot is None:  # another ward's robot: as if it did not exist
+        raise HTTPException(status.HTTP_404_NOT_FOUND, f"robot {robot_id} not found")
+    return _robot_out(request, robot)
 
 
 async def _close_live_connection(request: Request, robot_id: str, reason: str) -> None:
@@ -146,19 +149,14 @@ def list_transports(
     active: bool | None = Query(default=None, description="only transports under way (true)"),
     limit: int = Query(default=100, ge=1, le=1000),
 ) -> list[TransportOut]:
-    query = select(Transport).order_by(Transport.started_at.desc()).limit(limit)
-    if robot_id:
-        query = query.where(Transport.robot_id == robot_id)
-    if active is not None:
-        query = query.where(
-            Transport.ended_at.is_(None) if active else Transport.ended_at.is_not(None)
-        )
-    return [TransportOut.model_validate(t) for t in session.scalars(query)]
+    """The transports of the wards the caller sees (backend.wards), newest first."""
+    transports = wards.list_transports(session, user, robot_id, active, limit)
+    return [TransportOut.model_validate(t) for t in transports]
 
 
 @router.get("/transports/{transport_id}")
 def get_transport(transport_id: str, session: SessionDep, user: CurrentUser) -> TransportOut:
-    transport = session.get(Transport, transport_id)
-    if transport is None:
+    transport = wards.visible_transport(session, user, transport_id)
+    if transport is None:  # another ward's transport: as if it did not exist
         raise HTTPException(status.HTTP_404_NOT_FOUND, f"transport {transport_id} not found")
     return TransportOut.model_validate(transport)

@@ -4,6 +4,7 @@ from fastapi import APIRouter, HTTPException, Query, status
 from pydantic import BaseModel, ConfigDict
 from sqlalchemy import select
 
+from backend import wards
 from backend.deps import MAX_DB_INT, CurrentUser, DbId, SessionDep
 from backend.labelling.queries import videos_matching
 from backend.models.videos import Frame, Split, Video
@@ -65,11 +66,13 @@ def list_videos(
     split: Split | None = None,
     source: str | None = None,
 ) -> list[VideoOut]:
-    return [_video_out(v) for v in videos_matching(session, mode, split, source)]
+    videos = videos_matching(session, mode, split, source, scope=wards.videos_visible(user))
+    return [_video_out(v) for v in videos]
 
 
-def _video(session: SessionDep, video_id: int) -> Video:
-    video = session.get(Video, video_id)
+def _video(session: SessionDep, user: CurrentUser, video_id: int) -> Video:
+    """The video if the caller's wards include it (backend.wards), else 404."""
+    video = wards.visible_video(session, user, video_id)
     if video is None:
         raise HTTPException(status.HTTP_404_NOT_FOUND, f"video {video_id} not found")
     return video
@@ -77,7 +80,7 @@ def _video(session: SessionDep, video_id: int) -> Video:
 
 @router.get("/{video_id}")
 def get_video(video_id: DbId, session: SessionDep, user: CurrentUser) -> VideoOut:
-    return _video_out(_video(session, video_id))
+    return _video_out(_video(session, user, video_id))
 
 
 def _frame_out(frame: Frame) -> FrameOut:
@@ -109,7 +112,7 @@ def get_frames(
         default=None, ge=0, le=MAX_DB_INT, description="last frame index (inclusive)"
     ),
 ) -> list[FrameOut]:
-    _video(session, video_id)
+    _video(session, user, video_id)
     last = start + MAX_FRAMES_PER_REQUEST - 1 if end is None else end
     if last < start:
         raise HTTPException(status.HTTP_422_UNPROCESSABLE_ENTITY, "end must not be before start")

@@ -1,6 +1,12 @@
 """Robot websocket (/ws/robot): hello, then transports and frame batches, acknowledged only
 after the database commit (by the per-process FrameWriter). Bad input closes this connection
-with a code and a reason; frames already committed stay, and other robots are unaffected."""
+with a code and a reason; frames already committed stay, and other robots are unaffected.
+
+Every message naming a transport (transport_start/end, each frame of a batch,
+detection_status) is checked against the transports this robot owns before it reaches the
+writer: a transport of another robot closes the connection with CLOSE_FORBIDDEN (4403) and
+nothing of that message is stored. The connection remembers the ids it has checked, so a
+transport costs one query per connection; the writer checks again inside its transaction."""
 
 from __future__ import annotations
 
@@ -11,7 +17,7 @@ import time
 
 from fastapi import APIRouter, WebSocket, WebSocketDisconnect
 from pydantic import ValidationError
-from sqlalchemy.exc import DataError
+from sqlalchemy.exc import DataError, SQLAlchemyError
 from starlette.concurrency import run_in_threadpool
 
 from backend.db import transaction
@@ -91,6 +97,8 @@ class RobotConnection:
         self.robot_id = robot_id
         self.ward = ward  # where an alarm pushed before it is stored goes
         self.closed = False
+        #: Transport ids this connection has checked: this robot's, or none's (yet).
+        self.checked_transports: set[str] = set()
 
     async def send_ack(self, seq: int) -> None:
         if self.closed:
@@ -129,6 +137,39 @@ async def _hello(websocket: WebSocket) -> Hello:
             f"protocol {hello.protocol} not supported (server speaks {protocol.PROTOCOL_VERSION})",
         )
     return hello
+
+
+def _transport_ids(message: protocol.RobotMessage) -> set[str]:
+    if isinstance(message, protocol.FrameBatch):
+        return {f.transport_id for f in message.frames if f.transport_id is not None}
+    transport_id = getattr(message, "transport_id", None)
+    return {transport_id} if transport_id is not None else set()
+
+
+async def check_transports(
+    websocket: WebSocket, connection: RobotConnection, message: protocol.RobotMessage
+) -> None:
+    """Refuse a message naming another robot's transport (CloseConnection 4403)."""
+    unchecked = _transport_ids(message) - connection.checked_transports
+    if not unchecked:
+        return
+
+    def _owners() -> dict[str, str]:
+        with websocket.app.state.session_factory() as session:
+            return service.transport_owners(session, unchecked)
+
+    try:
+        owners = await run_in_threadpool(_owners)
+    except SQLAlchemyError as error:  # storage trouble: the writer's own check still applies
+        log.warning("robot %s: transport check deferred to the writer (%s)",
+                    connection.robot_id, error)  # fmt: skip
+        return
+    for transport_id in sorted(unchecked):
+        if owners.get(transport_id, connection.robot_id) != connection.robot_id:
+            raise CloseConnection(
+                protocol.CLOSE_FORBIDDEN, str(service.TransportNotOwned(transport_id))
+            )
+    connection.checked_transports |= unchecked
 
 
 @router.websocket("/ws/robot")
@@ -178,6 +219,7 @@ async def robot_socket(websocket: WebSocket) -> None:
             received_at = time.perf_counter()
             if isinstance(message, Hello):
                 raise CloseConnection(protocol.CLOSE_BAD_MESSAGE, "hello sent twice")
+            await check_transports(websocket, connection, message)
             if isinstance(message, protocol.FrameBatch):
                 message = received.from_batch(message)
             await writer.submit(connection, message, received_at)

@@ -3,7 +3,7 @@ that robot decisions raise. The caller commits; acknowledgements go out only aft
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
 
@@ -59,6 +59,22 @@ def registry_sha256_for(session: Session, hello: Hello) -> dict[str, str] | None
     return registry_queries.sha256_of_versions(session, versions)
 
 
+class TransportNotOwned(ValueError):
+    """A message names a transport of another robot (closed with CLOSE_FORBIDDEN)."""
+
+    def __init__(self, transport_id: str) -> None:
+        super().__init__(f"transport_id {transport_id} belongs to another robot")
+
+
+def transport_owners(session: Session, transport_ids: Iterable[str]) -> dict[str, str]:
+    """transport id -> the robot it belongs to, for those of `transport_ids` that exist."""
+    ids = list(transport_ids)
+    if not ids:
+        return {}
+    rows = session.execute(select(Transport.id, Transport.robot_id).where(Transport.id.in_(ids)))
+    return {row.id: row.robot_id for row in rows}
+
+
 def _video_name(robot_id: str, transport_id: str | None) -> str:
     return f"robot/{robot_id}/{transport_id or 'untracked'}"
 
@@ -82,7 +98,7 @@ def start_transport(session: Session, robot: Robot, message: TransportStart) -> 
         )
         session.add(transport)
     elif transport.robot_id != robot.id:
-        raise ValueError(f"transport_id {message.transport_id} belongs to another robot")
+        raise TransportNotOwned(message.transport_id)
     elif message.fps is not None and transport.fps != message.fps:
         # Sent again (a reconnect) with the real frame rate: the recording follows.
         transport.fps = message.fps
@@ -338,6 +354,12 @@ def store_frames(
     new_alarm_ids: set[int] = set()
     rows = context.rows
     pending = context.pending_seqs[robot.id]
+    # Every transport the batch names must be this robot's; checked before anything of it is
+    # gathered (the connection checks first, this is the last word inside the transaction).
+    for key in {f.transport_id for f in frames if f.transport_id is not None}:
+        transport = context.transport(session, key)
+        if transport is not None and transport.robot_id != robot.id:
+            raise TransportNotOwned(key)
     for frame in sorted(fresh.values(), key=lambda f: f.seq):
         key = frame.transport_id
         transport = context.transport(session, key)
@@ -454,7 +476,7 @@ def apply_detection_status(
         return cleared
     transport = context.transport(session, message.transport_id)
     if transport is not None and transport.robot_id != robot.id:
-        raise ValueError(f"transport_id {message.transport_id} belongs to another robot")
+        raise TransportNotOwned(message.transport_id)
     video = context.videos.get(_video_name(robot.id, transport.id if transport else None))
     evidence = DecisionEvidence(
         seq=robot.last_seq,  # the status follows this frame in the robot's stream

@@ -315,7 +315,10 @@ class FrameWriter:
             if run_link is None:
                 return
             robot = self._robot(context, run_link.robot_id)
-            result = service.store_frames(session, robot, run, context)
+            try:
+                result = service.store_frames(session, robot, run, context)
+            except service.TransportNotOwned as error:
+                raise _refused(error) from None
             if result.highest_seq is not None:
                 key = id(run_link)
                 outcome.acks[key] = max(outcome.acks.get(key, -1), result.highest_seq)
@@ -337,7 +340,7 @@ class FrameWriter:
                 try:
                     transport = service.start_transport(session, robot, message)
                 except ValueError as error:
-                    raise RejectedMessage(protocol.CLOSE_BAD_MESSAGE, str(error)) from None
+                    raise _refused(error) from None
                 context.transports[transport.id] = transport
             elif isinstance(message, TransportEnd):
                 service.end_transport(session, robot, message)
@@ -355,7 +358,7 @@ class FrameWriter:
                 try:
                     changed = service.apply_detection_status(session, robot, message, context)
                 except ValueError as error:
-                    raise RejectedMessage(protocol.CLOSE_BAD_MESSAGE, str(error)) from None
+                    raise _refused(error) from None
                 for alarm in changed:
                     touched[alarm.id] = alarm
                 if changed:
@@ -377,6 +380,13 @@ class FrameWriter:
         if robot is None or robot.token_hash is None:
             raise RejectedMessage(protocol.CLOSE_UNAUTHORIZED, "robot token revoked")
         return robot
+
+
+def _refused(error: ValueError) -> RejectedMessage:
+    """A message the service refused: another robot's transport (4403), else a bad one (4400)."""
+    if isinstance(error, service.TransportNotOwned):
+        return RejectedMessage(protocol.CLOSE_FORBIDDEN, str(error))
+    return RejectedMessage(protocol.CLOSE_BAD_MESSAGE, str(error))
 
 
 def _unstorable(error: Exception) -> bool:

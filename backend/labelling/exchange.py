@@ -1,6 +1,13 @@
 """Import what `export` writes: Vigil JSON (new video), COCO keypoints (new video), CSV (labels
-onto existing videos). Imported labels become segments with source `import`; a JSON import keeps
-each segment's status, CSV and COCO labels arrive accepted (the export holds accepted labels)."""
+onto existing videos).
+
+A file is untrusted input from whoever uploads it, so import never takes the fields that decide
+what reaches training or the gold set from it (issue 18): a new video's split is `unassigned`
+(only an admin changes it: `PATCH /api/labelling/videos/{id}`) and its source is `import`; a
+file may mark its recording as generated but never make generated data pass for real. Every
+imported label becomes a `pending` segment with source `import`, the importer as its annotator
+and no reviewer or review comment, whatever status the file says: it is reviewed like any other,
+by someone else."""
 
 from __future__ import annotations
 
@@ -25,9 +32,15 @@ from backend.labelling.validation import (
     validated,
 )
 from backend.models.annotations import AnnotationSegment, SegmentSource, SegmentStatus
+from backend.models.users import User
 from backend.models.videos import Split, Video
 from vigil.formats.coco import coco17_to_body25
 from vigil.skeleton import N_FLOOR, N_KEYPOINTS
+
+#: `Video.source` of every video created by an import (the file's own claim is not kept).
+IMPORTED_SOURCE = "import"
+#: The status of every imported segment: proposed, waiting for a reviewer.
+IMPORTED_STATUS = SegmentStatus.PENDING
 
 
 def _video_from_meta(meta: object, name: str | None) -> Video:
@@ -42,34 +55,33 @@ def _video_from_meta(meta: object, name: str | None) -> Video:
         raise LabellingError("video.name: missing")
     return Video(
         name=name or checked.name,
-        source=checked.source or "export",
-        generated=checked.generated,
+        source=IMPORTED_SOURCE,
+        # The cautious direction only: a file can say "generated", never "real".
+        generated=checked.generated is True,
         mode=checked.mode,
         camera=checked.camera,
         location=checked.location,
         fps=checked.fps or 30.0,
         person=checked.person,
-        split=checked.split or Split.UNASSIGNED,
+        split=Split.UNASSIGNED,
         image_width=checked.image_width or None,
         image_height=checked.image_height or None,
         intrinsics=checked.intrinsics.model_dump() if checked.intrinsics else None,
     )
 
 
+def _add_segment(
+    session: Session, video: Video, draft: SegmentDraft, importer: User | None
+) -> AnnotationSegment:
+    return create_segment(
+        session, video, draft, importer, source=SegmentSource.IMPORT, status=IMPORTED_STATUS
+    )
+
+
 def _add_segments(
-    session: Session, video: Video, runs, status=SegmentStatus.ACCEPTED
+    session: Session, video: Video, runs, importer: User | None
 ) -> list[AnnotationSegment]:
-    return [
-        create_segment(
-            session,
-            video,
-            SegmentDraft(first, last, label),
-            None,
-            source=SegmentSource.IMPORT,
-            status=status,
-        )  # fmt: skip
-        for first, last, label in runs
-    ]
+    return [_add_segment(session, video, SegmentDraft(*run), importer) for run in runs]
 
 
 def _numbers(frames: list, key: str, shape: tuple[int, ...], optional: bool) -> np.ndarray:
@@ -100,7 +112,9 @@ def _numbers(frames: list, key: str, shape: tuple[int, ...], optional: bool) -> 
     return out
 
 
-def import_json(session: Session, document: dict, name: str | None = None) -> Video:
+def import_json(
+    session: Session, document: dict, name: str | None = None, importer: User | None = None
+) -> Video:
     if document.get("format") != JSON_FORMAT:
         raise LabellingError(f"format: expected {JSON_FORMAT!r}, got {document.get('format')!r}")
     video = _video_from_meta(document.get("video"), name)
@@ -117,15 +131,15 @@ def import_json(session: Session, document: dict, name: str | None = None) -> Vi
         raise LabellingError("frames: indices must be unique and not negative")
     add_video(session, video, keypoints, timestamps, depth, indices, floor)
     for segment in validated(list[SegmentRecord], document.get("segments") or [], "segments"):
+        # status, reviewer and review_comment in the file are ignored (see the module doc).
         draft = SegmentDraft(segment.first_frame, segment.last_frame, segment.label_key)
-        created = create_segment(
-            session, video, draft, None, source=SegmentSource.IMPORT, status=segment.status
-        )
-        created.review_comment = segment.review_comment
+        _add_segment(session, video, draft, importer)
     return video
 
 
-def import_coco(session: Session, document: dict, name: str | None = None) -> Video:
+def import_coco(
+    session: Session, document: dict, name: str | None = None, importer: User | None = None
+) -> Video:
     info = document.get("info") or {}
     if not isinstance(info, dict):
         raise LabellingError("info: must be an object")
@@ -160,11 +174,11 @@ def import_coco(session: Session, document: dict, name: str | None = None) -> Vi
     frame_label = [None] * video.frame_count
     for index, label in zip(indices, labels, strict=True):
         frame_label[index] = label or None
-    _add_segments(session, video, label_runs(frame_label))
+    _add_segments(session, video, label_runs(frame_label), importer)
     return video
 
 
-def import_csv(session: Session, text: str) -> dict[str, int]:
+def import_csv(session: Session, text: str, importer: User | None = None) -> dict[str, int]:
     """Labels onto videos that exist (by name); returns segments created per video."""
     # newline="": the csv module splits lines itself, so a lone \r ends a line as in any editor.
     reader = csv.DictReader(io.StringIO(text, newline=""))
@@ -195,5 +209,5 @@ def import_csv(session: Session, text: str) -> dict[str, int]:
                 f"csv: video {name!r} has frames 0..{video.frame_count - 1}, not {outside[0]}"
             )
         frame_label = [labels.get(i) for i in range(video.frame_count)]
-        created[name] = len(_add_segments(session, video, label_runs(frame_label)))
+        created[name] = len(_add_segments(session, video, label_runs(frame_label), importer))
     return created

@@ -5,7 +5,7 @@ from __future__ import annotations
 from collections.abc import Iterable
 
 import numpy as np
-from sqlalchemy import select
+from sqlalchemy import ColumnElement, select
 from sqlalchemy.orm import Session
 
 from backend.models.annotations import AnnotationSegment, SegmentSource, SegmentStatus
@@ -23,9 +23,13 @@ def videos_matching(
     split: Split | None = None,
     source: str | None = None,
     person: str | None = None,
+    scope: ColumnElement[bool] | None = None,
 ) -> list[Video]:
-    """Videos by name, narrowed by whichever filters are given."""
+    """Videos by name, narrowed by whichever filters are given; `scope`: the caller's wards
+    (backend.wards.videos_visible)."""
     query = select(Video).order_by(Video.name)
+    if scope is not None:
+        query = query.where(scope)
     for column, value in (
         (Video.mode, mode), (Video.split, split), (Video.source, source), (Video.person, person)
     ):  # fmt: skip
@@ -117,21 +121,24 @@ IMPORTED_LABELS = "(imported)"
 def agreement_annotators(session: Session, video_id: int) -> list[str]:
     """Who can be compared on a video: its annotators by name, then the imported labels."""
     live = video_segments(session, video_id)
-    names = sorted(usernames(session, {s.annotator_id for s in live if s.annotator_id}).values())
-    if any(s.annotator_id is None and s.source == SegmentSource.IMPORT for s in live):
+    drawn = {s.annotator_id for s in live if s.annotator_id and s.source != SegmentSource.IMPORT}
+    names = sorted(usernames(session, drawn).values())
+    if any(s.source == SegmentSource.IMPORT for s in live):
         names.append(IMPORTED_LABELS)
     return names
 
 
 def agreement_spans(session: Session, video_id: int, who: str) -> list[tuple[int, int, str]] | None:
-    """(first, last, label) of one side of an agreement: a user's live segments that were not
-    rejected, or the imported labels; None when no such user exists."""
+    """(first, last, label) of one side of an agreement: the segments a user drew (live, not
+    rejected), or the imported labels (whoever imported them); None when no such user exists."""
     live = [s for s in video_segments(session, video_id) if s.status != SegmentStatus.REJECTED]
     if who == IMPORTED_LABELS:
-        chosen = [s for s in live if s.annotator_id is None and s.source == SegmentSource.IMPORT]
+        chosen = [s for s in live if s.source == SegmentSource.IMPORT]
     else:
         owner = user_by_name(session, who)
         if owner is None:
             return None
-        chosen = [s for s in live if s.annotator_id == owner.id]
+        chosen = [
+            s for s in live if s.annotator_id == owner.id and s.source != SegmentSource.IMPORT
+        ]
     return [(s.first_frame, s.last_frame, s.label_key) for s in chosen]

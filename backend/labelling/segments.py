@@ -106,7 +106,9 @@ def create_segment(
         taxonomy_version=taxonomy.version,
         status=status,
         source=source,
-        annotator_id=actor.id if actor and source != SegmentSource.IMPORT else None,
+        # An imported segment's annotator is whoever imported it (none from the command line),
+        # so they cannot accept their own import.
+        annotator_id=actor.id if actor else None,
         model_version=model_version,
         priority=priority,
     )
@@ -146,8 +148,10 @@ def update_segment(
     segment.first_frame, segment.last_frame = first, last
     if segment.status == SegmentStatus.REJECTED:
         segment.status = SegmentStatus.DRAFT
-    if segment.annotator_id is None and segment.source != SegmentSource.IMPORT:
-        segment.annotator_id = actor.id  # a proposal becomes the fixing annotator's segment
+    if segment.annotator_id is None:
+        # A proposal (or a command-line import) becomes the fixing annotator's segment, so
+        # someone else reviews it.
+        segment.annotator_id = actor.id
     record(session, segment, actor, "updated")
     return segment
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from sqlalchemy import func, select
+from sqlalchemy import ColumnElement, func, select
 from sqlalchemy.orm import Session
 
 from backend.models.alarms import Alarm, AlarmKind, AlarmState
@@ -106,12 +106,16 @@ def list_deployments(session: Session, limit: int = 100) -> list[DeploymentOut]:
 
 
 def fleet(
-    session: Session, connected: set[str], model: ModelVersion | None = None
+    session: Session,
+    connected: set[str],
+    model: ModelVersion | None = None,
+    scope: ColumnElement[bool] | None = None,
 ) -> list[FleetRobot]:
     """Every robot's target vs running version, its inputs and fallback; with `model`, whether
-    each robot qualifies for it."""
+    each robot qualifies for it. `scope`: the caller's wards (backend.wards.robots_visible)."""
     models = {m.id: m for m in session.scalars(select(ModelVersion))}
-    robots = session.scalars(select(Robot).order_by(Robot.ward, Robot.id))
+    query = select(Robot) if scope is None else select(Robot).where(scope)
+    robots = session.scalars(query.order_by(Robot.ward, Robot.id))
     degraded = set(
         session.scalars(
             select(Alarm.robot_id).where(

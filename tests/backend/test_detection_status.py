@@ -149,7 +149,7 @@ def test_a_status_naming_another_robots_transport_closes_the_connection(
         connect(ws, robot)
         ws.send_text(degraded(1.0, transport_id="t-b"))
         closed = ws.receive()
-        assert closed["type"] == "websocket.close" and closed["code"] == 4400
+        assert closed["type"] == "websocket.close" and closed["code"] == 4403  # CLOSE_FORBIDDEN
         assert "belongs to another robot" in closed["reason"]
 
 

@@ -269,7 +269,7 @@ def test_transport_of_another_robot_is_refused(client, robot, other_robot, sessi
         hello(b, other_robot, OTHER_TOKEN)
         b.send_text(start.model_dump_json())
         code, reason = closed_with(b)
-    assert code == protocol.CLOSE_BAD_MESSAGE
+    assert code == protocol.CLOSE_FORBIDDEN
     assert "belongs to another robot" in reason
 
 

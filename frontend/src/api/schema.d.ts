@@ -158,7 +158,10 @@ export interface paths {
             path?: never;
             cookie?: never;
         };
-        /** List Robots */
+        /**
+         * List Robots
+         * @description The robots of the wards the caller sees (backend.wards).
+         */
         get: operations["list_robots_api_robots_get"];
         put?: never;
         /** Create Robot */
@@ -218,7 +221,10 @@ export interface paths {
             path?: never;
             cookie?: never;
         };
-        /** List Transports */
+        /**
+         * List Transports
+         * @description The transports of the wards the caller sees (backend.wards), newest first.
+         */
         get: operations["list_transports_api_transports_get"];
         put?: never;
         post?: never;

@@ -5,8 +5,10 @@ import json
 API = "/api/labelling"
 
 
-def _export(client, account, video_id, fmt):
-    response = client.get(f"{API}/videos/{video_id}/export?format={fmt}", headers=account.headers)
+def _export(client, account, video_id, fmt, status=None):
+    """`status`: which segments (accepted by default); imported ones are pending."""
+    query = f"format={fmt}" + (f"&status={status}" if status else "")
+    response = client.get(f"{API}/videos/{video_id}/export?{query}", headers=account.headers)
     assert response.status_code == 200, response.text
     return response
 
@@ -37,16 +39,20 @@ def test_json_round_trip_reproduces_frames_and_segments(client, urfd_videos, ann
         for v in client.get(f"{API}/videos", headers=annotator.headers).json()
         if v["name"] == "fall-01-copy"
     )
-    second = _export(client, annotator, copy_id, "json").json()
+    second = _export(client, annotator, copy_id, "json", status="pending").json()
     assert second["frames"] == first["frames"]
     assert first["frames"][0]["floor"][0] > 1.5  # URFD's standing person, top above the floor
 
     def strip(segs):
-        return [(s["first_frame"], s["last_frame"], s["label_key"], s["status"]) for s in segs]
+        return [(s["first_frame"], s["last_frame"], s["label_key"]) for s in segs]
 
     assert strip(second["segments"]) == strip(first["segments"])
-    assert {k: v for k, v in second["video"].items() if k != "name"} == {
-        k: v for k, v in first["video"].items() if k != "name"
+    # The labels come back to be reviewed, the provenance is the import's (issue 18).
+    assert {s["status"] for s in second["segments"]} == {"pending"}
+    assert (second["video"]["source"], second["video"]["split"]) == ("import", "unassigned")
+    kept = {"name", "source", "split"}
+    assert {k: v for k, v in second["video"].items() if k not in kept} == {
+        k: v for k, v in first["video"].items() if k not in kept
     }
     duplicate = _import(client, annotator, "json", json.dumps(first), name="fall-01-copy")
     assert duplicate.status_code == 409
@@ -64,7 +70,7 @@ def test_csv_round_trip_onto_a_video_without_labels(client, urfd_videos, annotat
         for v in client.get(f"{API}/videos", headers=annotator.headers).json()
         if v["name"] == "bare"
     )
-    assert _export(client, annotator, bare, "csv").text == renamed
+    assert _export(client, annotator, bare, "csv", status="pending").text == renamed
 
 
 def test_coco_round_trip_keeps_the_17_keypoints_and_labels(client, urfd_videos, annotator):
@@ -79,7 +85,7 @@ def test_coco_round_trip_keeps_the_17_keypoints_and_labels(client, urfd_videos, 
         for v in client.get(f"{API}/videos", headers=annotator.headers).json()
         if v["name"] == "from-coco"
     )
-    second = _export(client, annotator, copy, "coco").json()
+    second = _export(client, annotator, copy, "coco", status="pending").json()
     assert second["annotations"] == first["annotations"]
     assert [i["label_key"] for i in second["images"]] == [i["label_key"] for i in first["images"]]
 
@@ -124,3 +130,95 @@ def test_frame_numbers_outside_the_video_or_storage_are_refused(client, urfd_vid
     assert huge.status_code == 422 and "frame numbers" in huge.json()["detail"]
     response = client.get(f"{API}/videos/{2**40}/segments", headers=annotator.headers)
     assert response.status_code == 422
+
+
+def _video_named(client, account, name):
+    videos = client.get(f"{API}/videos", headers=account.headers).json()
+    return next(v for v in videos if v["name"] == name)
+
+
+def test_an_import_cannot_write_into_the_gold_set(
+    client, urfd_videos, annotator, annotator2, admin
+):
+    """Issue 18, item 1: the file's split, provenance, statuses and reviewer are not taken."""
+    document = _export(client, annotator, urfd_videos["fall-01"], "json").json()
+    document["video"].update(split="test", source="urfd", generated=False)
+    document["segments"] = [
+        {"first_frame": 0, "last_frame": 159, "label_key": "walking", "status": "accepted",
+         "reviewer": "ada", "review_comment": "looks right"}
+    ]  # fmt: skip
+    created = _import(client, annotator, "json", json.dumps(document), name="forged")
+    assert created.status_code == 201, created.text
+    forged = _video_named(client, annotator, "forged")
+    assert (forged["split"], forged["source"], forged["status"]) == (
+        "unassigned", "import", "in_review"
+    )  # fmt: skip
+    gold = client.get(f"{API}/videos?split=test", headers=admin.headers).json()
+    assert "forged" not in [v["name"] for v in gold]
+    segments = client.get(f"{API}/videos/{forged['id']}/segments", headers=annotator.headers)
+    [segment] = segments.json()
+    assert segment["status"] == "pending" and segment["source"] == "import"
+    assert segment["reviewer"] is None and segment["review_comment"] is None
+    assert segment["annotator"] == "anna"
+    # Nothing of it is training data until someone else reviews it...
+    assert _export(client, admin, forged["id"], "json").json()["segments"] == []
+    review = f"{API}/segments/{segment['id']}/review"
+    own = client.post(review, json={"decision": "accept"}, headers=annotator.headers)
+    assert own.status_code == 403
+    other = client.post(review, json={"decision": "accept"}, headers=annotator2.headers)
+    assert other.status_code == 200, other.text
+    # ...and only an admin puts it into a split.
+    split = f"{API}/videos/{forged['id']}"
+    assert client.patch(split, json={"split": "test"}, headers=annotator.headers).status_code == 403
+    assert client.patch(split, json={"split": "test"}, headers=admin.headers).json()["split"] == (
+        "test"
+    )
+
+
+def test_a_file_can_mark_its_recording_generated_but_not_real(client, urfd_videos, annotator):
+    document = _export(client, annotator, urfd_videos["fall-01"], "json").json()
+    document["video"]["generated"] = True
+    _import(client, annotator, "json", json.dumps(document), name="said-generated")
+    assert _video_named(client, annotator, "said-generated")["generated"] is True
+
+
+def test_csv_and_coco_labels_arrive_pending(client, urfd_videos, annotator):
+    coco = _export(client, annotator, urfd_videos["fall-01"], "coco").json()
+    assert _import(client, annotator, "coco", json.dumps(coco), name="c").status_code == 201
+    document = _export(client, annotator, urfd_videos["fall-01"], "json").json()
+    document["segments"] = []
+    _import(client, annotator, "json", json.dumps(document), name="bare")
+    labels = _export(client, annotator, urfd_videos["fall-01"], "csv").text
+    assert _import(client, annotator, "csv", labels.replace("fall-01,", "bare,")).status_code == 201
+    for name in ("c", "bare"):
+        video = _video_named(client, annotator, name)
+        assert video["segment_counts"] == {"pending": 3}, video
+
+
+def test_a_command_line_import_edited_by_an_annotator_is_reviewed_by_someone_else(
+    client, urfd_videos, annotator, annotator2, session_factory
+):
+    """A command-line import has no importer; whoever edits its label owns it from then on."""
+    from backend.db import transaction
+    from backend.labelling import exchange
+
+    document = _export(client, annotator, urfd_videos["fall-01"], "json").json()
+    document["segments"] = [{"first_frame": 0, "last_frame": 9, "label_key": "walking",
+                             "status": "accepted"}]  # fmt: skip
+    with transaction(session_factory) as session:
+        exchange.import_json(session, document, "from-cli")
+    video = _video_named(client, annotator, "from-cli")
+    [segment] = client.get(f"{API}/videos/{video['id']}/segments", headers=annotator.headers).json()
+    assert (segment["status"], segment["annotator"]) == ("pending", None)
+    edited = client.patch(f"{API}/segments/{segment['id']}", json={"label_key": "bending"},
+                          headers=annotator.headers)  # fmt: skip
+    assert edited.status_code == 200, edited.text
+    review = f"{API}/segments/{segment['id']}/review"
+    assert (
+        client.post(review, json={"decision": "accept"}, headers=annotator.headers).status_code
+        == 403
+    )
+    assert (
+        client.post(review, json={"decision": "accept"}, headers=annotator2.headers).status_code
+        == 200
+    )
