@@ -300,3 +300,29 @@ def test_storage_stall_shows_the_emergency_not_yet_stored_then_the_stored_card(
         expect(stalled).to_have_count(0)
     finally:
         server.stop()
+
+
+def test_audio_pause_silences_for_now_and_lifts_for_a_new_emergency(live_server, page):
+    sign_in(page, live_server.base_url)
+    board = page.locator("main.board")
+    expect(board).to_have_attribute("data-link", "live")
+    page.get_by_role("button", name="Start shift").click()
+    expect(board).to_have_attribute("data-audio-state", "ready")
+    with SimulatedRobot(live_server.robot_ws_url, "robot-a", ROBOT_TOKEN) as robot:
+        robot.start_transport("t-p1", patient="P-1", location="lift 1")
+        robot.stream(fall_frames(0, time.time() - 5, "t-p1"))
+    expect(board).to_have_attribute("data-audio-state", "playing")
+
+    page.get_by_role("button", name="Pause audio 2 min").click()
+    expect(board).to_have_attribute("data-audio-state", "ready")
+    expect(page.get_by_test_id("audio-paused")).to_contain_text(
+        re.compile(r"Audio paused: [12]:\d\d")
+    )
+    expect(_card(page)).to_have_count(1)  # the visual alarm stays
+
+    with SimulatedRobot(live_server.robot_ws_url, "robot-a", ROBOT_TOKEN) as robot:
+        robot.start_transport("t-p2", patient="P-2", location="lift 2")
+        robot.stream(fall_frames(1000, time.time() - 5, "t-p2"))
+    expect(_card(page)).to_have_count(2)
+    expect(board).to_have_attribute("data-audio-state", "playing")  # a new Emergency: pause lifted
+    expect(page.get_by_test_id("audio-paused")).to_have_count(0)

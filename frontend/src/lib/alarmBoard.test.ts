@@ -1,5 +1,4 @@
 import { describe, expect, it } from "vitest";
-import type { Alarm } from "../api/types";
 import {
   alarmTitle,
   applyMessage,
@@ -10,41 +9,7 @@ import {
   sortForBoard,
   wardsOf,
 } from "./alarmBoard";
-
-function alarm(over: Partial<Alarm>): Alarm {
-  return {
-    id: 1,
-    kind: "emergency",
-    priority: "high",
-    state: "open",
-    robot_id: "r1",
-    ward: "A",
-    transport_id: "t1",
-    patient: "P-1",
-    location: "corridor",
-    raised_at: "2026-01-01T10:00:00Z",
-    updated_at: "2026-01-01T10:00:00Z",
-    acknowledged_at: null,
-    acknowledged_by: null,
-    resolved_at: null,
-    resolved_by: null,
-    verdict: null,
-    reason: null,
-    comment: null,
-    escalation_level: 0,
-    realarmed_at: null,
-    video_id: 1,
-    decision_count: 1,
-    first_seq: 10,
-    last_seq: 20,
-    model_version: "m1",
-    threshold: 0.5,
-    delay_ms: 300,
-    stored: true,
-    key: "r1/t1/emergency",
-    ...over,
-  };
-}
+import { testAlarm as alarm } from "./testAlarm";
 
 describe("applyMessage", () => {
   it("a snapshot replaces the board and drops resolved alarms", () => {

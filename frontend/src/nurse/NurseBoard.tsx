@@ -2,6 +2,7 @@ import { useEffect, useMemo, useState } from "react";
 import type { Alarm } from "../api/types";
 import { useAuth } from "../auth/AuthContext";
 import { inWard, needsAttention, soundRequired, sortForBoard, wardsOf } from "../lib/alarmBoard";
+import { pauseAudio, pauseHolds, pauseLeft, type AudioPause } from "../lib/audioPause";
 import { useNow } from "../lib/useNow";
 import { AlarmCard } from "./AlarmCard";
 import { ResolveDialog, type Resolution } from "./ResolveDialog";
@@ -23,7 +24,10 @@ export function NurseBoard() {
     if (user?.ward && !all.includes(user.ward)) all.unshift(user.ward);
     return all;
   }, [board, user]);
-  const sound = useAlarmSound(soundRequired(shown));
+  const [audioPause, setAudioPause] = useState<AudioPause | null>(null);
+  const paused = pauseHolds(audioPause, shown, now);
+  useEffect(() => { if (audioPause && !paused) setAudioPause(null); }, [audioPause, paused]);
+  const sound = useAlarmSound(soundRequired(shown) && !paused);
 
   async function resolve(alarm: Alarm, resolution: Resolution) {
     if (await resolveAlarm(alarm, resolution)) setResolving(null);
@@ -67,6 +71,17 @@ export function NurseBoard() {
         <span className={`audio audio-${sound.state}`}>
           {sound.state === "playing" ? "● sounding" : sound.state === "ready" ? "sound on" : "sound locked"}
         </span>
+        {sound.state === "playing" && (
+          <button type="button" onClick={() => setAudioPause(pauseAudio(shown, Date.now()))}>
+            Pause audio 2 min
+          </button>
+        )}
+        {audioPause && paused && (
+          <span className="audio-paused" role="status" data-testid="audio-paused">
+            Audio paused: {pauseLeft(audioPause, now)} left (a new Emergency sounds at once){" "}
+            <button type="button" onClick={() => setAudioPause(null)}>Resume audio</button>
+          </span>
+        )}
       </div>
       {error && !resolving && <p role="alert" className="error">{error}</p>}
       {shown.length === 0 ? (
