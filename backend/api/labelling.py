@@ -66,6 +66,8 @@ from vigil.skeleton import decode_keypoints
 router = APIRouter(prefix="/api/labelling", tags=["labelling"])
 
 ExportFormat = Literal["csv", "json", "coco"]
+#: Each format its own file name: a JSON and a COCO export of one video never overwrite each other.
+EXPORT_SUFFIX: dict[str, str] = {"csv": "csv", "json": "json", "coco": "coco.json"}
 
 
 def install(app: FastAPI, settings: Settings) -> None:
@@ -344,7 +346,7 @@ def export_video(
 ) -> Response:
     video = segments.get_video(session, video_id)
     statuses = status_ or [SegmentStatus.ACCEPTED]
-    filename = f"{video.name}.{'csv' if format == 'csv' else 'json'}"
+    filename = f"{video.name}.{EXPORT_SUFFIX[format]}"
     headers = {"Content-Disposition": attachment(filename)}
     if format == "csv":
         return Response(export.export_csv(session, video, statuses), media_type="text/csv",
@@ -362,6 +364,12 @@ async def import_file(
     user: CurrentUser,
     format: ExportFormat = Query(description="what the file holds"),
     name: str | None = Query(default=None, max_length=128, description="new video name"),
+    mode: exchange.ImportMode | None = Query(
+        default=None,
+        description="new: a new video (JSON, COCO: the default); merge: the file's labels onto "
+        "the existing video, but those it holds already (CSV: the default); replace: as merge, "
+        "after withdrawing the video's imported labels still under review",
+    ),
 ) -> ImportOut:
     raw = await file.read()
     try:
@@ -369,8 +377,10 @@ async def import_file(
     except UnicodeDecodeError as error:
         raise LabellingError("file: must be UTF-8 text") from error
     if format == "csv":
-        created = exchange.import_csv(session, text, importer=user)
-        return ImportOut(videos=sorted(created), segments=sum(created.values()))
+        placed = exchange.import_csv(
+            session, text, importer=user, mode=mode or exchange.ImportMode.MERGE
+        )
+        return _import_out(sorted(placed), list(placed.values()))
     try:
         document = json.loads(text, parse_constant=_not_a_json_number)
     except json.JSONDecodeError as error:
@@ -378,9 +388,19 @@ async def import_file(
     if not isinstance(document, dict):
         raise LabellingError("file: JSON must be an object")
     importer = exchange.import_json if format == "json" else exchange.import_coco
-    video = importer(session, document, name, importer=user)
-    count = len(video_segments(session, video.id))
-    return ImportOut(videos=[video.name], segments=count)
+    imported = importer(
+        session, document, name, importer=user, mode=mode or exchange.ImportMode.NEW
+    )
+    return _import_out([imported.video.name], [imported.placed])
+
+
+def _import_out(videos: list[str], placed: list[exchange.Placed]) -> ImportOut:
+    return ImportOut(
+        videos=videos,
+        segments=sum(p.created for p in placed),
+        already_there=sum(p.already_there for p in placed),
+        replaced=sum(p.replaced for p in placed),
+    )
 
 
 # -- agreement ------------------------------------------------------------------------------

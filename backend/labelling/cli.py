@@ -83,14 +83,17 @@ def run(session, args, settings: Settings) -> str:
         raise LabellingError(f"file: {args.file} does not exist")
     text = args.file.read_text()
     if args.format == "csv":
-        created = exchange.import_csv(session, text)
-        return f"labels imported: {created}"
+        placed = exchange.import_csv(session, text)
+        return "labels imported: " + ", ".join(
+            f"{name}: {p.created} added, {p.already_there} already there"
+            for name, p in placed.items()
+        )
     importer = exchange.import_json if args.format == "json" else exchange.import_coco
     try:
         document = json.loads(text)
     except json.JSONDecodeError as error:
         raise LabellingError(f"file: not JSON ({error.msg})") from error
-    video = importer(session, document, args.name)
+    video = importer(session, document, args.name).video
     return f"video {video.name}: {video.frame_count} frames"
 
 

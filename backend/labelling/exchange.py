@@ -7,21 +7,29 @@ what reaches training or the gold set from it (issue 18): a new video's split is
 file may mark its recording as generated but never make generated data pass for real. Every
 imported label becomes a `pending` segment with source `import`, the importer as its annotator
 and no reviewer or review comment, whatever status the file says: it is reviewed like any other,
-by someone else."""
+by someone else.
+
+Importing into a video that exists is explicit (`ImportMode`): `merge` adds the file's labels
+the video lacks, so importing the same file twice changes nothing; `replace` first withdraws the
+video's imported labels still under review. A new video's name must be free (`new`)."""
 
 from __future__ import annotations
 
 import csv
 import io
+from dataclasses import dataclass
+from enum import StrEnum
 
 import numpy as np
 from sqlalchemy.orm import Session
 
 from backend.labelling import validation
-from backend.labelling.errors import LabellingError
+from backend.labelling.errors import Conflict, LabellingError
 from backend.labelling.export import CSV_COLUMNS, JSON_FORMAT
+from backend.labelling.queries import video_segments
 from backend.labelling.runs import label_runs
-from backend.labelling.segments import SegmentDraft, create_segment
+from backend.labelling.segments import SegmentDraft, create_segment, delete_segment
+from backend.labelling.status import EDITABLE
 from backend.labelling.store import add_video, video_by_name
 from backend.labelling.validation import (
     CocoAnnotation,
@@ -41,6 +49,83 @@ from vigil.skeleton import N_FLOOR, N_KEYPOINTS
 IMPORTED_SOURCE = "import"
 #: The status of every imported segment: proposed, waiting for a reviewer.
 IMPORTED_STATUS = SegmentStatus.PENDING
+
+
+class ImportMode(StrEnum):
+    NEW = "new"  # a new video (JSON, COCO); its name must be free
+    MERGE = "merge"  # the file's labels onto the existing video, but those it already holds
+    REPLACE = "replace"  # as merge, after withdrawing its imported labels still under review
+
+
+@dataclass(frozen=True, slots=True)
+class Placed:
+    """What an import did to one video's labels."""
+
+    created: int = 0
+    already_there: int = 0
+    replaced: int = 0
+
+
+@dataclass(frozen=True, slots=True)
+class Imported:
+    video: Video
+    placed: Placed
+
+
+def _place(
+    session: Session,
+    video: Video,
+    runs: list[tuple[int, int, str]],
+    importer: User | None,
+    mode: ImportMode,
+) -> Placed:
+    """The file's labels onto a video: a label the video already holds live (same frames, same
+    label, not rejected) is not added again."""
+    live = video_segments(session, video.id)
+    replaced = 0
+    if mode == ImportMode.REPLACE:
+        if importer is None:
+            raise LabellingError("mode: replace needs a signed-in importer")
+        for segment in live:
+            if segment.source == SegmentSource.IMPORT and segment.status in EDITABLE:
+                delete_segment(session, segment, importer)
+                replaced += 1
+        live = video_segments(session, video.id)
+    held = {
+        (s.first_frame, s.last_frame, s.label_key)
+        for s in live
+        if s.status != SegmentStatus.REJECTED
+    }
+    created = 0
+    for run in runs:
+        if tuple(run) in held:
+            continue
+        _add_segment(session, video, SegmentDraft(*run), importer)
+        held.add(tuple(run))
+        created += 1
+    return Placed(created=created, already_there=len(runs) - created, replaced=replaced)
+
+
+def _target(session: Session, video: Video, mode: ImportMode, frame_count: int) -> Video | None:
+    """The existing video an import of `video`'s name goes into (merge, replace), or None for a
+    new video. Refuses a taken name for `new` and a missing video or other frames for the rest."""
+    existing = video_by_name(session, video.name)
+    if mode == ImportMode.NEW:
+        if existing is not None:
+            raise Conflict(
+                f"video: {video.name!r} exists; import with mode=merge to add the labels it "
+                "lacks, mode=replace to replace its imported labels under review, or pass another "
+                "name"
+            )
+        return None
+    if existing is None:
+        raise LabellingError(f"mode: {mode} needs an existing video, and {video.name!r} is not one")
+    if existing.frame_count != frame_count:
+        raise LabellingError(
+            f"frames: the file has {frame_count} frames, video {video.name!r} has "
+            f"{existing.frame_count}: not the same recording"
+        )
+    return existing
 
 
 def _video_from_meta(meta: object, name: str | None) -> Video:
@@ -78,12 +163,6 @@ def _add_segment(
     )
 
 
-def _add_segments(
-    session: Session, video: Video, runs, importer: User | None
-) -> list[AnnotationSegment]:
-    return [_add_segment(session, video, SegmentDraft(*run), importer) for run in runs]
-
-
 def _numbers(frames: list, key: str, shape: tuple[int, ...], optional: bool) -> np.ndarray:
     """frames[i][key] of every frame as float32 (n, *shape); an optional field may be missing
     or null (all NaN) and hold nulls (NaN). Each error names the frame and the field."""
@@ -113,8 +192,12 @@ def _numbers(frames: list, key: str, shape: tuple[int, ...], optional: bool) -> 
 
 
 def import_json(
-    session: Session, document: dict, name: str | None = None, importer: User | None = None
-) -> Video:
+    session: Session,
+    document: dict,
+    name: str | None = None,
+    importer: User | None = None,
+    mode: ImportMode = ImportMode.NEW,
+) -> Imported:
     if document.get("format") != JSON_FORMAT:
         raise LabellingError(f"format: expected {JSON_FORMAT!r}, got {document.get('format')!r}")
     video = _video_from_meta(document.get("video"), name)
@@ -129,17 +212,24 @@ def import_json(
     floor = _numbers(frames, "floor", (N_FLOOR,), optional=True)
     if min(indices) < 0 or len(set(indices)) != len(indices):
         raise LabellingError("frames: indices must be unique and not negative")
-    add_video(session, video, keypoints, timestamps, depth, indices, floor)
-    for segment in validated(list[SegmentRecord], document.get("segments") or [], "segments"):
-        # status, reviewer and review_comment in the file are ignored (see the module doc).
-        draft = SegmentDraft(segment.first_frame, segment.last_frame, segment.label_key)
-        _add_segment(session, video, draft, importer)
-    return video
+    records = validated(list[SegmentRecord], document.get("segments") or [], "segments")
+    existing = _target(session, video, mode, max(indices) + 1)
+    if existing is None:
+        add_video(session, video, keypoints, timestamps, depth, indices, floor)
+    else:
+        video = existing
+    # status, reviewer and review_comment in the file are ignored (see the module doc).
+    runs = [(r.first_frame, r.last_frame, r.label_key) for r in records]
+    return Imported(video, _place(session, video, runs, importer, mode))
 
 
 def import_coco(
-    session: Session, document: dict, name: str | None = None, importer: User | None = None
-) -> Video:
+    session: Session,
+    document: dict,
+    name: str | None = None,
+    importer: User | None = None,
+    mode: ImportMode = ImportMode.NEW,
+) -> Imported:
     info = document.get("info") or {}
     if not isinstance(info, dict):
         raise LabellingError("info: must be an object")
@@ -170,16 +260,26 @@ def import_coco(
         points.append(coco)
         labels.append(image.label_key)
     keypoints = coco17_to_body25(np.stack(points))
-    add_video(session, video, keypoints, [i / video.fps for i in indices], None, indices)
+    existing = _target(session, video, mode, max(indices) + 1)
+    if existing is None:
+        add_video(session, video, keypoints, [i / video.fps for i in indices], None, indices)
+    else:
+        video = existing
     frame_label = [None] * video.frame_count
     for index, label in zip(indices, labels, strict=True):
         frame_label[index] = label or None
-    _add_segments(session, video, label_runs(frame_label), importer)
-    return video
+    return Imported(video, _place(session, video, label_runs(frame_label), importer, mode))
 
 
-def import_csv(session: Session, text: str, importer: User | None = None) -> dict[str, int]:
-    """Labels onto videos that exist (by name); returns segments created per video."""
+def import_csv(
+    session: Session,
+    text: str,
+    importer: User | None = None,
+    mode: ImportMode = ImportMode.MERGE,
+) -> dict[str, Placed]:
+    """Labels onto videos that exist (by name), merged or replacing; what was placed per video."""
+    if mode == ImportMode.NEW:
+        raise LabellingError("mode: a CSV carries labels only, not frames: use merge or replace")
     # newline="": the csv module splits lines itself, so a lone \r ends a line as in any editor.
     reader = csv.DictReader(io.StringIO(text, newline=""))
     try:
@@ -198,7 +298,7 @@ def import_csv(session: Session, text: str, importer: User | None = None) -> dic
     except csv.Error as error:
         # line_num counts the lines parsed so far; the one that failed is the next.
         raise LabellingError(f"csv line {reader.line_num + 1}: {error}") from error
-    created: dict[str, int] = {}
+    placed: dict[str, Placed] = {}
     for name, labels in per_video.items():
         video = video_by_name(session, name)
         if video is None:
@@ -209,5 +309,5 @@ def import_csv(session: Session, text: str, importer: User | None = None) -> dic
                 f"csv: video {name!r} has frames 0..{video.frame_count - 1}, not {outside[0]}"
             )
         frame_label = [labels.get(i) for i in range(video.frame_count)]
-        created[name] = len(_add_segments(session, video, label_runs(frame_label), importer))
-    return created
+        placed[name] = _place(session, video, label_runs(frame_label), importer, mode)
+    return placed

@@ -163,7 +163,11 @@ class ProbabilityOut(BaseModel):
 
 class ImportOut(BaseModel):
     videos: list[str]
-    segments: int
+    segments: int = Field(description="segments the import created")
+    already_there: int = Field(
+        default=0, description="labels of the file the video held already (merge: not added)"
+    )
+    replaced: int = Field(default=0, description="imported segments under review it withdrew")
 
 
 class View3DOut(BaseModel):

@@ -178,3 +178,28 @@ def test_label_search_applies_only_a_chosen_label_and_overlaps_get_sub_rows(live
         s.locator("rect").first.get_attribute("fill") for s in (floor, walking)
     }  # each label its own colour
     assert len(fills) == 2
+
+
+def test_reimporting_an_export_adds_nothing_and_says_so(live_server, page, db):
+    with transaction(db) as session:
+        import_urfd(session, urfd.default_dir(), ["fall-01"])  # with URFD's own labels
+    sign_in(page, live_server.base_url, "anna")
+    expect(page).to_have_url(f"{live_server.base_url}/annotate")
+    with db() as session:
+        video_id = session.scalars(select(Video.id).where(Video.name == "fall-01")).one()
+    exported = page.request.get(
+        f"{live_server.base_url}/api/labelling/videos/{video_id}/export?format=csv"
+    )
+    assert exported.ok and "fall-01.csv" in exported.headers["content-disposition"]
+    form = page.get_by_role("form", name="Import")
+    form.locator("input[type=file]").set_input_files(
+        {"name": "fall-01.csv", "mimeType": "text/csv", "buffer": exported.body()}
+    )
+    form.get_by_label("Format").select_option("csv")
+    form.get_by_role("button", name="Import", exact=True).click()
+    expect(form.get_by_role("status")).to_contain_text(
+        "Imported into fall-01: 0 new segment(s), 3 already there"
+    )
+    with db() as session:
+        count = len(session.scalars(select(AnnotationSegment)).all())
+    assert count == 3

@@ -1534,12 +1534,32 @@ export interface components {
              */
             storage_stalled_s?: number | null;
         };
+        /**
+         * ImportMode
+         * @enum {string}
+         */
+        ImportMode: "new" | "merge" | "replace";
         /** ImportOut */
         ImportOut: {
             /** Videos */
             videos: string[];
-            /** Segments */
+            /**
+             * Segments
+             * @description segments the import created
+             */
             segments: number;
+            /**
+             * Already There
+             * @description labels of the file the video held already (merge: not added)
+             * @default 0
+             */
+            already_there: number;
+            /**
+             * Replaced
+             * @description imported segments under review it withdrew
+             * @default 0
+             */
+            replaced: number;
         };
         /** JobDetail */
         JobDetail: {
@@ -4330,6 +4350,8 @@ export interface operations {
                 format: "csv" | "json" | "coco";
                 /** @description new video name */
                 name?: string | null;
+                /** @description new: a new video (JSON, COCO: the default); merge: the file's labels onto the existing video, but those it holds already (CSV: the default); replace: as merge, after withdrawing the video's imported labels still under review */
+                mode?: components["schemas"]["ImportMode"] | null;
             };
             header?: never;
             path?: never;

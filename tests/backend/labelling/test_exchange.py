@@ -13,8 +13,8 @@ def _export(client, account, video_id, fmt, status=None):
     return response
 
 
-def _import(client, account, fmt, content: str, name=None):
-    params = f"format={fmt}" + (f"&name={name}" if name else "")
+def _import(client, account, fmt, content: str, name=None, mode=None):
+    params = f"format={fmt}" + (f"&name={name}" if name else "") + (f"&mode={mode}" if mode else "")
     return client.post(
         f"{API}/import?{params}", files={"file": ("x", content.encode())}, headers=account.headers
     )
@@ -56,6 +56,7 @@ def test_json_round_trip_reproduces_frames_and_segments(client, urfd_videos, ann
     }
     duplicate = _import(client, annotator, "json", json.dumps(first), name="fall-01-copy")
     assert duplicate.status_code == 409
+    assert "mode=merge" in duplicate.json()["detail"]
 
 
 def test_csv_round_trip_onto_a_video_without_labels(client, urfd_videos, annotator):
@@ -64,7 +65,8 @@ def test_csv_round_trip_onto_a_video_without_labels(client, urfd_videos, annotat
     _import(client, annotator, "json", json.dumps(document), name="bare")
     exported = _export(client, annotator, urfd_videos["fall-01"], "csv").text
     renamed = exported.replace("fall-01,", "bare,")
-    assert _import(client, annotator, "csv", renamed).json() == {"videos": ["bare"], "segments": 3}
+    placed = _import(client, annotator, "csv", renamed).json()
+    assert placed == {"videos": ["bare"], "segments": 3, "already_there": 0, "replaced": 0}
     bare = next(
         v["id"]
         for v in client.get(f"{API}/videos", headers=annotator.headers).json()
@@ -222,3 +224,69 @@ def test_a_command_line_import_edited_by_an_annotator_is_reviewed_by_someone_els
         client.post(review, json={"decision": "accept"}, headers=annotator2.headers).status_code
         == 200
     )
+
+
+def _csv(client, account, video_id: int, status: str) -> str:
+    return _export(client, account, video_id, "csv", status=status).text
+
+
+def test_reimporting_an_export_into_its_video_is_an_identity(client, urfd_videos, annotator):
+    """CSV, JSON and COCO exports of fall-01, imported back into fall-01 (merge), add nothing:
+    the next export is byte for byte the first."""
+    video = urfd_videos["fall-01"]
+    formats = ("csv", "json", "coco")
+    before = {fmt: _export(client, annotator, video, fmt).content for fmt in formats}
+    segments_before = client.get(f"{API}/videos/{video}/segments", headers=annotator.headers)
+    assert len(segments_before.json()) == 3
+    for fmt, body in before.items():
+        params = {} if fmt == "csv" else {"mode": "merge"}
+        placed = _import(client, annotator, fmt, body.decode(), **params)
+        assert placed.status_code == 201, placed.text
+        assert placed.json()["segments"] == 0 and placed.json()["already_there"] == 3, fmt
+    assert {fmt: _export(client, annotator, video, fmt).content for fmt in formats} == before
+    again = client.get(f"{API}/videos/{video}/segments", headers=annotator.headers)
+    assert again.json() == segments_before.json()
+
+
+def test_replace_withdraws_the_imported_labels_under_review(client, urfd_videos, annotator):
+    document = _export(client, annotator, urfd_videos["fall-01"], "json").json()
+    document["segments"] = []
+    _import(client, annotator, "json", json.dumps(document), name="bare")
+    exported = _export(client, annotator, urfd_videos["fall-01"], "csv").text
+    renamed = exported.replace("fall-01,", "bare,")
+    assert _import(client, annotator, "csv", renamed).json()["segments"] == 3
+    # The file moves the fall's onset by 5 frames: its labels replace the imported ones.
+    header, *body = renamed.splitlines()
+    first_falling = next(i for i, r in enumerate(body) if ",falling," in r)
+    shifted = [r.replace(",falling,", ",walking,").replace(",emergency", ",normal")
+               if first_falling <= i < first_falling + 5 else r
+               for i, r in enumerate(body)]  # fmt: skip
+    text = "\n".join([header, *shifted]) + "\n"
+    placed = _import(client, annotator, "csv", text, mode="replace").json()
+    assert (placed["replaced"], placed["segments"]) == (3, 3)
+    bare = _video_named(client, annotator, "bare")["id"]
+    live = client.get(f"{API}/videos/{bare}/segments", headers=annotator.headers).json()
+    live = [s for s in live if s["status"] != "deleted"]
+    falling = [s for s in live if s["label_key"] == "falling"]
+    assert len(live) == 3 and falling[0]["first_frame"] == first_falling + 5
+
+
+def test_json_into_a_missing_or_other_video_is_refused(client, urfd_videos, annotator):
+    document = _export(client, annotator, urfd_videos["fall-01"], "json").json()
+    missing = _import(client, annotator, "json", json.dumps(document), name="nope", mode="merge")
+    assert missing.status_code == 422 and "needs an existing video" in missing.json()["detail"]
+    other = _import(client, annotator, "json", json.dumps(document), name="adl-01", mode="merge")
+    assert other.status_code == 422 and "not the same recording" in other.json()["detail"]
+    csv_new = _import(client, annotator, "csv", _csv(client, annotator, urfd_videos["fall-01"],
+                                                     "pending"), mode="new")  # fmt: skip
+    assert csv_new.status_code == 422
+
+
+def test_each_export_format_has_its_own_file_name(client, urfd_videos, annotator):
+    names = {
+        fmt: _export(client, annotator, urfd_videos["fall-01"], fmt).headers["content-disposition"]
+        for fmt in ("csv", "json", "coco")
+    }
+    assert 'filename="fall-01.csv"' in names["csv"]
+    assert 'filename="fall-01.json"' in names["json"]
+    assert 'filename="fall-01.coco.json"' in names["coco"]

@@ -143,7 +143,7 @@ def test_any_unicode_name_imports_and_exports_in_every_format(client, annotator,
         v for v in client.get(f"{API}/videos", headers=annotator.headers).json()
         if v["name"] == name
     )  # fmt: skip
-    for fmt, ext in (("csv", "csv"), ("json", "json"), ("coco", "json")):
+    for fmt, ext in (("csv", "csv"), ("json", "json"), ("coco", "coco.json")):
         response = _export(client, annotator, video["id"], fmt)
         disposition = response.headers["content-disposition"]
         encoded = disposition.split("filename*=UTF-8''", 1)[1]

@@ -43,11 +43,13 @@ export function VideosPage() {
   const importFile = async (form: HTMLFormElement) => {
     const data = new FormData(form);
     const format = String(data.get("format"));
+    const mode = String(data.get("mode") ?? "");
     const file = data.get("file");
     if (!(file instanceof File) || !file.size) return setError("Choose a file to import");
     const body = new FormData();
     body.append("file", file);
-    const response = await fetch(`/api/labelling/import?format=${format}`, {
+    const query = new URLSearchParams({ format, ...(mode ? { mode } : {}) });
+    const response = await fetch(`/api/labelling/import?${query}`, {
       method: "POST",
       body,
       headers: { Authorization: `Bearer ${currentToken() ?? ""}` },
@@ -55,7 +57,11 @@ export function VideosPage() {
     const result = await response.json();
     if (response.ok) {
       setError(null);
-      setImported(`Imported ${result.videos.join(", ")} with ${result.segments} segment(s)`);
+      setImported(
+        `Imported into ${result.videos.join(", ")}: ${result.segments} new segment(s)` +
+          (result.already_there ? `, ${result.already_there} already there (not added again)` : "") +
+          (result.replaced ? `, ${result.replaced} imported segment(s) under review replaced` : ""),
+      );
       form.reset();
       await load();
     } else setError(errorMessage(result, "Import failed"));
@@ -116,6 +122,13 @@ export function VideosPage() {
               <option value="json">Vigil JSON (new video)</option>
               <option value="coco">COCO keypoints (new video)</option>
               <option value="csv">CSV labels (existing videos)</option>
+            </select>
+          </label>
+          <label>Into
+            <select name="mode" defaultValue="">
+              <option value="">a new video (JSON, COCO) · merge (CSV)</option>
+              <option value="merge">the existing video: add the labels it lacks</option>
+              <option value="replace">the existing video: replace its imported labels under review</option>
             </select>
           </label>
           <button type="submit">Import</button>
