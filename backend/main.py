@@ -15,6 +15,8 @@ from prometheus_client import CONTENT_TYPE_LATEST, generate_latest
 from sqlalchemy import func, select
 from sqlalchemy.exc import DataError
 
+from backend.accounts.gate import HashingGate
+from backend.accounts.throttle import LoginThrottle, Policy
 from backend.alarms.monitor import AlarmMonitor
 from backend.api import (
     alarm_review,
@@ -26,11 +28,13 @@ from backend.api import (
     misc,
     registry,
     robots,
+    users,
     videos,
 )
 from backend.db import make_engine, make_session_factory
-from backend.deps import CurrentUser
+from backend.deps import SESSION_COOKIE, CurrentUser
 from backend.gc_tuning import collector_tuned_for_ingest
+from backend.http_guards import SecurityMiddleware
 from backend.ingest import robot_ws
 from backend.ingest.registry import RobotRegistry
 from backend.ingest.writer import FrameWriter
@@ -47,6 +51,7 @@ log = logging.getLogger("vigil.backend")
 ROUTERS = (
     auth.router,
     misc.router,
+    users.router,
     robots.router,
     alarms.router,
     alarm_review.router,
@@ -80,6 +85,10 @@ def create_app(settings: Settings | None = None) -> FastAPI:
             flush_frames=settings.ingest_flush_frames,
         )
         writer.start()
+        # Bound to this event loop, hence made here rather than in create_app.
+        app.state.login_gate = HashingGate(
+            settings.login_hash_concurrency, settings.login_queue_wait_s, settings.login_queue_max
+        )
         app.state.monitor = monitor = AlarmMonitor(factory, settings, bus.publish)
         monitor.start()
         reconcile = asyncio.create_task(model_push.reconcile_forever(app))
@@ -103,6 +112,22 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.state.metrics = metrics = Metrics()
     app.state.hub = BrowserHub()
     app.state.robots = RobotRegistry(on_change=metrics.connected_robots.set)
+    app.state.login_throttle = LoginThrottle(
+        user_policy=Policy(
+            settings.login_user_free_failures,
+            settings.login_lockout_base_s,
+            settings.login_lockout_max_s,
+        ),
+        client_policy=Policy(
+            settings.login_client_free_failures,
+            settings.login_lockout_base_s,
+            settings.login_lockout_max_s,
+        ),
+        memory_s=settings.login_failure_memory_s,
+    )
+    app.add_middleware(
+        SecurityMiddleware, cookie_name=SESSION_COOKIE, trusted_origins=settings.trusted_origins
+    )
     for router in ROUTERS:
         app.include_router(router)
     labelling.install(app, settings)
