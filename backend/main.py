@@ -86,8 +86,11 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         )
         writer.start()
         # Bound to this event loop, hence made here rather than in create_app.
-        app.state.login_gate = HashingGate(
-            settings.login_hash_concurrency, settings.login_queue_wait_s, settings.login_queue_max
+        app.state.login_gate = login_gate = HashingGate(
+            settings.login_hash_concurrency,
+            settings.login_queue_wait_s,
+            settings.login_queue_max,
+            settings.login_hash_nice,
         )
         app.state.monitor = monitor = AlarmMonitor(factory, settings, bus.publish)
         monitor.start()
@@ -100,6 +103,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
             await monitor.stop()
             await writer.stop()
             await bus.stop()
+            login_gate.close()
             engine.dispose()
 
     app = FastAPI(

@@ -52,6 +52,13 @@ class Settings(BaseSettings):
         description="password verifications run at once (argon2 in a worker thread), so a login "
         "flood cannot starve robot ingest of CPU",
     )
+    login_hash_nice: int = Field(
+        default=10,
+        ge=0,
+        le=19,
+        description="how much lower the scheduling priority of password hashing threads is "
+        "(ingest first); 0: same as the rest",
+    )
     login_queue_wait_s: float = Field(
         default=2.0,
         ge=0,

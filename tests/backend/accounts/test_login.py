@@ -4,6 +4,7 @@ same cost for unknown and existing users, and bounded password hashing (503 when
 from __future__ import annotations
 
 import asyncio
+import os
 import statistics
 import threading
 import time
@@ -140,6 +141,20 @@ def test_the_gate_runs_at_most_its_concurrency_and_refuses_beyond_its_queue():
     assert sum(isinstance(r, HashingBusy) for r in results) == 3
     results = asyncio.run(flood(HashingGate(1, wait_s=0.01, queue_max=10), 3))
     assert results[0] == "ok" and all(isinstance(r, HashingBusy) for r in results[1:])
+
+
+def test_hashing_runs_at_a_lower_priority_than_ingest():
+    def priority() -> int:
+        return os.getpriority(os.PRIO_PROCESS, threading.get_native_id())
+
+    async def measure() -> int:
+        gate = HashingGate(1, wait_s=1, queue_max=1, nice=10)
+        try:
+            return await gate.run(priority)
+        finally:
+            gate.close()
+
+    assert asyncio.run(measure()) == min(19, priority() + 10)
 
 
 def test_a_saturated_gate_answers_503_with_retry_after(client, session_factory):
