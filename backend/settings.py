@@ -36,7 +36,7 @@ class Settings(BaseSettings):
         description="wrong passwords from one client address (any user) before its lockout starts",
     )
     login_lockout_base_s: float = Field(
-        default=1.0,
+        default=2.0,
         gt=0,
         description="first lockout after the free failures; it doubles with each further failure",
     )

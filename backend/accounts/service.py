@@ -9,7 +9,12 @@ from sqlalchemy.orm import Session
 from backend.accounts import queries
 from backend.models._types import utcnow
 from backend.models.users import RevokedSession, User
-from backend.security import SessionClaims, verify_password_or_dummy
+from backend.security import (
+    SessionClaims,
+    hash_password,
+    needs_rehash,
+    verify_password_or_dummy,
+)
 
 
 class AccountError(Exception):
@@ -25,7 +30,11 @@ def authenticate(session: Session, username: str, password: str) -> User | None:
     cost one argon2 verification too, so the timing tells nothing about who exists."""
     user = queries.user_by_username(session, username)
     ok = verify_password_or_dummy(user.password_hash if user else None, password)
-    return user if ok and user is not None and user.active else None
+    if not ok or user is None or not user.active:
+        return None
+    if needs_rehash(user.password_hash):  # made with older parameters: upgrade it now
+        user.password_hash = hash_password(password)
+    return user
 
 
 def revoke_session(session: Session, claims: SessionClaims) -> None:

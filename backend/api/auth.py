@@ -7,6 +7,7 @@ from sqlalchemy.orm import Session, sessionmaker
 from backend.accounts import service
 from backend.accounts.gate import HashingBusy
 from backend.accounts.throttle import retry_after_header
+from backend.db import transaction
 from backend.deps import SESSION_COOKIE, CurrentUser, SessionDep
 from backend.models.users import Role, User
 from backend.security import create_access_token
@@ -44,7 +45,8 @@ class ErrorOut(BaseModel):
 def _authenticate(
     factory: sessionmaker[Session], username: str, password: str
 ) -> User | None:  # fmt: skip
-    with factory() as session:
+    """The sign-in's unit of work (in the hashing gate's thread): commits a rehash, if any."""
+    with transaction(factory) as session:
         return service.authenticate(session, username, password)
 
 

@@ -118,6 +118,21 @@ def test_unknown_and_existing_users_cost_the_same_verification(session_factory):
     assert 0.5 < inactive / existing < 2, (inactive, existing)
 
 
+def test_a_four_lane_hash_is_upgraded_to_one_lane_at_sign_in(client, session_factory):
+    from argon2 import PasswordHasher
+    from sqlalchemy import select
+
+    with transaction(session_factory) as session:
+        session.add(User(username="old", password_hash=PasswordHasher(parallelism=4).hash(PASSWORD),
+                         role=Role.NURSE, ward="ward-a"))  # fmt: skip
+    assert client.post(LOGIN, json={"username": "old", "password": PASSWORD}).status_code == 200
+    with session_factory() as session:
+        stored = session.scalars(select(User).where(User.username == "old")).one().password_hash
+    assert ",p=1$" in stored
+    client.cookies.clear()
+    assert client.post(LOGIN, json={"username": "old", "password": PASSWORD}).status_code == 200
+
+
 def test_the_gate_runs_at_most_its_concurrency_and_refuses_beyond_its_queue():
     running, peak, lock = [0], [0], threading.Lock()
 
