@@ -25,16 +25,19 @@ class AccountError(Exception):
         self.status = status
 
 
-def authenticate(session: Session, username: str, password: str) -> User | None:
-    """The user if the password is right and the account active. Unknown and inactive users
-    cost one argon2 verification too, so the timing tells nothing about who exists."""
-    user = queries.user_by_username(session, username)
+def password_matches(user: User | None, password: str) -> bool:
+    """Whether `user` exists, is active and has this password. Unknown and inactive users cost
+    one argon2 verification too, so the timing tells nothing about who exists. No database
+    access: the caller holds no connection during the (slow) verification."""
     ok = verify_password_or_dummy(user.password_hash if user else None, password)
-    if not ok or user is None or not user.active:
-        return None
-    if needs_rehash(user.password_hash):  # made with older parameters: upgrade it now
+    return ok and user is not None and user.active
+
+
+def upgrade_password_hash(session: Session, user_id: int, password: str) -> None:
+    """Rehash a password whose stored hash was made with older parameters (e.g. 4 lanes)."""
+    user = session.get(User, user_id)
+    if user is not None and needs_rehash(user.password_hash):
         user.password_hash = hash_password(password)
-    return user
 
 
 def revoke_session(session: Session, claims: SessionClaims) -> None:

@@ -4,13 +4,13 @@ from fastapi import APIRouter, HTTPException, Request, Response, status
 from pydantic import BaseModel, ConfigDict, Field
 from sqlalchemy.orm import Session, sessionmaker
 
-from backend.accounts import service
+from backend.accounts import queries, service
 from backend.accounts.gate import HashingBusy
 from backend.accounts.throttle import retry_after_header
 from backend.db import transaction
 from backend.deps import SESSION_COOKIE, CurrentUser, SessionDep
 from backend.models.users import Role, User
-from backend.security import create_access_token
+from backend.security import create_access_token, needs_rehash
 from vigil.protocol import CLOSE_UNAUTHORIZED
 
 router = APIRouter(prefix="/api/auth", tags=["auth"])
@@ -45,9 +45,16 @@ class ErrorOut(BaseModel):
 def _authenticate(
     factory: sessionmaker[Session], username: str, password: str
 ) -> User | None:  # fmt: skip
-    """The sign-in's unit of work (in the hashing gate's thread): commits a rehash, if any."""
-    with transaction(factory) as session:
-        return service.authenticate(session, username, password)
+    """Runs in the hashing gate's thread. No database connection is held while hashing (a
+    flood would otherwise empty the pool); a rehash, if needed, is its own short commit."""
+    with factory() as session:
+        user = queries.user_by_username(session, username)
+    if not service.password_matches(user, password):
+        return None
+    if needs_rehash(user.password_hash):
+        with transaction(factory) as session:
+            service.upgrade_password_hash(session, user.id, password)
+    return user
 
 
 @router.post(

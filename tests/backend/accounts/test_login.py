@@ -11,7 +11,7 @@ import time
 
 import pytest
 
-from backend.accounts import service
+from backend.accounts import queries, service
 from backend.accounts.gate import HashingBusy, HashingGate
 from backend.accounts.throttle import LoginThrottle, Policy
 from backend.db import transaction
@@ -104,9 +104,10 @@ def test_unknown_and_existing_users_cost_the_same_verification(session_factory):
         times = []
         for _ in range(5):
             with session_factory() as session:
-                start = time.perf_counter()
-                assert service.authenticate(session, username, password) is None
-                times.append((time.perf_counter() - start) * 1000)
+                user = queries.user_by_username(session, username)
+            start = time.perf_counter()
+            assert service.password_matches(user, password) is False
+            times.append((time.perf_counter() - start) * 1000)
         return statistics.median(times)
 
     median_ms("nobody", "warm-up")  # the dummy hash is made once, on first use
@@ -131,6 +132,25 @@ def test_a_four_lane_hash_is_upgraded_to_one_lane_at_sign_in(client, session_fac
     assert ",p=1$" in stored
     client.cookies.clear()
     assert client.post(LOGIN, json={"username": "old", "password": PASSWORD}).status_code == 200
+
+
+def test_sign_in_answers_unknown_and_existing_users_in_the_same_time(client, session_factory):
+    for i in range(4):
+        add_user(session_factory, f"user-{i}")
+
+    def median_ms(prefix: str) -> float:
+        times = []
+        for i in range(4):  # one attempt per user name: below every lockout
+            start = time.perf_counter()
+            response = client.post(LOGIN, json={"username": f"{prefix}-{i}", "password": "x"})
+            times.append((time.perf_counter() - start) * 1000)
+            assert response.status_code == 401
+            assert response.json()["detail"] == "wrong username or password"
+        return statistics.median(times)
+
+    client.post(LOGIN, json={"username": "warm-up", "password": "x"})
+    unknown, existing = median_ms("nobody"), median_ms("user")
+    assert 0.5 < unknown / existing < 2, (unknown, existing)
 
 
 def test_the_gate_runs_at_most_its_concurrency_and_refuses_beyond_its_queue():
