@@ -12,6 +12,7 @@ import asyncio
 import json
 
 from fastapi import APIRouter, WebSocket, WebSocketDisconnect
+from starlette.concurrency import run_in_threadpool
 
 from backend.alarms import queries
 from backend.alarms.schemas import AlarmOut
@@ -59,6 +60,11 @@ async def _first_message_token(websocket: WebSocket, timeout_s: float) -> str | 
     if token is None:
         return websocket.cookies.get(SESSION_COOKIE)
     return token if isinstance(token, str) else CLOSE_BAD_MESSAGE
+
+
+def _session_still_valid(state, token: str) -> bool:
+    with state.session_factory() as session:
+        return session_from_token(session, state.settings, token) is not None
 
 
 @router.websocket("/ws/browser")
@@ -109,6 +115,13 @@ async def browser_socket(websocket: WebSocket) -> None:
         while True:
             message = await websocket.receive_text()
             if message == "ping":
+                # Each ping (every 10 s from the page) re-checks the session, off the event
+                # loop: a logout, deactivation or expiry seen by another replica (or by none:
+                # the token simply ran out) closes this socket too, within one ping.
+                if not await run_in_threadpool(_session_still_valid, state, token):
+                    state.hub.remove(connection)
+                    await websocket.close(CLOSE_UNAUTHORIZED, "session ended")
+                    return
                 await state.hub.send(connection, {"type": "pong"})
     except WebSocketDisconnect:
         pass

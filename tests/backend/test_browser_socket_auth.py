@@ -71,3 +71,26 @@ def test_no_auth_message_in_time_or_a_wrong_one_closes_the_socket(client):
     with client.websocket_connect("/ws/browser") as ws:
         ws.send_text("ping")
         assert closed_with(ws)[0] == 4400
+
+
+def test_a_session_ended_elsewhere_closes_the_socket_at_the_next_ping(
+    client, make_account, session_factory
+):
+    from sqlalchemy import update
+
+    from backend.db import transaction
+    from backend.models import User
+
+    nurse = make_account(Role.NURSE)
+    with client.websocket_connect("/ws/browser", headers=nurse.headers) as ws:
+        assert ws.receive_json()["type"] == "snapshot"
+        ws.send_text("ping")
+        assert ws.receive_json() == {"type": "pong"}
+        # Deactivated by another replica (or straight in the database): this one's hub
+        # never heard of it.
+        with transaction(session_factory) as session:
+            session.execute(
+                update(User).where(User.username == nurse.username).values(active=False)
+            )
+        ws.send_text("ping")
+        assert closed_with(ws) == (4401, "session ended")
