@@ -53,7 +53,7 @@ class Settings(BaseSettings):
         "flood cannot starve robot ingest of CPU",
     )
     login_hash_nice: int = Field(
-        default=10,
+        default=19,
         ge=0,
         le=19,
         description="how much lower the scheduling priority of password hashing threads is "

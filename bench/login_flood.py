@@ -235,7 +235,7 @@ def main(argv: list[str] | None = None) -> int:
         "note": "GENERATED robot frames (bench.ingest's fixed skeleton), loopback; the backend, "
                 "the robots' client and the flood's client share this machine's CPUs (and, on "
                 "the shared development machine, other people's work: see load_average_1min). "
-                "Backend defaults: login_hash_concurrency 1, login_hash_nice 10, "
+                "Backend defaults: login_hash_concurrency 1, login_hash_nice 19, "
                 "login_queue_max 32, login_queue_wait_s 2.",
     }, indent=2) + "\n")  # fmt: skip
     return 0
