@@ -11,7 +11,7 @@ PYTEST_ARGS ?=
 .PHONY: run test test-python test-sqlite test-postgresql test-frontend test-browser setup \
 	frontend chromium lint format bench-detection bench-detection-splits bench-fall-onset \
 	bench-floor bench-ingest bench-robot bench-video bench-labelling bench-registry \
-	bench-alarm-latency bench-storage-stall readme screenshots clean
+	bench-alarm-latency bench-storage-stall bench-login-flood readme screenshots clean
 
 setup: $(STAMP) frontend
 
@@ -73,6 +73,9 @@ bench-floor: $(STAMP)
 
 bench-ingest: $(STAMP)
 	$(PY) -m bench.ingest
+
+bench-login-flood: $(STAMP)
+	$(PY) -m bench.login_flood --databases sqlite,postgresql --compare-unbounded
 
 bench-robot: $(STAMP)
 	$(PY) -m bench.robot

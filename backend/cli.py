@@ -18,6 +18,12 @@ def main(argv: list[str] | None = None) -> int:
     demo.add_argument("--robots", type=int, default=3)
     demo.add_argument("--tokens-file", type=Path, default=REPO_ROOT / "var" / "robot_tokens.json")
     demo.add_argument(
+        "--passwords-file",
+        type=Path,
+        default=REPO_ROOT / "var" / "demo_passwords.json",
+        help="where the generated demo passwords are kept (mode 600)",
+    )
+    demo.add_argument(
         "--no-urfd", action="store_true", help="skip importing URFD into the labelling workspace"
     )
     serve = commands.add_parser("serve", help="run the backend")
@@ -38,7 +44,7 @@ def main(argv: list[str] | None = None) -> int:
 
         engine = make_engine(settings.database_url)
         with transaction(make_session_factory(engine)) as session:
-            credentials = ensure_demo_users(session)
+            credentials = ensure_demo_users(session, args.passwords_file)
             ensure_demo_robots(session, args.robots, args.tokens_file)
         if not args.no_urfd:
             from backend.labelling.importers.urfd import import_urfd
@@ -53,9 +59,13 @@ def main(argv: list[str] | None = None) -> int:
             except FileNotFoundError as error:
                 print(f"URFD not imported: {error}")
         engine.dispose()
-        print("Demo accounts (generated for this machine; change them before real use):")
+        print(
+            "Demo accounts (passwords generated for this machine, kept in "
+            f"{args.passwords_file}; change them before real use):"
+        )
         for username, password, role in credentials:
-            print(f"  {role.value:<10} user {username:<10} password {password}")
+            shown = password or "(set before; not changed)"
+            print(f"  {role.value:<10} user {username:<10} password {shown}")
         print(f"Robot tokens for {args.robots} simulated robots: {args.tokens_file}")
     elif args.command == "serve":
         import uvicorn

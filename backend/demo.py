@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import secrets
 from pathlib import Path
 
 from sqlalchemy import select
@@ -11,7 +12,7 @@ from sqlalchemy.orm import Session
 from backend.models._types import utcnow
 from backend.models.robots import Robot
 from backend.models.users import Role, User
-from backend.security import hash_password, hash_robot_token, new_robot_token
+from backend.security import hash_password, hash_robot_token, new_robot_token, verify_password
 
 DEMO_WARD = "ward-3a"
 DEMO_USERS = (
@@ -20,25 +21,41 @@ DEMO_USERS = (
     ("engineer", Role.ENGINEER, None),
     ("admin", Role.ADMIN, None),
 )
-DEMO_PASSWORD_SUFFIX = "-demo-pass"
+#: The fixed passwords earlier versions set; a demo user still on one gets a generated one.
+LEGACY_PASSWORD_SUFFIX = "-demo-pass"
 
 
-def ensure_demo_users(session: Session) -> list[tuple[str, str, Role]]:
-    """Create one user per role; returns (username, password, role) for printing."""
-    credentials = []
+def _write_private(path: Path, data: dict) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.touch(mode=0o600)
+    path.chmod(0o600)
+    path.write_text(json.dumps(data, indent=2))
+
+
+def ensure_demo_users(session: Session, passwords_file: Path) -> list[tuple[str, str | None, Role]]:
+    """Create one user per role with a password generated for this machine, kept in
+    `passwords_file` (mode 600) so a second run prints the same ones. Returns (username,
+    password or None when the user exists with a password this file does not know, role)."""
+    passwords: dict[str, str] = {}
+    if passwords_file.exists():
+        passwords = json.loads(passwords_file.read_text())
+    credentials: list[tuple[str, str | None, Role]] = []
     for username, role, ward in DEMO_USERS:
-        password = username + DEMO_PASSWORD_SUFFIX
-        if session.scalars(select(User).where(User.username == username)).first() is None:
-            session.add(
-                User(
-                    username=username,
-                    display_name=username.title(),
-                    password_hash=hash_password(password),
-                    role=role,
-                    ward=ward,
-                )
-            )
-        credentials.append((username, password, role))
+        user = session.scalars(select(User).where(User.username == username)).first()
+        if user is None:
+            user = User(username=username, display_name=username.title(), role=role, ward=ward)
+            session.add(user)
+        elif username in passwords and verify_password(user.password_hash, passwords[username]):
+            credentials.append((username, passwords[username], role))
+            continue
+        elif not verify_password(user.password_hash, username + LEGACY_PASSWORD_SUFFIX):
+            passwords.pop(username, None)
+            credentials.append((username, None, role))  # someone set it: leave it alone
+            continue
+        passwords[username] = secrets.token_urlsafe(12)
+        user.password_hash = hash_password(passwords[username])
+        credentials.append((username, passwords[username], role))
+    _write_private(passwords_file, passwords)
     return credentials
 
 
@@ -58,7 +75,5 @@ def ensure_demo_robots(session: Session, count: int, tokens_file: Path) -> dict[
             tokens[robot_id] = new_robot_token()
             robot.token_hash = hash_robot_token(tokens[robot_id])
             robot.token_created_at = utcnow()
-    tokens_file.parent.mkdir(parents=True, exist_ok=True)
-    tokens_file.touch(mode=0o600)
-    tokens_file.write_text(json.dumps(tokens, indent=2))
+    _write_private(tokens_file, tokens)
     return tokens

@@ -8,9 +8,10 @@ from typing import Annotated
 from fastapi import Depends, HTTPException, Path, Request, status
 from sqlalchemy.orm import Session
 
+from backend.accounts import queries as account_queries
 from backend.models.users import User
 from backend.permissions import PERMISSIONS
-from backend.security import read_access_token
+from backend.security import SessionClaims, read_access_claims
 from backend.settings import Settings
 
 SESSION_COOKIE = "vigil_session"
@@ -44,24 +45,34 @@ def bearer_token(request: Request) -> str | None:
     return request.cookies.get(SESSION_COOKIE)
 
 
-def user_from_token(session: Session, settings: Settings, token: str | None) -> User | None:
+def session_from_token(
+    session: Session, settings: Settings, token: str | None
+) -> tuple[User, SessionClaims] | None:
+    """The user and claims of a token that is validly signed, unexpired, not revoked (logout)
+    and whose user is still active (deactivation); None otherwise."""
     if not token:
         return None
-    user_id = read_access_token(settings.secret_key, token)
-    if user_id is None:
+    claims = read_access_claims(settings.secret_key, token)
+    if claims is None or account_queries.is_revoked(session, claims.jti):
         return None
-    user = session.get(User, user_id)
-    return user if user is not None and user.active else None
+    user = session.get(User, claims.user_id)
+    return (user, claims) if user is not None and user.active else None
+
+
+def user_from_token(session: Session, settings: Settings, token: str | None) -> User | None:
+    found = session_from_token(session, settings, token)
+    return found[0] if found else None
 
 
 def get_current_user(request: Request, session: SessionDep, settings: SettingsDep) -> User:
-    user = user_from_token(session, settings, bearer_token(request))
-    if user is None:
+    found = session_from_token(session, settings, bearer_token(request))
+    if found is None:
         raise HTTPException(
             status.HTTP_401_UNAUTHORIZED,
             "not signed in or session expired",
             headers={"WWW-Authenticate": "Bearer"},
         )
+    user, request.state.session_claims = found
     route = request.scope.get("route")
     roles = PERMISSIONS.get((request.method, getattr(route, "path", "")))
     if roles is None:

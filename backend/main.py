@@ -16,6 +16,8 @@ from sqlalchemy import func, select
 from sqlalchemy.exc import DataError
 
 from backend import health
+from backend.accounts.gate import HashingGate
+from backend.accounts.throttle import LoginThrottle, Policy
 from backend.alarms.monitor import AlarmMonitor
 from backend.api import (
     alarm_review,
@@ -27,12 +29,14 @@ from backend.api import (
     misc,
     registry,
     robots,
+    users,
     videos,
 )
 from backend.body_limit import BodySizeLimit
 from backend.db import make_engine, make_session_factory
-from backend.deps import CurrentUser
+from backend.deps import SESSION_COOKIE, CurrentUser
 from backend.gc_tuning import collector_tuned_for_ingest
+from backend.http_guards import SecurityMiddleware
 from backend.ingest import robot_ws
 from backend.ingest.registry import RobotRegistry
 from backend.ingest.writer import FrameWriter
@@ -49,6 +53,7 @@ log = logging.getLogger("vigil.backend")
 ROUTERS = (
     auth.router,
     misc.router,
+    users.router,
     robots.router,
     alarms.router,
     alarm_review.router,
@@ -88,6 +93,13 @@ def create_app(settings: Settings | None = None) -> FastAPI:
             storage_stall_s=settings.storage_stall_seconds,
         )
         writer.start()
+        # Bound to this event loop, hence made here rather than in create_app.
+        app.state.login_gate = login_gate = HashingGate(
+            settings.login_hash_concurrency,
+            settings.login_queue_wait_s,
+            settings.login_queue_max,
+            settings.login_hash_nice,
+        )
         app.state.monitor = monitor = AlarmMonitor(
             factory, settings, bus.publish, waiting_robots=writer.waiting_robots
         )
@@ -101,6 +113,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
             await monitor.stop()
             await writer.stop()
             await bus.stop()
+            login_gate.close()
             engine.dispose()
 
     app = FastAPI(
@@ -114,6 +127,22 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.state.metrics = metrics = Metrics()
     app.state.hub = BrowserHub()
     app.state.robots = RobotRegistry(on_change=metrics.connected_robots.set)
+    app.state.login_throttle = LoginThrottle(
+        user_policy=Policy(
+            settings.login_user_free_failures,
+            settings.login_lockout_base_s,
+            settings.login_lockout_max_s,
+        ),
+        client_policy=Policy(
+            settings.login_client_free_failures,
+            settings.login_lockout_base_s,
+            settings.login_lockout_max_s,
+        ),
+        memory_s=settings.login_failure_memory_s,
+    )
+    app.add_middleware(
+        SecurityMiddleware, cookie_name=SESSION_COOKIE, trusted_origins=settings.trusted_origins
+    )
     for router in ROUTERS:
         app.include_router(router)
     labelling.install(app, settings)

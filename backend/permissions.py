@@ -22,6 +22,8 @@ PERMISSIONS: dict[tuple[str, str], frozenset[Role]] = {
     ("GET", "/api/health/ready"): PUBLIC,
     ("GET", "/api/users"): frozenset({ADMIN}),
     ("POST", "/api/users"): frozenset({ADMIN}),
+    ("POST", "/api/users/{user_id}/deactivate"): frozenset({ADMIN}),
+    ("POST", "/api/users/{user_id}/reactivate"): frozenset({ADMIN}),
     ("GET", "/api/robots"): frozenset({NURSE, ENGINEER, ADMIN}),
     ("POST", "/api/robots"): frozenset({ADMIN}),
     ("GET", "/api/robots/{robot_id}"): frozenset({NURSE, ENGINEER, ADMIN}),

@@ -27,6 +27,54 @@ class Settings(BaseSettings):
     )
     access_token_minutes: int = Field(default=12 * 60, description="browser session lifetime")
     cookie_secure: bool = Field(default=False, description="mark the session cookie Secure")
+    login_user_free_failures: int = Field(
+        default=5, ge=1, description="wrong passwords for one user name before its lockout starts"
+    )
+    login_client_free_failures: int = Field(
+        default=20,
+        ge=1,
+        description="wrong passwords from one client address (any user) before its lockout starts",
+    )
+    login_lockout_base_s: float = Field(
+        default=2.0,
+        gt=0,
+        description="first lockout after the free failures; it doubles with each further failure",
+    )
+    login_lockout_max_s: float = Field(default=900.0, gt=0, description="longest login lockout")
+    login_failure_memory_s: float = Field(
+        default=3600.0,
+        gt=0,
+        description="failures are forgotten after this long without a new one",
+    )
+    login_hash_concurrency: int = Field(
+        default=1,
+        ge=1,
+        description="password verifications run at once (argon2 in a worker thread), so a login "
+        "flood cannot starve robot ingest of CPU",
+    )
+    login_hash_nice: int = Field(
+        default=19,
+        ge=0,
+        le=19,
+        description="how much lower the scheduling priority of password hashing threads is "
+        "(ingest first); 0: same as the rest",
+    )
+    login_queue_wait_s: float = Field(
+        default=2.0,
+        ge=0,
+        description="longest a login waits for a verification slot before a 503 with Retry-After",
+    )
+    login_queue_max: int = Field(
+        default=32, ge=0, description="logins waiting for a slot; more get a 503 at once"
+    )
+    trusted_origins: list[str] = Field(
+        default_factory=list,
+        description="origins besides the backend's own allowed to send cookie-authenticated "
+        'writes and open the browser socket, JSON: ["https://vigil.example"]',
+    )
+    browser_auth_timeout_s: float = Field(
+        default=5.0, gt=0, description="time a browser socket has to send its auth message"
+    )
     frontend_dir: Path = Field(
         default=REPO_ROOT / "frontend" / "dist", description="built frontend served at /"
     )

@@ -164,7 +164,11 @@ async def robot_client(
 
 async def nurse_client(url: str, token: str, alarms: dict[str, list[tuple[float, int]]],
                        ready: asyncio.Event) -> None:  # fmt: skip
-    async with connect(f"{url}/ws/browser?token={token}", max_size=None) as ws:
+    async with connect(
+        f"{url}/ws/browser",
+        additional_headers={"Authorization": f"Bearer {token}"},
+        max_size=None,
+    ) as ws:
         json.loads(await ws.recv())  # snapshot
         ready.set()
         async for raw in ws:

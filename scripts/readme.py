@@ -310,6 +310,30 @@ def _storage_stall() -> str | None:
     )
 
 
+def _login_flood() -> str | None:
+    data = _load("login_flood.json")
+    if data is None:
+        return None
+    keys = ["database", "gate", "baseline_ack_p99_ms", "flood_ack_p50_ms", "flood_ack_p99_ms",
+            "flood_frames_never_acked", "signed_in_ms_p50", "goal_flood_ack_p99_le_100_ms",
+            "goal_locked_account_answers_429", "load_average_1min"]  # fmt: skip
+    rows = [[run.get(k) for k in keys] for run in data["runs"]]
+    answers = "; ".join(
+        f"{run['database']} {run['gate']}: "
+        + ", ".join(f"{n}× {status}" for status, n in sorted(run["statuses"].items()))
+        for run in data["runs"]
+    )
+    return (
+        "**Login flood** (`make bench-login-flood` → `bench/results/login_flood.json`): 20 "
+        "robots at 10 frames/s while 320 concurrent clients sign in again and again with right "
+        "passwords (no lockout applies) and 20 of them try a locked account; `bounded` is the "
+        "default gate (1 argon2 verification at a time, lower priority, 503 + Retry-After "
+        "beyond), `unbounded` the gate opened wide.\n\n"
+        + _table(keys, rows)
+        + f"\n\nSign-in answers: {answers}."
+    )
+
+
 def _floor_measures() -> str | None:
     data = _load("floor_measures.json")
     if data is None:
@@ -431,6 +455,7 @@ BENCH_SECTIONS = (
     _robot,
     _alarm_latency,
     _storage_stall,
+    _login_flood,
     _labelling,
     _registry,
 )

@@ -6,11 +6,8 @@ from pydantic import BaseModel, ConfigDict, Field
 from sqlalchemy import func, select
 
 from backend import health as health_checks
-from backend.api.auth import UserOut
 from backend.deps import MAX_DB_INT, CurrentUser, SessionDep
 from backend.models.taxonomy import TaxonomyLabel
-from backend.models.users import Role, User
-from backend.security import hash_password
 from vigil.classes import Decision
 
 router = APIRouter(prefix="/api", tags=["system"])
@@ -102,32 +99,3 @@ def taxonomy(
     if not labels:
         raise HTTPException(status.HTTP_404_NOT_FOUND, f"taxonomy version {version} not found")
     return TaxonomyOut(version=version, labels=[TaxonomyLabelOut.model_validate(x) for x in labels])
-
-
-class UserIn(BaseModel):
-    username: str = Field(min_length=1, max_length=64, pattern=r"^[A-Za-z0-9_.-]+$")
-    password: str = Field(min_length=8, max_length=256)
-    role: Role
-    ward: str | None = Field(default=None, max_length=64)
-    display_name: str = Field(default="", max_length=128)
-
-
-@router.get("/users")
-def list_users(session: SessionDep, user: CurrentUser) -> list[UserOut]:
-    return [UserOut.model_validate(u) for u in session.scalars(select(User).order_by(User.id))]
-
-
-@router.post("/users", status_code=status.HTTP_201_CREATED)
-def create_user(body: UserIn, session: SessionDep, user: CurrentUser) -> UserOut:
-    if session.scalars(select(User).where(User.username == body.username)).first():
-        raise HTTPException(status.HTTP_409_CONFLICT, f"user {body.username} already exists")
-    new = User(
-        username=body.username,
-        password_hash=hash_password(body.password),
-        role=body.role,
-        ward=body.ward,
-        display_name=body.display_name or body.username,
-    )
-    session.add(new)
-    session.flush()
-    return UserOut.model_validate(new)

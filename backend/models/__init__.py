@@ -20,13 +20,13 @@ from backend.models.registry import (
 )
 from backend.models.robots import Robot, Transport
 from backend.models.taxonomy import TaxonomyLabel, TaxonomyVersion
-from backend.models.users import Role, User
+from backend.models.users import RevokedSession, Role, User
 from backend.models.videos import Frame, Split, Video
 
 __all__ = [
     "Alarm", "AlarmEvent", "AlarmKind", "AlarmPriority", "AlarmState", "AnnotationSegment",
     "Deployment", "DeploymentScope", "DeploymentStatus", "FalseAlarmReason", "Frame", "Job",
-    "JobKind", "JobStatus", "ModelStatus", "ModelVersion", "Robot", "Role", "SegmentEvent",
-    "SegmentSource", "SegmentStatus", "Split", "TaxonomyLabel", "TaxonomyVersion", "Transport",
-    "User", "Verdict", "Video",
+    "JobKind", "JobStatus", "ModelStatus", "ModelVersion", "RevokedSession", "Robot", "Role",
+    "SegmentEvent", "SegmentSource", "SegmentStatus", "Split", "TaxonomyLabel", "TaxonomyVersion",
+    "Transport", "User", "Verdict", "Video",
 ]  # fmt: skip

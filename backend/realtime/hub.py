@@ -21,6 +21,7 @@ class BrowserConnection:
     user_id: int
     role: Role
     ward: str | None
+    jti: str = ""  # the browser session it was opened with (logout closes it)
     lock: asyncio.Lock = field(default_factory=asyncio.Lock)
 
     def can_see(self, ward: str) -> bool:
@@ -58,3 +59,23 @@ class BrowserHub:
             if isinstance(result, Exception):
                 log.info("dropping browser connection of user %s: %s", connection.user_id, result)
                 self.remove(connection)
+
+    async def close_where(self, matches, code: int, reason: str) -> int:
+        """Close (and forget) every connection `matches(connection)` selects; returns how many."""
+        targets = [c for c in self._connections if matches(c)]
+        for connection in targets:
+            self.remove(connection)
+            try:
+                async with connection.lock:
+                    await connection.websocket.close(code, reason)
+            except Exception as error:  # already gone: nothing left to close
+                log.info(
+                    "browser connection of user %s already closed: %s", connection.user_id, error
+                )
+        return len(targets)
+
+    async def close_user(self, user_id: int, code: int, reason: str) -> int:
+        return await self.close_where(lambda c: c.user_id == user_id, code, reason)
+
+    async def close_session(self, jti: str, code: int, reason: str) -> int:
+        return await self.close_where(lambda c: c.jti == jti, code, reason)

@@ -71,7 +71,7 @@ def test_unacknowledged_emergency_escalates_per_ward_and_is_pushed_again(
         alarm_a, alarm_b = session.scalars(select(Alarm).order_by(Alarm.robot_id)).all()
     start = alarm_a.raised_at
 
-    with client.websocket_connect(f"/ws/browser?token={nurse.token}") as browser:
+    with client.websocket_connect("/ws/browser", headers=nurse.headers) as browser:
         snapshot = browser.receive_json()
         assert [a["id"] for a in snapshot["alarms"]] == [alarm_a.id]  # ward-a only
 
@@ -110,7 +110,7 @@ def test_acknowledged_alarm_not_resolved_in_time_realarms(
     assert response.status_code == 200, response.text
     acknowledged_at = utcnow()
 
-    with client.websocket_connect(f"/ws/browser?token={nurse.token}") as browser:
+    with client.websocket_connect("/ws/browser", headers=nurse.headers) as browser:
         browser.receive_json()
         assert tick(client, acknowledged_at + timedelta(minutes=9)) == []
         changed = tick(client, acknowledged_at + timedelta(minutes=10, seconds=1))
@@ -210,7 +210,7 @@ def test_reconnecting_browser_first_receives_every_open_alarm(client, robot, mak
     nurse = make_account(Role.NURSE, ward="ward-a")
     stream(client, robot, ROBOT_TOKEN, "t-1", frame(0, "emergency", "t-1"),
            frame(1, "pause", "t-1"))  # fmt: skip
-    with client.websocket_connect(f"/ws/browser?token={nurse.token}") as browser:
+    with client.websocket_connect("/ws/browser", headers=nurse.headers) as browser:
         snapshot = browser.receive_json()
     assert snapshot["type"] == "snapshot"
     assert sorted(a["kind"] for a in snapshot["alarms"]) == ["emergency", "pause"]

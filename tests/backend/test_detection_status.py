@@ -58,7 +58,7 @@ def test_detection_degraded_is_raised_in_stream_order_and_cleared_on_recovery(
 ):
     nurse = make_account(Role.NURSE, ward="ward-a")
     with (
-        client.websocket_connect(f"/ws/browser?token={nurse.token}") as browser,
+        client.websocket_connect("/ws/browser", headers=nurse.headers) as browser,
         client.websocket_connect("/ws/robot") as ws,
     ):
         assert browser.receive_json()["alarms"] == []

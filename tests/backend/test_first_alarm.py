@@ -37,8 +37,8 @@ def test_emergency_reaches_nurse_and_acknowledgement_is_stored(
     other_ward_nurse = make_account(Role.NURSE, ward="ward-b", username="bob")
 
     with (
-        client.websocket_connect(f"/ws/browser?token={nurse.token}") as browser,
-        client.websocket_connect(f"/ws/browser?token={other_ward_nurse.token}") as other,
+        client.websocket_connect("/ws/browser", headers=nurse.headers) as browser,
+        client.websocket_connect("/ws/browser", headers=other_ward_nurse.headers) as other,
         client.websocket_connect("/ws/robot") as ws,
     ):
         assert browser.receive_json() == {"type": "snapshot", "alarms": []}

@@ -70,10 +70,12 @@ def test_every_route_answers_every_caller_as_the_table_says(client, make_account
     assert not failures, "\n".join(failures)
 
 
-def _destructive_last(route: tuple[str, str, dict]) -> tuple[bool, str, str]:
-    """Logout and token revocation run last so they do not disturb the other calls."""
+def _destructive_last(route: tuple[str, str, dict]) -> tuple[int, str, str]:
+    """Token revocation and (de/re)activation run late, logout (it revokes the caller's
+    session) last, so they do not disturb the other calls."""
     method, path, _ = route
-    return (path.endswith(("/logout", "/token")), path, method)
+    rank = 2 if path.endswith("/logout") else int(path.endswith(("/token", "activate")))
+    return (rank, path, method)
 
 
 @pytest.mark.parametrize("role", list(Role))
@@ -84,12 +86,12 @@ def test_browser_websocket_admits_only_alarm_viewers(client, make_account, role)
 
     account = make_account(role)
     if role in ALARM_VIEWERS:
-        with client.websocket_connect(f"/ws/browser?token={account.token}") as ws:
+        with client.websocket_connect("/ws/browser", headers=account.headers) as ws:
             assert ws.receive_json()["type"] == "snapshot"
     else:
         with (
             pytest.raises(WebSocketDisconnect) as closed,
-            client.websocket_connect(f"/ws/browser?token={account.token}") as ws,
+            client.websocket_connect("/ws/browser", headers=account.headers) as ws,
         ):
             ws.receive_json()
         assert closed.value.code == 4403
@@ -100,7 +102,9 @@ def test_browser_websocket_refuses_a_robot_token(client, robot):
 
     with (
         pytest.raises(WebSocketDisconnect) as closed,
-        client.websocket_connect(f"/ws/browser?token={ROBOT_TOKEN}") as ws,
+        client.websocket_connect(
+            "/ws/browser", headers={"Authorization": f"Bearer {ROBOT_TOKEN}"}
+        ) as ws,
     ):
         ws.receive_json()
     assert closed.value.code == 4401

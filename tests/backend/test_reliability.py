@@ -50,6 +50,10 @@ def nurse_token(session_factory) -> str:
     return create_access_token(SECRET, user_id, 60)
 
 
+def bearer(token: str) -> dict[str, str]:
+    return {"Authorization": f"Bearer {token}"}
+
+
 async def robot_hello(ws) -> dict:
     await ws.send(Hello(robot_id="robot-a", token=ROBOT_TOKEN).model_dump_json())
     welcome = json.loads(await ws.recv())
@@ -138,7 +142,9 @@ def test_kill_9_loses_no_acknowledged_frame_and_the_emergency_reaches_the_nurse(
     try:
 
         async def recover() -> dict:
-            async with connect(f"{backend.ws}/ws/browser?token={nurse_token}") as nurse:
+            async with connect(
+                f"{backend.ws}/ws/browser", additional_headers=bearer(nurse_token)
+            ) as nurse:
                 async with connect(f"{backend.ws}/ws/robot") as ws:
                     welcome = await robot_hello(ws)
                     assert welcome["last_seq"] >= acked_before_crash
@@ -180,8 +186,12 @@ def test_two_replicas_fan_alarms_out_through_redis(
 
         async def scenario() -> tuple[dict, dict]:
             async with (
-                connect(f"{replica_b.ws}/ws/browser?token={nurse_token}") as nurse_on_b,
-                connect(f"{replica_a.ws}/ws/browser?token={nurse_token}") as nurse_on_a,
+                connect(
+                    f"{replica_b.ws}/ws/browser", additional_headers=bearer(nurse_token)
+                ) as nurse_on_b,
+                connect(
+                    f"{replica_a.ws}/ws/browser", additional_headers=bearer(nurse_token)
+                ) as nurse_on_a,
                 connect(f"{replica_a.ws}/ws/robot") as ws,
             ):
                 assert json.loads(await nurse_on_b.recv())["alarms"] == []

@@ -124,7 +124,11 @@ def agents(tmp_path):
 class NurseSocket:
     def __init__(self, server: LiveServer) -> None:
         token = server.login("nina")
-        self.connection = connect(f"{server.browser_ws_url}?token={token}", open_timeout=10)
+        self.connection = connect(
+            server.browser_ws_url,
+            additional_headers={"Authorization": f"Bearer {token}"},
+            open_timeout=10,
+        )
         self.alarms: list[dict] = []
 
     def wait_alarm(self, kind: str, robot_id: str, timeout: float) -> dict:

@@ -25,8 +25,16 @@ export function AuthProvider({ children }: { children: ReactNode }) {
   }, []);
 
   const logout = useCallback(() => {
+    // Revoke the session on the server too (its token would otherwise stay valid until it
+    // expires); the local session is cleared at once, whatever the answer.
+    const token = loadSession()?.token;
     saveSession(null);
     setSession(null);
+    if (token) {
+      void api
+        .POST("/api/auth/logout", { headers: { Authorization: `Bearer ${token}` } })
+        .catch(() => undefined);
+    }
   }, []);
 
   const value = useMemo(

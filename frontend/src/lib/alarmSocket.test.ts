@@ -1,6 +1,13 @@
 import { afterEach, beforeEach, describe, expect, it, vi } from "vitest";
 import type { BrowserMessage } from "../api/types";
-import { AlarmSocket, PING_MS, STALE_MS, type LinkStatus, type SocketLike } from "./alarmSocket";
+import {
+  AlarmSocket,
+  browserSocketUrl,
+  PING_MS,
+  STALE_MS,
+  type LinkStatus,
+  type SocketLike,
+} from "./alarmSocket";
 
 class FakeSocket implements SocketLike {
   onopen: SocketLike["onopen"] = null;
@@ -34,6 +41,7 @@ describe("AlarmSocket", () => {
     unauthorized = 0;
     socket = new AlarmSocket(
       "ws://x/ws/browser",
+      "tab-token",
       {
         onMessage: (m) => messages.push(m),
         onStatus: (s) => statuses.push(s),
@@ -50,6 +58,13 @@ describe("AlarmSocket", () => {
   afterEach(() => {
     socket.stop();
     vi.useRealTimers();
+  });
+
+  it("sends the token in its first message, never in the URL", () => {
+    socket.start();
+    sockets[0].onopen?.({});
+    expect(sockets[0].sent).toEqual([JSON.stringify({ type: "auth", token: "tab-token" })]);
+    expect(browserSocketUrl({ protocol: "https:", host: "h:1" } as Location)).toBe("wss://h:1/ws/browser");
   });
 
   it("is live only after the snapshot and ignores other messages", () => {

@@ -26,9 +26,16 @@ export interface SocketLike {
   close(code?: number, reason?: string): void;
 }
 
-export function browserSocketUrl(token: string, location: Location = window.location): string {
+/** The socket's URL. It carries no token (access logs record URLs): the token goes in the
+ * first message, see authMessage. */
+export function browserSocketUrl(location: Location = window.location): string {
   const scheme = location.protocol === "https:" ? "wss" : "ws";
-  return `${scheme}://${location.host}/ws/browser?token=${encodeURIComponent(token)}`;
+  return `${scheme}://${location.host}/ws/browser`;
+}
+
+/** The first message on the socket: this tab's session token (each tab may hold its own). */
+export function authMessage(token: string): string {
+  return JSON.stringify({ type: "auth", token });
 }
 
 function isBrowserMessage(value: unknown): value is BrowserMessage {
@@ -50,6 +57,7 @@ export class AlarmSocket {
 
   constructor(
     private readonly url: string,
+    private readonly token: string,
     private readonly handlers: AlarmSocketHandlers,
     private readonly createSocket: (url: string) => SocketLike = (u) => new WebSocket(u) as unknown as SocketLike,
     private readonly now: () => number = Date.now,
@@ -76,6 +84,7 @@ export class AlarmSocket {
     socket.onopen = () => {
       this.attempt = 0;
       this.lastHeard = this.now();
+      socket.send(authMessage(this.token));
     };
     socket.onmessage = (event) => {
       this.lastHeard = this.now();

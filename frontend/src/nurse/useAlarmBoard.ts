@@ -12,7 +12,7 @@ export function useAlarmBoard(): { board: Board; status: LinkStatus; update(alar
 
   useEffect(() => {
     if (!token) return;
-    const socket = new AlarmSocket(browserSocketUrl(token), {
+    const socket = new AlarmSocket(browserSocketUrl(), token, {
       onMessage: (message) => setBoard((b) => applyMessage(b, message)),
       onStatus: setStatus,
       onUnauthorized: logout,

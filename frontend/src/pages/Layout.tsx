@@ -20,6 +20,7 @@ export function Layout() {
             )}
             {mayOpen(user.role, "annotate") && <NavLink to="/annotate">Annotate</NavLink>}
             {mayOpen(user.role, "engineer") && <NavLink to="/engineer">Engineering</NavLink>}
+            {mayOpen(user.role, "admin") && <NavLink to="/admin">Users and robots</NavLink>}
           </nav>
         )}
         {user && (

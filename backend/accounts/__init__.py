@@ -1,0 +1,1 @@
+"""Accounts: sign-in (lockout, bounded password hashing), sessions (revocation), users."""
