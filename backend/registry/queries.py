@@ -151,9 +151,10 @@ def fleet(
 def in_sync(target: ModelVersion | None, robot: Robot) -> bool:
     """The robot runs its target: the version, and a file whose sha256 (as the robot computed
     it from the bytes it loaded) is the registry's. A robot that does not report the sha256 (an
-    older agent) cannot be shown to run the registry's file: not in sync."""
+    older agent) cannot be shown to run the registry's file: not in sync. A robot with no target
+    is in sync only when it runs no model (after a rollback it may still run the old one)."""
     if target is None:
-        return True
+        return robot.running_model_version is None
     return (
         robot.running_model_version == target.version
         and robot.running_model_sha256 == target.sha256

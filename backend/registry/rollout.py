@@ -236,24 +236,35 @@ def advance(session: Session, deployment: Deployment) -> list[str]:
 
 
 def rollback(session: Session, deployment: Deployment, reason: str) -> list[str]:
-    """Give every robot of the deployment back what it had before (if it still runs this one)."""
+    """Give every robot of the deployment back what it had before (if it still runs this one).
+
+    A robot that had no model before gets its mode's keypoints-only fallback instead: left
+    unassigned it would go on running the rolled-back model, which is what a rollback must end.
+    """
     _guard_last_fallback(session, deployment)
     _move(deployment, DeploymentStatus.ROLLED_BACK)
     deployment.rolled_back_at = utcnow()
     deployment.rollback_reason = reason
     previous = (deployment.rollout or {}).get("previous", {})
+    model = session.get(ModelVersion, deployment.model_version_id)
+    replacement = capability.fallback_model(session, model.mode, exclude=model.id)
+    restored_to: dict[str, int | None] = {}
     changed = []
     for robot in session.scalars(select(Robot).where(Robot.id.in_(list(previous)))):
         if deployment.shadow and robot.shadow_model_id == deployment.model_version_id:
             robot.shadow_model_id = previous[robot.id]
             changed.append(robot.id)
         elif not deployment.shadow and robot.assigned_model_id == deployment.model_version_id:
-            robot.assigned_model_id = previous[robot.id]
+            restored_id = previous[robot.id]
+            if restored_id is None and replacement is not None:
+                restored_id = replacement.id
+            robot.assigned_model_id = restored_to[robot.id] = restored_id
             changed.append(robot.id)
-            restored = session.get(ModelVersion, previous[robot.id]) if previous[robot.id] else None
+            restored = session.get(ModelVersion, restored_id) if restored_id else None
             if restored is not None:
                 restored.status = ModelStatus.PRODUCTION
-    model = session.get(ModelVersion, deployment.model_version_id)
+    if restored_to:
+        deployment.rollout = {**deployment.rollout, "restored": restored_to}
     still_used = session.scalars(
         select(Robot.id).where(Robot.assigned_model_id == model.id).limit(1)
     ).first()

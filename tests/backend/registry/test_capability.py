@@ -7,6 +7,7 @@ import json
 
 from sqlalchemy import select
 
+from backend import models
 from backend.db import transaction
 from backend.models import Deployment, Robot, Role
 from backend.registry import push
@@ -188,3 +189,34 @@ def test_robots_keep_the_keypoints_only_fallback_which_cannot_be_rolled_away(
     assert (models[kp1], models[kp2]) == ("retired", "production")
     fleet_view = {r["id"]: r for r in client.get("/api/fleet", headers=engineer.headers).json()}
     assert fleet_view["robot-a"]["fallback_version"] == "rf-kp-test-2"
+
+
+def test_rollback_gives_a_robot_that_had_no_model_its_fallback_not_nothing(
+    client, make_account, fleet, urfd_db, register, trained_model_dir, keypoints_model_dir,
+    session_factory,
+):  # fmt: skip
+    engineer = make_account(Role.ENGINEER)
+    keypoints = register(keypoints_model_dir)
+    floor = register(trained_model_dir)
+    assert promote(client, engineer, keypoints, scope="robot", target="robot-a").status_code == 201
+    deployment = promote(client, engineer, floor, scope="robot", target="robot-d").json()
+    assert assigned(session_factory)["robot-d"] == floor
+    with transaction(session_factory) as session:  # robot-d runs the floor model
+        robot = session.get(Robot, "robot-d")
+        robot.running_model_version = session.get(models.ModelVersion, floor).version
+    rolled = client.post(f"/api/deployments/{deployment['id']}/rollback", headers=engineer.headers,
+                         json={"reason": "wrong model"})  # fmt: skip
+    assert rolled.status_code == 200, rolled.text
+    # robot-d had no model before: it gets the keypoints-only fallback, not "nothing" (which
+    # would have left it running the rolled-back model).
+    assert assigned(session_factory)["robot-d"] == keypoints
+    assert rolled.json()["rollout"]["restored"] == {"robot-d": keypoints}
+    row = {r["id"]: r for r in client.get("/api/fleet", headers=engineer.headers).json()}["robot-d"]
+    assert row["in_sync"] is False  # it still runs the rolled-back version until it switches
+
+
+def test_a_robot_with_no_target_is_in_sync_only_when_it_runs_nothing():
+    from backend.registry.queries import in_sync
+
+    assert in_sync(None, Robot(id="r", running_model_version=None)) is True
+    assert in_sync(None, Robot(id="r", running_model_version="rolled-back-1")) is False
