@@ -101,7 +101,11 @@ def create_app(settings: Settings | None = None) -> FastAPI:
             settings.login_hash_nice,
         )
         app.state.monitor = monitor = AlarmMonitor(
-            factory, settings, bus.publish, waiting_robots=writer.waiting_robots
+            factory,
+            settings,
+            bus.publish,
+            waiting_robots=writer.waiting_robots,
+            viewers=app.state.hub.viewers,
         )
         monitor.start()
         reconcile = asyncio.create_task(model_push.reconcile_forever(app))

@@ -24,6 +24,7 @@ from backend.alarms.schemas import AlarmOut
 from backend.db import transaction
 from backend.models._types import utcnow
 from backend.models.alarms import Alarm, AlarmKind, AlarmState
+from backend.realtime.hub import Viewer
 from backend.settings import Settings
 
 log = logging.getLogger(__name__)
@@ -36,6 +37,7 @@ class AlarmMonitor:
         settings: Settings,
         publish_alarm: Callable[[dict], Awaitable[None]],
         waiting_robots: Callable[[], Collection[str]] = frozenset,
+        viewers: Callable[[], list[Viewer]] = list,
     ) -> None:
         self._session_factory = session_factory
         self._settings = settings
@@ -43,6 +45,8 @@ class AlarmMonitor:
         # Robots whose messages arrived but are not stored yet: their stored last_seen_at and
         # last_frame_at are stale because storage is, not because the robot fell silent.
         self._waiting_robots = waiting_robots
+        # Who has a board open: an escalation's audit entry names them.
+        self._viewers = viewers
         self._task: asyncio.Task | None = None
 
     def start(self) -> None:
@@ -63,18 +67,18 @@ class AlarmMonitor:
                 log.exception("alarm monitor pass failed")
 
     async def tick(self, now: datetime | None = None) -> list[dict]:
-        changed = await asyncio.to_thread(self.check, now or utcnow())
+        changed = await asyncio.to_thread(self.check, now or utcnow(), self._viewers())
         for alarm in changed:
             await self._publish_alarm(alarm)
         return changed
 
-    def check(self, now: datetime) -> list[dict]:
+    def check(self, now: datetime, viewers: list[Viewer] | None = None) -> list[dict]:
         """One pass in one transaction; returns the changed alarms as pushed to browsers."""
         with transaction(self._session_factory) as session:
             changed: dict[int, Alarm] = {}
             for alarm in self._technical(session, now):
                 changed[alarm.id] = alarm
-            for alarm in self._escalations(session, now):
+            for alarm in self._escalations(session, now, viewers or []):
                 changed[alarm.id] = alarm
             for alarm in self._realarms(session, now):
                 changed[alarm.id] = alarm
@@ -109,7 +113,7 @@ class AlarmMonitor:
             raised.append(alarm)
         return raised
 
-    def _escalations(self, session: Session, now: datetime) -> list[Alarm]:
+    def _escalations(self, session: Session, now: datetime, viewers: list[Viewer]) -> list[Alarm]:
         def due(alarm: Alarm) -> bool:
             if alarm.state != AlarmState.OPEN:
                 return False
@@ -119,8 +123,14 @@ class AlarmMonitor:
             return now - (alarm.escalated_at or alarm.raised_at) >= wait
 
         candidates = [a.id for a in queries.open_emergencies(session) if due(a)]
-        return [service.escalate(session, a, now) for a in queries.claim(session, candidates)
-                if due(a)]  # fmt: skip
+        claimed = [a for a in queries.claim(session, candidates) if due(a)]
+        names = queries.viewer_names(session, [v.user_id for v in viewers])
+        return [
+            service.escalate(
+                session, a, now, [names[v.user_id] for v in viewers if v.can_see(a.ward)]
+            )
+            for a in claimed
+        ]
 
     def _realarms(self, session: Session, now: datetime) -> list[Alarm]:
         wait = timedelta(minutes=self._settings.realarm_minutes)

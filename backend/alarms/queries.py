@@ -134,3 +134,13 @@ def audit_events(
     if until is not None:
         query = query.where(AlarmEvent.at < until)
     return session.scalars(query.order_by(AlarmEvent.id.desc()).limit(limit)).all()
+
+
+def viewer_names(session: Session, user_ids: Sequence[int]) -> dict[int, str]:
+    """user id -> "name (role)" of people with a board open, for an escalation's audit entry."""
+    if not user_ids:
+        return {}
+    rows = session.execute(
+        select(User.id, User.username, User.role).where(User.id.in_(set(user_ids)))
+    )
+    return {uid: f"{name} ({role})" for uid, name, role in rows}

@@ -172,13 +172,23 @@ def clear(session: Session, alarm: Alarm, now: datetime, comment: str) -> Alarm:
     return alarm
 
 
-def escalate(session: Session, alarm: Alarm, now: datetime) -> Alarm:
+def escalate(
+    session: Session, alarm: Alarm, now: datetime, notified: list[str] | None = None
+) -> Alarm:
+    """Raise the escalation level: the alarm is announced again, with its tone, on every board
+    that shows its ward. The audit entry names who had such a board open (`notified`)."""
     before = alarm.state
     alarm.state = next_state(before, AlarmAction.ESCALATE)
     alarm.escalation_level += 1
     alarm.escalated_at = alarm.updated_at = now
+    audience = (
+        f"signed in: {', '.join(sorted(set(notified)))}"
+        if notified
+        else "nobody had a board of this ward open"
+    )
     _record(session, alarm, AlarmAction.ESCALATE, before, "system",
-            comment=f"not acknowledged: escalated to level {alarm.escalation_level}")  # fmt: skip
+            comment=f"not acknowledged: escalated to level {alarm.escalation_level}; announced "
+                    f"again on every board showing ward {alarm.ward} ({audience})")  # fmt: skip
     return alarm
 
 

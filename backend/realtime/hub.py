@@ -15,6 +15,25 @@ log = logging.getLogger(__name__)
 ALARM_VIEWERS = frozenset({Role.NURSE, Role.ENGINEER, Role.ADMIN})
 
 
+def sees(role: Role, own_ward: str | None, ward: str) -> bool:
+    """Whether a browser of this role (and ward) is shown alarms of `ward`."""
+    if role not in ALARM_VIEWERS:
+        return False
+    return not (role == Role.NURSE and own_ward and own_ward != ward)
+
+
+@dataclass(frozen=True, slots=True)
+class Viewer:
+    """Who is looking at an alarm board right now (a snapshot of one connection)."""
+
+    user_id: int
+    role: Role
+    ward: str | None
+
+    def can_see(self, ward: str) -> bool:
+        return sees(self.role, self.ward, ward)
+
+
 @dataclass(eq=False)
 class BrowserConnection:
     websocket: WebSocket
@@ -25,9 +44,7 @@ class BrowserConnection:
     lock: asyncio.Lock = field(default_factory=asyncio.Lock)
 
     def can_see(self, ward: str) -> bool:
-        if self.role not in ALARM_VIEWERS:
-            return False
-        return not (self.role == Role.NURSE and self.ward and self.ward != ward)
+        return sees(self.role, self.ward, ward)
 
 
 class BrowserHub:
@@ -39,6 +56,10 @@ class BrowserHub:
 
     def remove(self, connection: BrowserConnection) -> None:
         self._connections.discard(connection)
+
+    def viewers(self) -> list[Viewer]:
+        """Who has a board open on this backend now (read on the event loop)."""
+        return [Viewer(c.user_id, c.role, c.ward) for c in self._connections]
 
     @property
     def size(self) -> int:

@@ -95,6 +95,16 @@ def test_unacknowledged_emergency_escalates_per_ward_and_is_pushed_again(
         ("escalate", "open", "open", "system"),
         ("escalate", "open", "open", "system"),
     ]
+    # Each escalation says to whom: who had a board of the alarm's ward open at the time.
+    with session_factory() as session:
+        comments = {
+            (e.alarm_id, e.comment)
+            for e in session.scalars(select(AlarmEvent).where(AlarmEvent.action == "escalate"))
+        }
+    assert (alarm_a.id, "not acknowledged: escalated to level 1; announced again on every board "
+            "showing ward ward-a (signed in: nurse-ward-a (nurse))") in comments  # fmt: skip
+    assert (alarm_b.id, "not acknowledged: escalated to level 1; announced again on every board "
+            "showing ward ward-b (nobody had a board of this ward open)") in comments  # fmt: skip
 
 
 def test_acknowledged_alarm_not_resolved_in_time_realarms(
