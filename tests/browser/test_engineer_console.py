@@ -111,6 +111,8 @@ def test_engineer_registry_gate_promote_what_if_and_rollback(system, page):
     page.get_by_role("button", name="Sign off and promote").click()
     confirm.get_by_role("button", name="Confirm promotion").click()
     expect(page.get_by_role("status")).to_contain_text("active")
+    # The status says where the model runs (this fleet has one robot) rather than a bare word.
+    expect(page.locator("h1 .pill")).to_have_text("production on every robot")
     expect(qualifying.get_by_role("row", name="robot-a")).to_contain_text("yes")
     with factory() as session:
         assert session.get(Robot, "robot-a").assigned_model_id is not None
