@@ -88,7 +88,8 @@ async def stall_scenario(
     emergency_seqs: list[int] = []
     t_emergency = t_lock = t_release = 0.0
 
-    async with connect(f"{ws_base}/ws/browser?token={nurse_token}") as nurse:
+    async with connect(f"{ws_base}/ws/browser") as nurse:
+        await nurse.send(json.dumps({"type": "auth", "token": nurse_token}))
         snapshot = json.loads(await nurse.recv())
         assert snapshot["type"] == "snapshot", snapshot
 

@@ -6,13 +6,12 @@ from __future__ import annotations
 import pytest
 from starlette.websockets import WebSocketDisconnect
 
-from backend.deps import SESSION_COOKIE
 from backend.models import Role
 from backend.realtime.browser_ws import CLOSE_BAD_MESSAGE
 
 
 def connect(client, token: str):
-    return client.websocket_connect("/ws/browser", headers={"cookie": f"{SESSION_COOKIE}={token}"})
+    return client.websocket_connect("/ws/browser", headers={"Authorization": f"Bearer {token}"})
 
 
 def test_ping_is_answered(client, make_account):

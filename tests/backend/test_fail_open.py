@@ -158,12 +158,12 @@ def test_a_browser_connecting_during_a_stall_gets_the_unstored_alarms_of_its_war
     fail_open.stalled["robot-b"] = elsewhere
 
     ward_a = make_account(Role.NURSE, "ward-a")
-    with client.websocket_connect(f"/ws/browser?token={ward_a.token}") as ws:
+    with client.websocket_connect("/ws/browser", headers=ward_a.headers) as ws:
         snapshot = ws.receive_json()
     assert [(a["key"], a["stored"]) for a in snapshot["alarms"]] == [
         ("robot-a/t-1/emergency", False)
     ]
     admin = make_account(Role.ADMIN, None, "admin")
-    with client.websocket_connect(f"/ws/browser?token={admin.token}") as ws:
+    with client.websocket_connect("/ws/browser", headers=admin.headers) as ws:
         keys = {a["key"] for a in ws.receive_json()["alarms"]}
     assert keys == {"robot-a/t-1/emergency", "robot-b//storage_stalled"}

@@ -115,7 +115,7 @@ def use_the_imported_videos(base: str, headers: dict) -> list[str]:
     problems = []
     videos = requests.get(f"{base}/api/labelling/videos", headers=headers, timeout=30).json()
     by_name = {v["name"]: v["id"] for v in videos}
-    for fmt, ext in (("csv", "csv"), ("json", "json"), ("coco", "json")):
+    for fmt, ext in (("csv", "csv"), ("json", "json"), ("coco", "coco.json")):
         response = requests.get(
             f"{base}/api/labelling/videos/{by_name[EMOJI_NAME]}/export",
             params={"format": fmt}, headers=headers, timeout=30,

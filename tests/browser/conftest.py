@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import re
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -40,10 +41,30 @@ def chromium():
 
 @pytest.fixture
 def page(chromium):
+    """A page that fails its test on any JavaScript error or console error, but the network's
+    own reports of a refused request or a dropped socket, which flows under test provoke."""
     context = chromium.new_context(viewport=TABLET)
     page = context.new_page()
+    errors: list[str] = []
+    page.on("pageerror", lambda error: errors.append(f"page error: {error}"))
+    page.on(
+        "console",
+        lambda message: (
+            errors.append(f"console: {message.text}")
+            if message.type == "error" and not EXPECTED_CONSOLE.search(message.text)
+            else None
+        ),
+    )
     yield page
     context.close()
+    assert errors == [], "errors in the browser console"
+
+
+#: Chromium reports every 4xx/5xx answer and every failed socket on the console; the pages
+#: handle those (the tests check what the user sees), so they are not errors of the page.
+EXPECTED_CONSOLE = re.compile(
+    r"Failed to load resource|WebSocket connection to .* failed|net::ERR_"
+)
 
 
 @pytest.fixture
