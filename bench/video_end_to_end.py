@@ -359,7 +359,8 @@ def urfd_missing_shares(video_share: float | None) -> dict:
             adl_highest.append(float(share.max()))
     out = {
         "what": "the `missing` feature (decaying share of recent frames without a pose; set "
-        "`full` only since feature version 6) on URFD's MoveNet keypoints, the training data's kind",
+        "`full` only since feature version 6) on URFD's MoveNet keypoints, the training data's "
+        "kind",
         "falls_at_first_emergency_frame_max": _round(max(at_onset)),
         "falls": len(at_onset),
         "adl_sequences": len(adl_highest),
