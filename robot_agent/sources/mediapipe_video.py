@@ -30,9 +30,6 @@ SUPPORTED_MODEL_COMPLEXITY = 1
 #: again, which often fails to find a small person or one on the way down (docs/detection.md:
 #: at 0.3 it lost URFD fall-01's person for 23 frames before the fall). 0.1 keeps following.
 MIN_TRACKING_CONFIDENCE = 0.1
-#: Landmarks MediaPipe thinks are not visible (occluded or out of the picture) are missing
-#: keypoints (confidence 0), as other estimators report them, instead of guessed positions.
-MIN_VISIBILITY = 0.5
 
 
 def parse_crop(text: str) -> tuple[int, int, int, int]:
@@ -74,7 +71,6 @@ class MediaPipeVideoSource:
         model_complexity: int = SUPPORTED_MODEL_COMPLEXITY,
         min_detection_confidence: float = 0.3,
         min_tracking_confidence: float = MIN_TRACKING_CONFIDENCE,
-        min_visibility: float = MIN_VISIBILITY,
         speed: float = 0.0,
         max_frames: int | None = None,
     ) -> None:
@@ -86,7 +82,6 @@ class MediaPipeVideoSource:
         for name, value in (
             ("min_detection_confidence", min_detection_confidence),
             ("min_tracking_confidence", min_tracking_confidence),
-            ("min_visibility", min_visibility),
         ):
             if not 0.0 <= value <= 1.0:
                 raise SourceError(f"{name}: must be within 0..1, got {value}")
@@ -99,7 +94,6 @@ class MediaPipeVideoSource:
         self.model_complexity = model_complexity
         self.min_detection_confidence = min_detection_confidence
         self.min_tracking_confidence = min_tracking_confidence
-        self.min_visibility = min_visibility
         self.speed = speed
         self.max_frames = max_frames
         self.name = f"mediapipe:{'camera ' if self.camera else ''}{video}"
@@ -162,7 +156,6 @@ class MediaPipeVideoSource:
                         [(p.x, p.y, p.z, p.visibility) for p in result.pose_landmarks.landmark],
                         np.float32,
                     )
-                    landmarks[landmarks[:, 3] < self.min_visibility, 3] = 0.0  # not seen
                     size = (image.shape[1], image.shape[0])
                     people.append(from_mediapipe33(landmarks, timestamp, image_size=size))
                     self.frames_with_person += 1
