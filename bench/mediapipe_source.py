@@ -4,14 +4,14 @@
 
 Each pass runs ``robot_agent.sources.mediapipe_video.MediaPipeVideoSource`` over the whole clip
 (160 frames) as fast as it goes (speed 0) with the settings the robot uses (model_complexity 1,
-detection/tracking confidence 0.3, crop to the RGB half). fps = frames / seconds spent decoding,
-cropping, converting and estimating (the source's ``measured_fps``); start-up (model load) is
-excluded. The figure is the median over passes; ``fps_at_median_frame_time`` (1000 / median
-per-frame milliseconds) is less sensitive to other jobs' bursts; ``fps_from_cpu_time`` (1000 /
-CPU milliseconds the process used per frame, all its threads together) is what the frames cost
-regardless of other jobs: an otherwise idle machine should reach about that rate or more (the
-estimator does not wait on I/O). The 1-minute load average before and after is recorded because
-other jobs on the machine slow it down. ``measure()`` is
+detection confidence 0.3, tracking confidence 0.1, crop to the RGB half). fps = frames / seconds
+spent decoding, cropping, converting and estimating (the source's ``measured_fps``); start-up
+(model load) is excluded. The figure is the median over passes; ``fps_at_median_frame_time``
+(1000 / median per-frame milliseconds) is less sensitive to other jobs' bursts;
+``fps_from_cpu_time`` (1000 / CPU milliseconds the process used per frame, all its threads
+together) is what the frames cost regardless of other jobs: an otherwise idle machine should
+reach about that rate or more (the estimator does not wait on I/O). The 1-minute load average
+before and after is recorded because other jobs on the machine slow it down. ``measure()`` is
 what bench/robot.py calls for its ``mediapipe_fps``.
 """
 
@@ -74,9 +74,9 @@ def measure(video: Path | None = None, passes: int = 3) -> dict:
         "passes": runs,
         "video": f"{video.name} (URFD, real), right half {URFD_RGB_CROP}",
         "settings": {
-            "model_complexity": 1,
-            "min_detection_confidence": 0.3,
-            "min_tracking_confidence": 0.3,
+            "model_complexity": source.model_complexity,
+            "min_detection_confidence": source.min_detection_confidence,
+            "min_tracking_confidence": source.min_tracking_confidence,
         },
         "mediapipe_version": mediapipe.__version__,
         "cpu_count": os.cpu_count(),

@@ -332,35 +332,35 @@ def reference_on_urfd_keypoints(model_dir: Path) -> dict:
 
 def missing_share(frames: list[dict], fps: float, at_index: int) -> float | None:
     """The `missing` feature at video frame at_index, from the stored keypoints."""
-    from vigil.features import FEATURE_NAMES, FEATURE_SETS, extract_arrays
+    from vigil.features import FEATURE_NAMES, extract_arrays
 
-    columns = [FEATURE_NAMES[i] for i in FEATURE_SETS["keypoints"]]
-    if "missing" not in columns or at_index >= len(frames):
+    if at_index >= len(frames):
         return None
     keypoints = np.array([f["keypoints"] for f in frames], np.float32)
     times = np.array([f["index"] / fps for f in frames])
-    features = extract_arrays(keypoints, None, times, "keypoints")
-    return _round(features[at_index, columns.index("missing")])
+    features = extract_arrays(keypoints, None, times, "full")
+    return _round(features[at_index, FEATURE_NAMES.index("missing")])
 
 
 def urfd_missing_shares(video_share: float | None) -> dict:
     """The `missing` feature on URFD's own keypoints: at each fall's first Emergency frame, and
     the highest per daily-activity sequence, against the share the video run had at its label."""
     from vigil.datasets import urfd
-    from vigil.features import FEATURE_NAMES, FEATURE_SETS, extract_arrays
+    from vigil.features import FEATURE_NAMES, extract_arrays
 
-    column = [FEATURE_NAMES[i] for i in FEATURE_SETS["keypoints"]].index("missing")
+    column = FEATURE_NAMES.index("missing")
     at_onset, adl_highest = [], []
     for sequence in urfd.load(URFD_DIR):
-        features = extract_arrays(sequence.keypoints, None, sequence.timestamps, "keypoints")
+        features = extract_arrays(sequence.keypoints, None, sequence.timestamps, "full")
         share = features[:, column]
         if sequence.is_fall:
             at_onset.append(float(share[np.flatnonzero(sequence.target == urfd.EMERGENCY)[0]]))
         else:
             adl_highest.append(float(share.max()))
     out = {
-        "what": "the `missing` feature (decaying share of recent frames without a pose) on URFD's "
-        "MoveNet keypoints, the training data's kind",
+        "what": "the `missing` feature (decaying share of recent frames without a pose; set "
+        "`full` only since feature version 6) on URFD's MoveNet keypoints, the training data's "
+        "kind",
         "falls_at_first_emergency_frame_max": _round(max(at_onset)),
         "falls": len(at_onset),
         "adl_sequences": len(adl_highest),

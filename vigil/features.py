@@ -42,7 +42,7 @@ import numpy as np
 
 from vigil.skeleton import INDEX, N_FLOOR, N_KEYPOINTS, SkeletonFrame
 
-FEATURE_VERSION = 5
+FEATURE_VERSION = 6
 MIN_KEYPOINTS = 4
 HORIZONS_S: tuple[float, ...] = (0.2, 0.4, 0.8, 1.6, 3.2)
 DELTA_LIMIT = 5.0  # body sizes (or log units): beyond this a change is a tracking glitch
@@ -131,11 +131,23 @@ N_LIMB = 2 * len(LIMBS)  # values and has-flags
 FLOOR_FEATURES = frozenset(
     name for name in FEATURE_NAMES if "floor_" in name or name in ("near_floor", "has_floor")
 )
+#: How often and how long one pose estimator loses a person: its habit, not the patient's. The
+#: training data's MoveNet loses people in other frames than MediaPipe on a robot does (a model
+#: that learnt "no pose lately" from MoveNet did not alarm on a MediaPipe video of a fall), so the
+#: models meant for any camera and estimator (set `keypoints`) leave them out (feature version 6).
+ESTIMATOR_DROPOUT_FEATURES = frozenset({"since_seen", "missing"})
 FEATURE_SETS: dict[str, np.ndarray] = {
     "full": np.arange(len(FEATURE_NAMES)),
     "pose": np.arange(N_POSE),  # single-frame keypoint features only, as in the paper
-    # For cameras without a known pose over the floor: everything but the floor measures.
-    "keypoints": np.array([i for i, n in enumerate(FEATURE_NAMES) if n not in FLOOR_FEATURES]),
+    # For cameras without a known pose over the floor and any pose estimator: everything but the
+    # floor measures and the estimator's dropout memory.
+    "keypoints": np.array(
+        [
+            i
+            for i, n in enumerate(FEATURE_NAMES)
+            if n not in FLOOR_FEATURES and n not in ESTIMATOR_DROPOUT_FEATURES
+        ]
+    ),
 }
 #: Feature sets whose models need floor measures in the frames (vigil.floor).
 NEEDS_FLOOR = frozenset({"full"})

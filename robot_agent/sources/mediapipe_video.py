@@ -26,6 +26,10 @@ from vigil.formats.mediapipe import from_mediapipe33
 #: The URFD clip is 640x240: depth picture left, RGB camera right.
 URFD_RGB_CROP = (320, 0, 320, 240)
 SUPPORTED_MODEL_COMPLEXITY = 1
+#: Below this landmark presence MediaPipe drops the person it follows and runs its detector
+#: again, which often fails to find a small person or one on the way down (docs/detection.md:
+#: at 0.3 it lost URFD fall-01's person for 23 frames before the fall). 0.1 keeps following.
+MIN_TRACKING_CONFIDENCE = 0.1
 
 
 def parse_crop(text: str) -> tuple[int, int, int, int]:
@@ -66,7 +70,7 @@ class MediaPipeVideoSource:
         crop: tuple[int, int, int, int] | None = None,
         model_complexity: int = SUPPORTED_MODEL_COMPLEXITY,
         min_detection_confidence: float = 0.3,
-        min_tracking_confidence: float = 0.3,
+        min_tracking_confidence: float = MIN_TRACKING_CONFIDENCE,
         speed: float = 0.0,
         max_frames: int | None = None,
     ) -> None:

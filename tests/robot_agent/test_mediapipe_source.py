@@ -42,6 +42,19 @@ def test_finds_the_person_in_most_frames(run):
     assert [o.timestamp for o in observations[:3]] == pytest.approx([0, 1 / 30, 2 / 30])
 
 
+def test_follows_the_person_through_the_walk_and_the_fall(run):
+    """MediaPipe finds the person late (its detector misses them in the first 23 frames) and,
+    with tracking confidence 0.3, lost them twice before the fall for 21 frames and did not find
+    them again for 10 (longest run with somebody found: 54 frames); at 0.1 it keeps following
+    from its first detection to the floor (81 frames)."""
+    _, observations = run
+    longest = current = 0
+    for obs in observations:
+        current = current + 1 if obs.people else 0
+        longest = max(longest, current)
+    assert longest >= 75
+
+
 def test_keypoints_are_pixels_on_the_person_movenet_found(run):
     _, observations = run
     sequence = urfd.load(names=["fall-01"])[0]

@@ -148,6 +148,31 @@ def test_stream_memory_counts_time_without_a_pose():
     assert features[-1, missing] > features[15, missing] > 0 == features[14, missing]
 
 
+def test_keypoints_set_does_not_depend_on_how_often_the_estimator_lost_the_person():
+    """Feature version 6: how often one pose estimator loses a person is its habit (MoveNet in
+    the training data, MediaPipe on a robot lose people in different frames), so the models for
+    any camera (set `keypoints`) do not see it; the set `full` still does."""
+    still = np.zeros((N_KEYPOINTS, 3), np.float32)
+    still[:, 0] = np.linspace(300, 340, N_KEYPOINTS)
+    still[:, 1] = np.linspace(100, 400, N_KEYPOINTS)
+    still[:, 2] = 0.9
+    nobody = np.zeros_like(still)
+    always = [still] * 180  # 6 s of a person standing still
+    dropped = [still] * 30 + [nobody] * 30 + [still] * 120  # lost for 1 s, then back
+    features = {}
+    for name, poses in (("always", always), ("dropped", dropped)):
+        frames = [SkeletonFrame(k, timestamp=i / 30) for i, k in enumerate(poses)]
+        features[name] = {s: extract_sequence(frames, s) for s in ("keypoints", "full")}
+    # 3.5 s after the person is seen again: no change reaches back into the gap any more (3.2 s)
+    back = 165
+    assert np.array_equal(
+        features["always"]["keypoints"][back], features["dropped"]["keypoints"][back]
+    )
+    assert not np.array_equal(features["always"]["full"][back], features["dropped"]["full"][back])
+    names = set(np.array(FEATURE_NAMES)[FEATURE_SETS["keypoints"]])
+    assert names.isdisjoint({"missing", "since_seen"}) and "held" in names
+
+
 def _descent(tops: list[float], fps: float = 30.0) -> dict[str, np.ndarray]:
     """Features of a still skeleton whose top above the floor follows `tops` (metres, one per
     frame; NaN: floor unknown), by name."""
