@@ -193,6 +193,12 @@ def test_board_reconnects_and_shows_alarms_raised_while_disconnected(live_server
     expect(_card(page).last).to_have_attribute("data-alarm-id", str(offline.id))
     page.screenshot(path=str(SCREENSHOTS / "nurse_board_kinds.png"), full_page=True)
 
+    # The escalation says to whom it went: the nurse's board was cut off at the time.
+    page.goto(f"{live_server.base_url}/nurse/alarms/{emergency.id}")
+    trail = page.get_by_role("table", name="Audit trail")
+    expect(trail).to_contain_text("escalated to level 1; announced again on every board showing")
+    expect(trail).to_contain_text("nobody had a board of this ward open")
+
 
 def test_detection_degraded_shows_as_a_technical_card_and_leaves_on_recovery(live_server, page):
     from vigil.protocol import DetectionStatus

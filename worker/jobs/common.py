@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 import shutil
 from pathlib import Path
 
@@ -59,3 +60,18 @@ def gold_evaluation(
 
 def reload(directory: Path) -> Classifier:
     return load_classifier(directory)
+
+
+#: Longest model version name (ModelVersion.version).
+VERSION_LIMIT = 64
+
+
+def derived_version(parent: str, tag: str, job_id: int, limit: int = VERSION_LIMIT) -> str:
+    """The name of a version derived from `parent` by a job: the parent's name without an
+    earlier derivation's suffix, then `-<tag><job id>` (unique: one job, one version). A long
+    parent is shortened at a hyphen, never inside a word or a timestamp."""
+    base = re.sub(r"(-(rt|j)\d+)+$", "", parent)
+    suffix = f"-{tag}{job_id}"
+    while len(base) + len(suffix) > limit and "-" in base:
+        base = base.rsplit("-", 1)[0]
+    return base[: limit - len(suffix)] + suffix

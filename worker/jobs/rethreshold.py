@@ -13,6 +13,7 @@ from worker.db_data import frame_data, labelled_videos
 from worker.evaluation import choose_operating_point
 from worker.job_params import RethresholdParams, parse
 from worker.jobs.common import (
+    derived_version,
     gold_evaluation,
     model_dir,
     model_or_error,
@@ -38,9 +39,7 @@ def run(context: JobContext) -> dict:
     threshold, delay_ms, sweep = choose_operating_point(classifier, data)
     context.log(f"threshold {classifier.manifest.threshold:.3f} -> {threshold:.3f}, "
                 f"delay {classifier.manifest.delay_ms} -> {delay_ms} ms")  # fmt: skip
-    version = params.version or (
-        f"{parent_version[:30]}-rt{datetime.now(UTC):%m%dT%H%M%S}-j{context.job_id}"
-    )
+    version = params.version or derived_version(parent_version, "rt", context.job_id)
     directory = store_path(context.settings.model_store_dir, version)
     if directory.exists():
         raise ValueError(f"invalid job parameter version: {version} exists in the model store")

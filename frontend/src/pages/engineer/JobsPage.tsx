@@ -1,4 +1,5 @@
 import { useEffect, useState } from "react";
+import { Link } from "react-router-dom";
 import { api, errorMessage } from "../../api/client";
 import { JobProgress } from "./JobProgress";
 import type { Job } from "./types";
@@ -29,10 +30,13 @@ export function JobsPage() {
       {error && <p role="alert" className="error">{error}</p>}
       {jobs === null ? <p className="muted">Loading…</p> : jobs.length === 0 ? <p className="empty">No jobs yet.</p> : (
         <table className="table" aria-label="Jobs">
-          <thead><tr><th>#</th><th>Kind</th><th>Progress</th><th>Worker</th><th>Created</th><th /></tr></thead>
+          <thead><tr><th>#</th><th>Kind</th><th>Progress</th><th>Result</th><th>Worker</th><th>Created</th><th /></tr></thead>
           <tbody>{jobs.map((j) => (
             <tr key={j.id}>
               <td>{j.id}</td><td>{j.kind}</td><td><JobProgress job={j} /></td>
+              <td>{typeof j.result?.model_version_id === "number"
+                ? <Link to={`/engineer/models/${j.result.model_version_id}`}>{String(j.result.version ?? "the new version")}</Link>
+                : "–"}</td>
               <td>{j.worker_id ?? "–"}{j.attempts > 1 ? ` (attempt ${j.attempts})` : ""}</td>
               <td>{new Date(j.created_at).toLocaleString()}</td>
               <td>

@@ -1,5 +1,5 @@
 import { Fragment, useEffect, useState, type FormEvent } from "react";
-import { useParams } from "react-router-dom";
+import { Link, useParams } from "react-router-dom";
 import { api, errorMessage } from "../../api/client";
 import { metricName, statusText } from "../../lib/registry";
 import { JobProgress } from "./JobProgress";
@@ -42,6 +42,10 @@ export function ModelPage() {
   return (
     <>
       <h1>{model.version} <span className={`pill status-${model.status}`}>{statusText(model)}</span></h1>
+      {model.job_id !== null && (
+        <p className="muted">Registered by <Link to="/engineer/jobs">job #{model.job_id}</Link>
+          {model.parent ? <> from {model.parent}</> : null}</p>
+      )}
       {error && <p role="alert" className="error">{error}</p>}
       <section className="card">
         <h2>Lineage</h2>
