@@ -11,6 +11,7 @@ function ms(value: number | null | undefined): string {
 export function AgreementPage() {
   const [videos, setVideos] = useState<LabellingVideo[]>([]);
   const [videoId, setVideoId] = useState<number | null>(null);
+  const [find, setFind] = useState("");
   const [annotators, setAnnotators] = useState<string[]>([]);
   const [a, setA] = useState("");
   const [b, setB] = useState("");
@@ -51,10 +52,14 @@ export function AgreementPage() {
         <h1>Annotator agreement</h1>
       </div>
       <div className="filters">
+        <label>Find video
+          <input type="search" value={find} onChange={(e) => setFind(e.target.value)} placeholder="part of the name" />
+        </label>
         <label>Video
           <select value={videoId ?? ""} onChange={(e) => setVideoId(Number(e.target.value) || null)}>
             <option value="">choose…</option>
-            {videos.map((v) => <option key={v.id} value={v.id}>{v.name}</option>)}
+            {videos.filter((v) => v.id === videoId || v.name.toLowerCase().includes(find.toLowerCase()))
+              .map((v) => <option key={v.id} value={v.id}>{v.name}</option>)}
           </select>
         </label>
         <label>Annotator A

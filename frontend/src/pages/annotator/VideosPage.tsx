@@ -3,10 +3,12 @@ import { Link } from "react-router-dom";
 import { api, errorMessage } from "../../api/client";
 import { currentToken } from "../../api/session";
 import { useAuth } from "../../auth/AuthContext";
+import { listView } from "../../lib/registry";
 import type { LabellingVideo } from "./types";
 
 type Split = LabellingVideo["split"];
 type Mode = LabellingVideo["mode"];
+const PAGE_SIZE = 50;
 
 /** The annotators' video list: progress, status, filters; admins change the split here. */
 export function VideosPage() {
@@ -19,6 +21,10 @@ export function VideosPage() {
   const [unreviewed, setUnreviewed] = useState(false);
   const [error, setError] = useState<string | null>(null);
   const [imported, setImported] = useState<string | null>(null);
+  const [query, setQuery] = useState("");
+  const [page, setPage] = useState(0);
+  const view = listView(videos ?? [], (v) => `${v.name} ${v.person ?? ""} ${v.location ?? ""} ${v.status}`,
+    query, (v) => v.name, "asc", page, PAGE_SIZE);
 
   const load = useCallback(async () => {
     const { data, error } = await api.GET("/api/labelling/videos", {
@@ -136,6 +142,13 @@ export function VideosPage() {
         </form>
       )}
       {error && <p role="alert" className="error">{error}</p>}
+      <div className="filters">
+        <label>Search videos
+          <input type="search" value={query} placeholder="name, person, location, status"
+            onChange={(e) => { setQuery(e.target.value); setPage(0); }} />
+        </label>
+        <span className="muted" data-testid="video-count">{view.total} of {videos?.length ?? 0} videos</span>
+      </div>
       {!videos ? <p className="muted">Loading…</p> : videos.length === 0 ? (
         <p className="empty">No videos match. Import some: <code>python -m backend.labelling.cli import-urfd</code></p>
       ) : (
@@ -147,7 +160,7 @@ export function VideosPage() {
             </tr>
           </thead>
           <tbody>
-            {videos.map((v) => {
+            {view.rows.map((v) => {
               const share = v.frame_count ? v.labelled_frames / v.frame_count : 0;
               return (
                 <tr key={v.id}>
@@ -181,6 +194,13 @@ export function VideosPage() {
             })}
           </tbody>
         </table>
+      )}
+      {videos && view.pages > 1 && (
+        <nav className="pager" aria-label="Video pages">
+          <button type="button" disabled={view.page === 0} onClick={() => setPage(view.page - 1)}>Previous</button>
+          <span>page {view.page + 1} of {view.pages}</span>
+          <button type="button" disabled={view.page + 1 >= view.pages} onClick={() => setPage(view.page + 1)}>Next</button>
+        </nav>
       )}
     </main>
   );
