@@ -191,6 +191,11 @@ def test_reimporting_an_export_adds_nothing_and_says_so(live_server, page, db):
         f"{live_server.base_url}/api/labelling/videos/{video_id}/export?format=csv"
     )
     assert exported.ok and "fall-01.csv" in exported.headers["content-disposition"]
+    search = page.get_by_label("Search videos")
+    search.fill("adl")
+    expect(page.get_by_test_id("video-count")).to_have_text("0 of 1 videos")
+    search.fill("fall 01")
+    expect(page.get_by_test_id("video-count")).to_have_text("1 of 1 videos")
     form = page.get_by_role("form", name="Import")
     form.locator("input[type=file]").set_input_files(
         {"name": "fall-01.csv", "mimeType": "text/csv", "buffer": exported.body()}
