@@ -4,6 +4,7 @@ import { api, errorMessage } from "../../api/client";
 import { currentToken } from "../../api/session";
 import { useAuth } from "../../auth/AuthContext";
 import { listView } from "../../lib/registry";
+import { Pager } from "../Pager";
 import type { LabellingVideo } from "./types";
 
 type Split = LabellingVideo["split"];
@@ -196,11 +197,7 @@ export function VideosPage() {
         </table>
       )}
       {videos && view.pages > 1 && (
-        <nav className="pager" aria-label="Video pages">
-          <button type="button" disabled={view.page === 0} onClick={() => setPage(view.page - 1)}>Previous</button>
-          <span>page {view.page + 1} of {view.pages}</span>
-          <button type="button" disabled={view.page + 1 >= view.pages} onClick={() => setPage(view.page + 1)}>Next</button>
-        </nav>
+        <Pager label="Video pages" page={view.page} pages={view.pages} onPage={setPage} />
       )}
     </main>
   );

@@ -2,6 +2,7 @@ import { useEffect, useState, type FormEvent } from "react";
 import { Link, useNavigate } from "react-router-dom";
 import { api, errorMessage } from "../../api/client";
 import { listView, statusText, type SortDirection } from "../../lib/registry";
+import { Pager } from "../Pager";
 import { JobProgress } from "./JobProgress";
 import { fmt, type ModelSummary } from "./types";
 import { useJob } from "./useJobPolling";
@@ -111,11 +112,7 @@ export function RegistryPage() {
               ))}
             </tbody>
           </table>
-          <nav className="pager" aria-label="Model pages">
-            <button type="button" disabled={view.page === 0} onClick={() => setPage(view.page - 1)}>Previous</button>
-            <span>page {view.page + 1} of {view.pages}</span>
-            <button type="button" disabled={view.page + 1 >= view.pages} onClick={() => setPage(view.page + 1)}>Next</button>
-          </nav>
+          <Pager label="Model pages" page={view.page} pages={view.pages} onPage={setPage} />
         </div>
       )}
     </>
