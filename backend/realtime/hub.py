@@ -9,17 +9,16 @@ from dataclasses import dataclass, field
 from fastapi import WebSocket
 
 from backend.models.users import Role
+from backend.wards import HasWard, sees_ward
 
 log = logging.getLogger(__name__)
 
 ALARM_VIEWERS = frozenset({Role.NURSE, Role.ENGINEER, Role.ADMIN})
 
 
-def sees(role: Role, own_ward: str | None, ward: str) -> bool:
-    """Whether a browser of this role (and ward) is shown alarms of `ward`."""
-    if role not in ALARM_VIEWERS:
-        return False
-    return not (role == Role.NURSE and own_ward and own_ward != ward)
+def sees(viewer: HasWard, ward: str) -> bool:
+    """Whether a browser of this user is shown alarms of `ward` (the one ward rule)."""
+    return viewer.role in ALARM_VIEWERS and sees_ward(viewer, ward)
 
 
 @dataclass(frozen=True, slots=True)
@@ -31,7 +30,7 @@ class Viewer:
     ward: str | None
 
     def can_see(self, ward: str) -> bool:
-        return sees(self.role, self.ward, ward)
+        return sees(self, ward)
 
 
 @dataclass(eq=False)
@@ -44,7 +43,7 @@ class BrowserConnection:
     lock: asyncio.Lock = field(default_factory=asyncio.Lock)
 
     def can_see(self, ward: str) -> bool:
-        return sees(self.role, self.ward, ward)
+        return sees(self, ward)
 
 
 class BrowserHub:
