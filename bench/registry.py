@@ -24,12 +24,12 @@ from pathlib import Path
 from sqlalchemy import create_engine, text
 
 from backend.db import make_engine, make_session_factory, transaction
+from backend.jobs import queue
 from backend.migrate import upgrade
 from backend.models.jobs import Job, JobKind, JobStatus
 from backend.models.registry import ModelVersion
 from backend.registry.gate import gate_report
 from backend.settings import Settings
-from worker import queue
 from worker.bootstrap import urfd_split
 from worker.db_data import import_urfd
 from worker.runner import Worker

@@ -13,11 +13,11 @@ from pathlib import Path
 from sqlalchemy import func, select
 from sqlalchemy.orm import Session
 
+from backend.jobs import queue
 from backend.models.jobs import Job, JobKind
 from backend.models.registry import ModelVersion
 from backend.models.videos import Split
 from vigil.datasets import urfd
-from worker import queue
 from worker.db_data import import_urfd
 from worker.training.estimators import ModelSpec
 

@@ -73,7 +73,7 @@ def main(argv: list[str] | None = None) -> int:
                     return 2
                 print(f"{len(videos)} URFD recordings in split {args.split}")
             else:
-                from worker import queue
+                from backend.jobs import queue
 
                 try:
                     params = json.loads(args.params)
@@ -83,7 +83,7 @@ def main(argv: list[str] | None = None) -> int:
                 if not isinstance(params, dict):
                     print("vigil-worker: params must be a JSON object", file=sys.stderr)
                     return 2
-                from worker.job_params import validate
+                from backend.jobs.params import validate
 
                 try:
                     validate(JobKind(args.kind), params)

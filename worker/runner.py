@@ -14,70 +14,18 @@ import threading
 import time
 import traceback
 from collections.abc import Callable
-from dataclasses import dataclass, field
 
 from sqlalchemy.orm import Session, sessionmaker
 
 from backend.db import make_engine, make_session_factory
+from backend.jobs import queue
 from backend.models.jobs import JobStatus
-from worker import queue
+from backend.registry.sweeps import SWEEPS, Sweep
+from worker.context import JobCancelled, JobContext
+from worker.jobs import HANDLERS
 from worker.settings import WorkerSettings
 
 log = logging.getLogger("vigil.worker")
-
-
-class JobCancelled(Exception):
-    pass
-
-
-@dataclass
-class JobContext:
-    """What a handler sees: its job, the database, settings, and progress reporting."""
-
-    job_id: int
-    params: dict
-    created_by_id: int | None
-    factory: sessionmaker[Session]
-    settings: WorkerSettings
-    worker_id: str
-    _progress: float = 0.0
-    _message: str = ""
-    _lines: list[str] = field(default_factory=list)
-    _lock: threading.Lock = field(default_factory=threading.Lock)
-    _cancelled: bool = False
-    _lost: bool = False
-
-    def progress(self, fraction: float, message: str | None = None) -> None:
-        """Report progress (0..1); raises JobCancelled when an engineer cancelled the job."""
-        with self._lock:
-            self._progress = fraction
-            if message is not None:
-                self._message = message
-                self._lines.append(f"[{time.strftime('%H:%M:%S')}] {message}")
-        self.flush()
-        if self._cancelled or self._lost:
-            raise JobCancelled("cancelled by request" if self._cancelled else "job taken over")
-
-    def log(self, line: str) -> None:
-        with self._lock:
-            self._lines.append(f"[{time.strftime('%H:%M:%S')}] {line}")
-
-    def take_lines(self) -> list[str]:
-        with self._lock:
-            lines, self._lines = self._lines, []
-            return lines
-
-    def flush(self) -> None:
-        with self._lock:
-            progress, message, lines = self._progress, self._message, self._lines
-            self._lines = []
-        cancel = queue.report(
-            self.factory, self.job_id, self.worker_id, progress, message or None, lines
-        )
-        if cancel is None:
-            self._lost = True
-        elif cancel:
-            self._cancelled = True
 
 
 Handler = Callable[[JobContext], dict]
@@ -89,11 +37,8 @@ class Worker:
         settings: WorkerSettings,
         factory: sessionmaker[Session] | None = None,
         handlers: dict[str, Handler] | None = None,
-        sweeps: list[Callable[[sessionmaker[Session], WorkerSettings], None]] | None = None,
+        sweeps: list[Sweep] | None = None,
     ) -> None:
-        from worker.jobs import HANDLERS
-        from worker.sweeps import SWEEPS
-
         self.settings = settings
         self.worker_id = settings.worker_id or f"{socket.gethostname()}:{os.getpid()}"
         self._engine = None

@@ -1,13 +1,14 @@
 """Worker jobs: queue, list with live progress, detail with log, cancel. The queue's state
-rules live in worker.queue (a light module: no training code is imported here)."""
+rules live in backend.jobs.queue (a light module: no training code is imported here)."""
 
 from fastapi import APIRouter, HTTPException, status
 
 from backend.deps import CurrentUser, SessionDep, SettingsDep
+from backend.jobs import params as job_params
+from backend.jobs import queue
 from backend.models.jobs import Job, JobStatus
 from backend.registry import queries
 from backend.registry.schemas import JobDetail, JobIn, JobOut
-from worker import job_params, queue
 
 router = APIRouter(prefix="/api", tags=["jobs"])
 

@@ -11,12 +11,12 @@ from playwright.sync_api import expect
 from sqlalchemy import select
 
 from backend.db import make_engine, make_session_factory, transaction
+from backend.jobs import queue
 from backend.models import Deployment, Robot, Role, User
 from backend.models.jobs import JobKind
 from backend.models.videos import Split
 from backend.security import hash_password
 from tests.registry_fixtures import GOLD, TRAIN, derive_model, trained_model_dir  # noqa: F401
-from worker import queue
 from worker.db_data import import_urfd
 from worker.runner import Worker
 from worker.settings import WorkerSettings

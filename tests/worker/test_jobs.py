@@ -9,13 +9,13 @@ from pathlib import Path
 from sqlalchemy import func, select
 
 from backend.db import transaction
+from backend.jobs import queue
 from backend.models.jobs import Job, JobKind, JobStatus
 from backend.models.registry import ModelStatus, ModelVersion
 from backend.models.users import Role, User
 from backend.registry.gate import gate_report
 from tests.registry_fixtures import GOLD, SMALL_GRID, TRAIN
 from vigil.model_file import load_classifier
-from worker import queue
 from worker.runner import Worker
 
 

@@ -11,10 +11,11 @@ import pytest
 from sqlalchemy import select
 
 from backend.db import make_engine, make_session_factory, transaction
+from backend.jobs import queue
 from backend.models._types import utcnow
 from backend.models.jobs import Job, JobKind, JobStatus
-from worker import queue
-from worker.runner import JobContext, Worker
+from worker.context import JobContext
+from worker.runner import Worker
 
 
 def _enqueue(factory, n=1, kind=JobKind.EVALUATE, params=None) -> list[int]:

@@ -11,10 +11,10 @@ import time
 from pathlib import Path
 
 from backend.db import transaction
+from backend.jobs import queue
 from backend.models.jobs import Job, JobKind, JobStatus
 from backend.models.registry import ModelVersion
 from tests.registry_fixtures import SMALL_GRID
-from worker import queue
 from worker.runner import Worker
 
 REPO = Path(__file__).resolve().parents[2]

@@ -14,8 +14,8 @@ from backend.models.videos import Split
 from vigil.classes import TransportMode
 from vigil.model_file import Classifier, load_classifier
 from worker import evaluation
+from worker.context import JobContext
 from worker.db_data import frame_data, labelled_videos
-from worker.runner import JobContext
 
 
 def started_by(session: Session, context: JobContext) -> dict:

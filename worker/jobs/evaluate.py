@@ -4,9 +4,9 @@ per-event results, per-frame latency and plots, stored with the model."""
 from __future__ import annotations
 
 from backend.db import transaction
-from worker.job_params import EvaluateParams, parse
+from backend.jobs.params import EvaluateParams, parse
+from worker.context import JobContext
 from worker.jobs.common import gold_evaluation, model_dir, model_or_error, reload
-from worker.runner import JobContext
 
 
 def run(context: JobContext) -> dict:

@@ -7,11 +7,11 @@ from __future__ import annotations
 from pathlib import Path
 
 from backend.db import transaction
+from backend.jobs.params import RegisterParams, parse, register_source
 from vigil.model_file import read_manifest
-from worker.job_params import RegisterParams, parse, register_source
+from worker.context import JobContext
 from worker.jobs.common import gold_evaluation, reload, started_by
 from worker.registration import register, store_path
-from worker.runner import JobContext
 
 
 def run(context: JobContext) -> dict:

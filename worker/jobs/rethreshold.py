@@ -7,11 +7,12 @@ import shutil
 from datetime import UTC, datetime
 
 from backend.db import transaction
+from backend.jobs.params import RethresholdParams, parse
 from backend.models.videos import Split
 from vigil.model_file import read_manifest, write_model
+from worker.context import JobContext
 from worker.db_data import frame_data, labelled_videos
 from worker.evaluation import choose_operating_point
-from worker.job_params import RethresholdParams, parse
 from worker.jobs.common import (
     derived_version,
     gold_evaluation,
@@ -21,7 +22,6 @@ from worker.jobs.common import (
     started_by,
 )
 from worker.registration import register, store_path
-from worker.runner import JobContext
 
 
 def run(context: JobContext) -> dict:

@@ -10,13 +10,13 @@ from datetime import UTC, datetime
 import numpy as np
 
 from backend.db import transaction
+from backend.jobs.params import RetrainParams, parse
 from backend.models.videos import Split
+from worker.context import JobContext
 from worker.db_data import frame_data, labelled_videos
 from worker.grid import GridBackend, grid_select
-from worker.job_params import RetrainParams, parse
 from worker.jobs.common import gold_evaluation, reload, started_by
 from worker.registration import register, store_path
-from worker.runner import JobContext
 from worker.training.cli import DEFAULT_SPEC
 from worker.training.estimators import SPECS, ModelSpec
 from worker.training.publish import publish

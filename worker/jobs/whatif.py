@@ -4,11 +4,11 @@ how alarms, recall and time to alarm would change, before anything is promoted."
 from __future__ import annotations
 
 from backend.db import transaction
+from backend.jobs.params import WhatIfParams, parse
+from worker.context import JobContext
 from worker.db_data import frame_data, labelled_videos
 from worker.evaluation import evaluate_model
-from worker.job_params import WhatIfParams, parse
 from worker.jobs.common import model_dir, model_or_error, reload
-from worker.runner import JobContext
 
 KEYS = ("falls_detected", "falls_total", "adl_false_alarms", "adl_total", "frame_recall",
         "frame_precision", "frame_f1", "median_time_to_alarm_s", "max_time_to_alarm_s")  # fmt: skip

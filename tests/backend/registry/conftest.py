@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from backend.db import transaction
+from backend.jobs import queue
 from backend.models.jobs import JobKind, JobStatus
 from backend.models.robots import Robot
 from backend.security import hash_robot_token
@@ -18,7 +19,6 @@ from tests.registry_fixtures import (
     urfd_db,
     worker_settings,
 )
-from worker import queue
 from worker.runner import Worker
 
 __all__ = ["factory", "trained_model_dir", "urfd_db", "worker_settings"]

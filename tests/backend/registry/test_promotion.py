@@ -9,9 +9,9 @@ from sqlalchemy import func, select
 from backend.db import transaction
 from backend.models import Alarm, AlarmKind, AlarmPriority, AlarmState, Deployment, Robot, Role
 from backend.models._types import utcnow
+from backend.registry.sweeps import automatic_rollback
 from tests.backend.conftest import ROBOT_TOKEN
 from tests.registry_fixtures import derive_model, second_version
-from worker.sweeps import automatic_rollback
 
 
 def test_the_gate_blocks_a_model_that_misses_a_fall(

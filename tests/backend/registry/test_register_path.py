@@ -8,9 +8,9 @@ import shutil
 import pytest
 
 from backend.db import transaction
+from backend.jobs import queue
 from backend.models.jobs import Job, JobKind, JobStatus
 from backend.models.users import Role, User
-from worker import queue
 from worker.runner import Worker
 
 

@@ -28,10 +28,10 @@ from backend.models import (
     SegmentSource,
     SegmentStatus,
 )
+from backend.registry.sweeps import shadow_disagreements
 from tests.backend.conftest import ROBOT_TOKEN
 from tests.registry_fixtures import derive_model, second_version
 from vigil.protocol import FrameBatch, FrameRecord, Hello, ShadowDecision, TransportStart
-from worker.sweeps import shadow_disagreements
 
 REPO = Path(__file__).resolve().parents[3]
 
