@@ -25,13 +25,14 @@ from sqlalchemy import create_engine, text
 
 from backend.db import make_engine, make_session_factory, transaction
 from backend.jobs import queue
+from backend.labelling.importers.urfd import import_urfd
 from backend.migrate import upgrade
 from backend.models.jobs import Job, JobKind, JobStatus
 from backend.models.registry import ModelVersion
+from backend.models.videos import Split
 from backend.registry.gate import gate_report
 from backend.settings import Settings
 from worker.bootstrap import urfd_split
-from worker.db_data import import_urfd
 from worker.runner import Worker
 from worker.settings import WorkerSettings
 
@@ -104,8 +105,8 @@ def bench_retrain(workdir: Path) -> dict:
     factory = make_session_factory(engine)
     train, gold = urfd_split()
     with transaction(factory) as session:
-        import_urfd(session, train, "train")
-        import_urfd(session, gold, "test")
+        import_urfd(session, names=train, split=Split.TRAIN)
+        import_urfd(session, names=gold, split=Split.TEST)
         job_id = queue.enqueue(session, JobKind.RETRAIN, {"spec": "rf-default"}).id
     settings = WorkerSettings(database_url=url, model_store_dir=workdir / "models",
                               worker_id="bench")  # fmt: skip

@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 
 from backend.db import make_engine, make_session_factory, transaction
+from backend.labelling.importers.urfd import import_urfd
 from backend.models.videos import Split
 from vigil.model_file import read_manifest, write_model
-from worker.db_data import import_urfd
 from worker.settings import WorkerSettings
 
 TRAIN = [f"fall-{i:02d}" for i in range(1, 7)] + [f"adl-{i:02d}" for i in range(1, 7)]
@@ -42,8 +42,8 @@ def worker_settings(database_url: str, tmp_path: Path) -> WorkerSettings:
 @pytest.fixture
 def urfd_db(factory) -> None:
     with transaction(factory) as session:
-        import_urfd(session, TRAIN, Split.TRAIN)
-        import_urfd(session, GOLD, Split.TEST)
+        import_urfd(session, names=TRAIN, split=Split.TRAIN)
+        import_urfd(session, names=GOLD, split=Split.TEST)
 
 
 @pytest.fixture(scope="session")

@@ -16,7 +16,6 @@ from sqlalchemy.orm import Session
 from backend.jobs import queue
 from backend.models.jobs import Job, JobKind
 from backend.models.registry import ModelVersion
-from backend.models.videos import Split
 from vigil.datasets import urfd
 from worker.db_data import import_urfd
 from worker.training.estimators import ModelSpec
@@ -35,8 +34,9 @@ def bootstrap(session: Session, default_model_dir: Path | None, urfd_dir=None) -
     done = []
     train, gold = urfd_split()
     if (urfd.default_dir() if urfd_dir is None else Path(urfd_dir)).exists():
-        import_urfd(session, train, Split.TRAIN, urfd_dir)
-        import_urfd(session, gold, Split.TEST, urfd_dir)
+        # The one URFD importer, as seed-demo runs it: what seed-demo imported is skipped, and
+        # a split an admin changed stays (new videos get the gold split, urfd.is_gold).
+        import_urfd(session, urfd_dir, train + gold)
         add_floor_measures(session, train + gold, urfd_dir)
         done.append(f"URFD: {len(train)} training and {len(gold)} gold recordings")
     has_models = session.scalar(select(func.count()).select_from(ModelVersion))
@@ -52,7 +52,7 @@ def bootstrap(session: Session, default_model_dir: Path | None, urfd_dir=None) -
 
 def add_floor_measures(session: Session, names: list[str], urfd_dir=None) -> int:
     """Give the frames of the imported URFD recordings URFD's own floor measures where they
-    have none (databases made before worker.db_data.import_urfd stored them), so that a model
+    have none (databases made before the URFD importer stored them), so that a model
     that needs floor measures is trained and judged on the gold set with them; idempotent.
     Returns the recordings filled."""
     from sqlalchemy import bindparam, update
@@ -69,9 +69,9 @@ def add_floor_measures(session: Session, names: list[str], urfd_dir=None) -> int
         .where(Frame.__table__.c.index == bindparam("i"))
         .values(floor=bindparam("f"))
     )
-    for sequence in urfd.load(urfd_dir, [name.removeprefix("urfd/") for name in bare]):
+    for sequence in urfd.load(urfd_dir, list(bare)):
         rows = [
-            {"v": bare[f"urfd/{sequence.name}"], "i": i, "f": encode_floor(floor)}
+            {"v": bare[sequence.name], "i": i, "f": encode_floor(floor)}
             for i, floor in enumerate(sequence.floor)
         ]
         session.execute(statement, [r for r in rows if r["f"] is not None])
@@ -85,7 +85,7 @@ def _videos_without_floor(session: Session, names: list[str]) -> dict[str, int]:
     return dict(
         session.execute(
             select(Video.name, Video.id).where(
-                Video.name.in_([f"urfd/{n}" for n in names]), Video.id.not_in(with_floor)
+                Video.name.in_(names), Video.source == "urfd", Video.id.not_in(with_floor)
             )
         ).all()
     )

@@ -64,10 +64,10 @@ def main(argv: list[str] | None = None) -> int:
                 for line in bootstrap(session, args.default_model):
                     print(line)
             elif args.command == "import-urfd":
-                from worker.db_data import import_urfd
+                from backend.labelling.importers.urfd import import_urfd
 
                 try:
-                    videos = import_urfd(session, args.names, Split(args.split))
+                    videos = import_urfd(session, names=args.names, split=Split(args.split)).videos
                 except KeyError as error:
                     print(f"vigil-worker: --names: {error.args[0]}", file=sys.stderr)
                     return 2

@@ -1,104 +1,33 @@
 """Training and evaluation data from the database: recordings (videos with their frames) and the
 accepted fine-label segments on them, turned into the detection code's FrameData.
 
-Also imports URFD sequences into the database as videos with accepted `import` segments, so the
-gold set (videos with split 'test') and retraining both read one place.
+Recordings get into the database through the server domain's importers (URFD:
+backend.labelling.importers.urfd); the gold set (videos with split 'test') and retraining both
+read them here.
 """
 
 from __future__ import annotations
 
 import hashlib
 import json
-from collections.abc import Iterable
 
 import numpy as np
 from sqlalchemy import select
 from sqlalchemy.orm import Session
 
-from backend.models.annotations import AnnotationSegment, SegmentSource, SegmentStatus
+from backend.models.annotations import AnnotationSegment, SegmentStatus
 from backend.models.taxonomy import TaxonomyLabel
 from backend.models.videos import Frame, Split, Video
 from vigil.classes import MODE_CLASSES, Decision, TransportMode
-from vigil.datasets import urfd
 from vigil.observation import Observation
 from vigil.skeleton import (
     SkeletonFrame,
     decode_depth,
     decode_floor,
     decode_keypoints,
-    encode_floor,
-    encode_keypoints,
 )
 from vigil.taxonomy import DEFAULT_TAXONOMY
 from worker.training.data import FrameData, sequence_arrays
-
-# URFD official label -> fine label (walking mode: the first two are Emergency, the rest Normal).
-URFD_FALL_LABELS = {0.0: "falling", 1.0: "lying_on_floor", -1.0: "standing"}
-URFD_ADL_LABELS = {0.0: "sitting_down", 1.0: "lying_down_deliberately", -1.0: "walking"}
-
-
-def _runs(values: list[str | None]) -> list[tuple[int, int, str]]:
-    runs, start = [], 0
-    for i in range(1, len(values) + 1):
-        if i == len(values) or values[i] != values[start]:
-            if values[start] is not None:
-                runs.append((start, i - 1, values[start]))
-            start = i
-    return runs
-
-
-def import_urfd(
-    session: Session, names: Iterable[str], split: Split, directory=None
-) -> list[Video]:
-    """Store URFD sequences (real data) as videos with accepted import segments; idempotent."""
-    names = list(names)
-    existing = {v.name: v for v in session.scalars(select(Video).where(Video.name.in_(
-        [f"urfd/{n}" for n in names])))}  # fmt: skip
-    videos = []
-    for seq in urfd.load(directory, [n for n in names if f"urfd/{n}" not in existing]):
-        video = Video(
-            name=f"urfd/{seq.name}", source="urfd", generated=False, mode=TransportMode.WALKING,
-            camera="kinect-cam0", fps=urfd.FPS, split=split, frame_count=len(seq),
-        )  # fmt: skip
-        session.add(video)
-        session.flush()
-        session.execute(
-            Frame.__table__.insert(),
-            [
-                {
-                    "video_id": video.id,
-                    "index": i,
-                    "ts": float(t),
-                    "keypoints": encode_keypoints(k),
-                    "floor": encode_floor(f),  # URFD's own depth features (vigil.datasets.urfd)
-                }  # fmt: skip
-                for i, (k, t, f) in enumerate(
-                    zip(seq.keypoints, seq.timestamps, seq.floor, strict=True)
-                )
-            ],
-        )
-        mapping = URFD_FALL_LABELS if seq.is_fall else URFD_ADL_LABELS
-        fine = [None if np.isnan(v) else mapping[float(v)] for v in seq.urfd_label]
-        for first, last, key in _runs(fine):
-            session.add(
-                AnnotationSegment(
-                    video_id=video.id,
-                    first_frame=first,
-                    last_frame=last,
-                    label_key=key,
-                    taxonomy_version=DEFAULT_TAXONOMY.version,
-                    status=SegmentStatus.ACCEPTED,
-                    source=SegmentSource.IMPORT,
-                )  # fmt: skip
-            )
-        videos.append(video)
-    session.flush()
-    for name in names:
-        if f"urfd/{name}" in existing:
-            video = existing[f"urfd/{name}"]
-            video.split = split
-            videos.append(video)
-    return videos
 
 
 def label_decisions(session: Session, mode: TransportMode) -> dict[tuple[int, str], Decision]:

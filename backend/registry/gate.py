@@ -6,6 +6,7 @@ from __future__ import annotations
 
 from backend.models._types import utcnow
 from backend.models.registry import ModelVersion
+from vigil.datasets import urfd
 
 
 def gate_report(model: ModelVersion, false_alarm_budget: float, latency_ms: float) -> dict:
@@ -82,7 +83,7 @@ def _warnings(model: ModelVersion, gold: dict | None) -> list[str]:
     if overlap:
         warnings.append(f"gold recordings were also training data: {', '.join(overlap)}")
     elif not trained_on:
-        urfd_gold = any(name.startswith("urfd/") for name in gold.get("sequences") or [])
+        urfd_gold = any(name in urfd.NAMES for name in gold.get("sequences") or [])
         warnings.append(
             "training recordings unknown (model registered from a directory): the gold set may "
             "overlap its training data"

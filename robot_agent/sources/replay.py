@@ -4,9 +4,10 @@ Both pace themselves with ``speed`` (1 real time, 2 twice as fast, 0 as fast as 
 
 URFD (real data, ``vigil.datasets.urfd``): ``Sequence.observations()``, one person per frame
 where MoveNet found somebody, nobody where it did not, each frame's truth a fine label standing
-for the official one (``urfd.TRUTH_LABELS``). The sequence comes from the dataset's keypoint
-file or from any file in its format (``keypoints_file``). With ``depth_dir`` (URFD depth PNGs
-``<sequence>-cam0-d-NNN.png``) the frame whose official index matches carries its depth image.
+for the official one (``urfd.FINE_LABELS``, the one URFD map). The sequence comes from the
+dataset's keypoint file or from any file in its format (``keypoints_file``). With ``depth_dir``
+(URFD depth PNGs ``<sequence>-cam0-d-NNN.png``) the frame whose official index matches carries
+its depth image.
 
 Vigil export (``backend/labelling/export.py``, format ``vigil-labels`` version 1): a JSON object
 with ``video`` (``fps``, ``image_width``, ``image_height``, ``generated``, ...), ``frames``

@@ -12,12 +12,12 @@ from sqlalchemy import select
 
 from backend.db import make_engine, make_session_factory, transaction
 from backend.jobs import queue
+from backend.labelling.importers.urfd import import_urfd
 from backend.models import Deployment, Robot, Role, User
 from backend.models.jobs import JobKind
 from backend.models.videos import Split
 from backend.security import hash_password
 from tests.registry_fixtures import GOLD, TRAIN, derive_model, trained_model_dir  # noqa: F401
-from worker.db_data import import_urfd
 from worker.runner import Worker
 from worker.settings import WorkerSettings
 
@@ -36,8 +36,8 @@ def system(tmp_path, frontend_dist, trained_model_dir):  # noqa: F811
     with transaction(factory) as session:
         session.add(User(username="erin", password_hash=hash_password(PASSWORD),
                          role=Role.ENGINEER))  # fmt: skip
-        import_urfd(session, TRAIN[:2] + TRAIN[6:8], Split.TRAIN)
-        import_urfd(session, GOLD, Split.TEST)
+        import_urfd(session, names=TRAIN[:2] + TRAIN[6:8], split=Split.TRAIN)
+        import_urfd(session, names=GOLD, split=Split.TEST)
         queue.enqueue(session, JobKind.REGISTER, {"path": str(trained_model_dir)})
         blind = derive_model(trained_model_dir, tmp_path / "blind", "blind-1", delay_ms=10_000)
         queue.enqueue(session, JobKind.REGISTER, {"path": str(blind)})

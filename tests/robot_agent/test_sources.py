@@ -101,7 +101,7 @@ def test_urfd_replay_is_the_real_sequence_with_truth_and_depth():
             np.testing.assert_array_equal(obs.people[0].keypoints, kp)
             assert obs.patient_hint == 0
     truth = [o.truth for o in observations]
-    assert truth[0] == "standing" and truth[-1] == "lying_on_floor" and "falling" in truth
+    assert truth[0] == "walking" and truth[-1] == "lying_on_floor" and "falling" in truth
     assert source.depth_scale_mm == pytest.approx(6000 / 65535)
     with_depth = [o.index for o in observations if o.depth_image is not None]
     assert with_depth == [2, 10, 20, 30, 40, 50, 60, 70, 80, 90, 99]

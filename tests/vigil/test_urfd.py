@@ -91,4 +91,4 @@ def test_observations_carry_the_person_where_detected_and_the_truth():
     observations = sequence.observations()
     assert [bool(o.people) for o in observations] == list(sequence.detected)
     truth = {o.truth for o in observations}
-    assert {"standing", "falling", "lying_on_floor"} <= truth
+    assert {"walking", "falling", "lying_on_floor"} <= truth

@@ -44,13 +44,13 @@ def test_retrain_on_urfd_registers_a_model_with_lineage_metrics_and_plots(
         assert model.status == ModelStatus.CANDIDATE and model.job_id == job.id
         lineage = model.lineage
         assert lineage["started_by"]["username"] == "erin"
-        assert lineage["training_videos"] == [f"urfd/{n}" for n in TRAIN]
+        assert lineage["training_videos"] == list(TRAIN)
         assert set(lineage["hyperparameters"]) == set(SMALL_GRID)
         assert lineage["taxonomy_version"] == 1 and lineage["feature_version"] >= 1
         assert len(lineage["data_sha256"]) == 64 and lineage["code_version"]
         gold = model.metrics["gold"]
         assert gold["falls_total"] == 2 and gold["adl_total"] == 2
-        assert gold["sequences"] == [f"urfd/{n}" for n in GOLD]
+        assert gold["sequences"] == list(GOLD)
         assert {"frame_recall", "frame_f1", "fp", "fp_d", "fn", "fn_d"} <= set(gold)
         assert len(gold["events"]) == 4 and gold["generated_data"] is False
         assert 0 < model.metrics["latency"]["p95_ms"] < 1000

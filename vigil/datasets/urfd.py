@@ -36,16 +36,35 @@ KEYPOINTS_FILE = "keypoints/urfd_movenet13.csv.gz"
 LABEL_FILES = ("labels/urfall-cam0-falls.csv", "labels/urfall-cam0-adls.csv")
 UNLABELLED = -1
 NORMAL, EMERGENCY = 0, 1  # indices into MODE_CLASSES[WALKING]
-# A fine label standing in for each official label, chosen so that its class is the dataset's
-# (vigil.taxonomy): what a replayed observation carries as its truth.
-TRUTH_LABELS = {
-    ("fall", 0.0): "falling",
-    ("fall", 1.0): "lying_on_floor",
-    ("fall", -1.0): "standing",
-    ("adl", 1.0): "lying_down_deliberately",
-    ("adl", 0.0): "sitting_down",
-    ("adl", -1.0): "standing",
+#: The one map from URFD's official per-frame label to a fine label of the taxonomy
+#: (vigil.taxonomy), by sequence kind; docs/labelling.md states it. The URFD importer
+#: (backend.labelling.importers.urfd) stores it as accepted import segments, and a replayed
+#: observation carries it as its truth. ADL "0" is a transitional pose (crouching, bending
+#: down, sitting down) the data cannot tell apart: one label, `bending`, stands for all of them.
+FINE_LABELS: dict[str, dict[int, str]] = {
+    "fall": {-1: "walking", 0: "falling", 1: "lying_on_floor"},
+    "adl": {-1: "walking", 0: "bending", 1: "lying_down_deliberately"},
 }
+TRUTH_LABELS = {
+    (kind, float(value)): label for kind, labels in FINE_LABELS.items()
+    for value, label in labels.items()
+}  # fmt: skip
+#: Every fifth sequence of each kind is a gold (test) recording: 6 falls and 8 daily activities,
+#: 56 training recordings (split by recording, never by frame).
+TEST_EVERY = 5
+NAMES = tuple([f"fall-{i:02d}" for i in range(1, 31)] + [f"adl-{i:02d}" for i in range(1, 41)])
+
+
+def fine_label(name: str, urfd_label: float) -> str | None:
+    """The fine label of one official label of sequence `name` (None where unlabelled)."""
+    if np.isnan(urfd_label):
+        return None
+    return FINE_LABELS[name.split("-")[0]][int(urfd_label)]
+
+
+def is_gold(name: str) -> bool:
+    """Whether URFD sequence `name` (e.g. "fall-05") belongs to the gold set."""
+    return int(name.split("-")[1]) % TEST_EVERY == 0
 
 
 def default_dir() -> Path:
@@ -86,9 +105,8 @@ class Sequence:
         ]
 
     def truth(self) -> list[str | None]:
-        """Per frame, the fine label of TRUTH_LABELS (None where unlabelled)."""
-        kind = self.name.split("-")[0]
-        return [None if np.isnan(v) else TRUTH_LABELS[(kind, float(v))] for v in self.urfd_label]
+        """Per frame, the fine label of FINE_LABELS (None where unlabelled)."""
+        return [fine_label(self.name, v) for v in self.urfd_label]
 
     def observations(self) -> list[Observation]:
         """The sequence as a camera would have given it: one person where MoveNet found

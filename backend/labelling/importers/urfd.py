@@ -1,6 +1,9 @@
 """UR Fall Detection (real falls; Kwolek & Kepski 2014, CC BY-NC-SA 4.0) -> videos + labels.
 
-Official per-frame labels map onto the taxonomy as imported, accepted segments:
+The one URFD importer: the demo seeding, the worker's bootstrap and CLI, tests and benchmarks
+all import through it, one video per sequence named after it (`fall-01`). Official per-frame
+labels map onto the taxonomy as imported, accepted segments by the one map,
+`vigil.datasets.urfd.FINE_LABELS`:
 
 | sequence | -1 (not lying) | 0 (in between)  | 1 (lying on the ground)   |
 | -------- | -------------- | --------------- | ------------------------- |
@@ -34,10 +37,6 @@ from backend.models.videos import Split, Video
 from vigil.classes import TransportMode
 from vigil.datasets import urfd
 
-LABEL_MAP = {
-    "fall": {-1: "walking", 0: "falling", 1: "lying_on_floor"},
-    "adl": {-1: "walking", 0: "bending", 1: "lying_down_deliberately"},
-}
 #: The URFD clip: 640x240, depth picture left, RGB (320x240) right.
 RGB_CROP = {"x": 320, "y": 0, "width": 320, "height": 240}
 #: Depth PNG raw value -> metres (README: P * 6000 / 65535 mm for falls, 7000 for ADL).
@@ -45,7 +44,6 @@ DEPTH_RANGE_MM = {"fall": 6000.0, "adl": 7000.0}
 DEPTH_NAME = re.compile(r"^(?P<seq>(fall|adl)-\d+)-cam0-d-(?P<frame>\d+)\.png$")
 #: Nominal Kinect v1 colour-camera intrinsics at 640x480 (URFD publishes no calibration).
 KINECT_INTRINSICS = {"fx": 525.0, "fy": 525.0, "cx": 319.5, "cy": 239.5}
-TEST_EVERY = 5  # every 5th sequence of each kind is a test video (split by video, never frame)
 
 
 @dataclass
@@ -53,10 +51,13 @@ class ImportReport:
     created: list[str] = field(default_factory=list)
     skipped: list[str] = field(default_factory=list)
     segments: int = 0
+    #: Every video of the sequences asked for, imported now or before, in the order loaded.
+    videos: list[Video] = field(default_factory=list)
 
 
 def split_for(name: str) -> Split:
-    return Split.TEST if int(name.split("-")[1]) % TEST_EVERY == 0 else Split.TRAIN
+    """Every 5th sequence of each kind is a test (gold) video: split by video, never frame."""
+    return Split.TEST if urfd.is_gold(name) else Split.TRAIN
 
 
 def _depth_for(directory: Path, sequence: urfd.Sequence) -> np.ndarray | None:
@@ -83,17 +84,22 @@ def import_urfd(
     names: list[str] | None = None,
     labels: bool = True,
     sequences: list[urfd.Sequence] | None = None,
+    split: Split | None = None,
 ) -> ImportReport:
     """Idempotent: sequences already imported (by video name) are skipped. labels=False
     imports the recordings only (to label them from scratch). `sequences` saves re-reading
-    the keypoint file when the caller has already loaded them."""
+    the keypoint file when the caller has already loaded them. `split` puts every video asked
+    for in that split, those imported before included (default: `split_for` on new videos)."""
     directory = Path(directory) if directory else urfd.default_dir()
     report = ImportReport()
     for sequence in sequences if sequences is not None else urfd.load(directory, names):
-        if video_by_name(session, sequence.name) is not None:
+        existing = video_by_name(session, sequence.name)
+        if existing is not None:
+            if split is not None:
+                existing.split = split
             report.skipped.append(sequence.name)
+            report.videos.append(existing)
             continue
-        kind = sequence.name.split("-")[0]
         clip = directory / "video" / f"{sequence.name}-cam0.mp4"
         video = Video(
             name=sequence.name,
@@ -103,7 +109,7 @@ def import_urfd(
             camera="urfd-kinect-cam0",
             location="URFD lab (Rzeszow)",
             person=None,  # URFD does not say who is in which sequence
-            split=split_for(sequence.name),
+            split=split if split is not None else split_for(sequence.name),
             fps=urfd.FPS,
             image_width=urfd.IMAGE_SIZE[0],
             image_height=urfd.IMAGE_SIZE[1],
@@ -126,7 +132,7 @@ def import_urfd(
             floor=sequence.floor,
         )
         official = [
-            None if np.isnan(value) or not labels else LABEL_MAP[kind][int(value)]
+            urfd.fine_label(sequence.name, value) if labels else None
             for value in sequence.urfd_label
         ]
         for first, last, label in label_runs(official):
@@ -140,4 +146,6 @@ def import_urfd(
             )
             report.segments += 1
         report.created.append(sequence.name)
+        report.videos.append(video)
+    session.flush()
     return report

@@ -24,7 +24,7 @@ def test_every_robot_gets_a_model_it_can_feed_and_walking_keeps_its_fallback(
         # The import stores URFD's floor measures; the backfill (for older databases) finds
         # nothing to fill.
         assert add_floor_measures(session, TRAIN + GOLD) == 0
-        older = session.scalars(select(Video).where(Video.name == "urfd/fall-07")).one()
+        older = session.scalars(select(Video).where(Video.name == "fall-07")).one()
         session.execute(update(Frame).where(Frame.video_id == older.id).values(floor=None))
         assert add_floor_measures(session, TRAIN + GOLD) == 1  # a database from before
         for robot in session.scalars(select(Robot)):
@@ -39,7 +39,7 @@ def test_every_robot_gets_a_model_it_can_feed_and_walking_keeps_its_fallback(
         assigned = {r.id: r.assigned_model_id for r in session.scalars(select(Robot))}
         assert set(assigned.values()) == {keypoints.id}
         assert fallback_model(session, "walking").id == keypoints.id
-        video = session.scalars(select(Video).where(Video.name == "urfd/fall-07")).one()
+        video = session.scalars(select(Video).where(Video.name == "fall-07")).one()
         assert session.scalars(
             select(Frame.floor).where(Frame.video_id == video.id, Frame.floor.is_not(None))
         ).first()
