@@ -14,19 +14,19 @@ from sqlalchemy import func, select
 from sqlalchemy.orm import Session
 
 from backend.jobs import queue
+from backend.labelling.importers.urfd import import_urfd
 from backend.models.jobs import Job, JobKind
 from backend.models.registry import ModelVersion
 from vigil.datasets import urfd
-from worker.db_data import import_urfd
 from worker.training.estimators import ModelSpec
 
-# Every fifth fall and ADL recording is held out as the gold set (6 falls, 8 daily activities).
-GOLD = [f"fall-{i:02d}" for i in range(5, 31, 5)] + [f"adl-{i:02d}" for i in range(5, 41, 5)]
+# Every fifth fall and ADL recording is held out as the gold set (6 falls, 8 daily activities):
+# the importer's split (vigil.datasets.urfd.is_gold).
+GOLD = [name for name in urfd.NAMES if urfd.is_gold(name)]
 
 
 def urfd_split() -> tuple[list[str], list[str]]:
-    names = [f"fall-{i:02d}" for i in range(1, 31)] + [f"adl-{i:02d}" for i in range(1, 41)]
-    return [n for n in names if n not in GOLD], list(GOLD)
+    return [n for n in urfd.NAMES if n not in GOLD], list(GOLD)
 
 
 def bootstrap(session: Session, default_model_dir: Path | None, urfd_dir=None) -> list[str]:

@@ -25,3 +25,29 @@ def test_bootstrap_splits_urfd_and_queues_work_once(factory, trained_model_dir):
         assert splits == {Split.TRAIN: 56, Split.TEST: 14}
         kinds = [j.kind for j in session.scalars(select(Job).order_by(Job.id))]
         assert kinds == [JobKind.REGISTER, JobKind.RETRAIN]
+
+
+def test_make_run_seeding_holds_each_urfd_recording_once(
+    database_url, factory, tmp_path, monkeypatch
+):
+    """`make run` seeds through `seed-demo` (users, robots, URFD into the labelling workspace)
+    and then the worker's bootstrap: one importer, so 56 training and 14 gold recordings, each
+    once, with the one fine-label map."""
+    from backend import cli
+    from backend.models.annotations import AnnotationSegment
+    from vigil.datasets import urfd
+
+    monkeypatch.setenv("VIGIL_DATABASE_URL", database_url)
+    monkeypatch.setenv("VIGIL_SECRET_KEY", "demo-test")
+    assert cli.main(["seed-demo", "--robots", "1", "--tokens-file", str(tmp_path / "t.json"),
+                     "--passwords-file", str(tmp_path / "p.json")]) == 0  # fmt: skip
+    with transaction(factory) as session:
+        bootstrap(session, None)
+    with factory() as session:
+        videos = session.execute(select(Video.name, Video.split).where(Video.source == "urfd"))
+        splits = dict(videos.all())
+        assert sorted(splits) == sorted(urfd.NAMES)  # each recording once, by its own name
+        assert sum(s == Split.TRAIN for s in splits.values()) == 56
+        assert sum(s == Split.TEST for s in splits.values()) == 14
+        labels = set(session.scalars(select(AnnotationSegment.label_key).distinct()))
+        assert labels == {label for m in urfd.FINE_LABELS.values() for label in m.values()}
