@@ -40,18 +40,16 @@ def main(argv: list[str] | None = None) -> int:
         print("database is at the newest migration")
     elif args.command == "seed-demo":
         from backend.db import make_engine, make_session_factory, transaction
-        from backend.demo import ensure_demo_robots, ensure_demo_users
+        from backend.demo import ensure_demo_robots, ensure_demo_users, seed_urfd
 
         engine = make_engine(settings.database_url)
         with transaction(make_session_factory(engine)) as session:
             credentials = ensure_demo_users(session, args.passwords_file)
             ensure_demo_robots(session, args.robots, args.tokens_file)
         if not args.no_urfd:
-            from backend.labelling.importers.urfd import import_urfd
-
             try:
                 with transaction(make_session_factory(engine)) as session:
-                    report = import_urfd(session, settings.urfd_dir)
+                    report = seed_urfd(session, settings.urfd_dir)
                 print(
                     f"URFD in the labelling workspace: {len(report.created)} videos imported, "
                     f"{len(report.skipped)} already there"

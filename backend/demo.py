@@ -77,3 +77,11 @@ def ensure_demo_robots(session: Session, count: int, tokens_file: Path) -> dict[
             robot.token_created_at = utcnow()
     _write_private(tokens_file, tokens)
     return tokens
+
+
+def seed_urfd(session: Session, directory: Path | str | None = None):
+    """URFD (real data) into the labelling workspace, through the one URFD importer: one video
+    per recording, 56 training and 14 gold; the worker's bootstrap finds them there."""
+    from backend.labelling.importers.urfd import import_urfd
+
+    return import_urfd(session, directory)

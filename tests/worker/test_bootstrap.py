@@ -27,22 +27,18 @@ def test_bootstrap_splits_urfd_and_queues_work_once(factory, trained_model_dir):
         assert kinds == [JobKind.REGISTER, JobKind.RETRAIN]
 
 
-def test_make_run_seeding_holds_each_urfd_recording_once(
-    database_url, factory, tmp_path, monkeypatch
-):
-    """`make run` seeds through `seed-demo` (users, robots, URFD into the labelling workspace)
-    and then the worker's bootstrap: one importer, so 56 training and 14 gold recordings, each
-    once, with the one fine-label map."""
-    from backend import cli
+def test_make_run_seeding_holds_each_urfd_recording_once(factory):
+    """`make run` seeds URFD twice over: `seed-demo` into the labelling workspace, then the
+    worker's bootstrap. One importer, so 56 training and 14 gold recordings, each once, with the
+    one fine-label map."""
+    from backend.demo import seed_urfd
     from backend.models.annotations import AnnotationSegment
     from vigil.datasets import urfd
 
-    monkeypatch.setenv("VIGIL_DATABASE_URL", database_url)
-    monkeypatch.setenv("VIGIL_SECRET_KEY", "demo-test")
-    assert cli.main(["seed-demo", "--robots", "1", "--tokens-file", str(tmp_path / "t.json"),
-                     "--passwords-file", str(tmp_path / "p.json")]) == 0  # fmt: skip
     with transaction(factory) as session:
-        bootstrap(session, None)
+        assert len(seed_urfd(session).created) == 70
+    with transaction(factory) as session:
+        assert bootstrap(session, None)[0] == "URFD: 56 training and 14 gold recordings"
     with factory() as session:
         videos = session.execute(select(Video.name, Video.split).where(Video.source == "urfd"))
         splits = dict(videos.all())

@@ -26,6 +26,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+from sqlalchemy import select
 from sqlalchemy.orm import Session
 
 from backend.labelling.depth import depth_at_keypoints, read_depth_png
@@ -78,6 +79,38 @@ def _depth_for(directory: Path, sequence: urfd.Sequence) -> np.ndarray | None:
     return depth if found else None
 
 
+def _skip(video: Video, report: ImportReport, split: Split | None) -> None:
+    if split is not None:
+        video.split = split
+    report.skipped.append(video.name)
+    report.videos.append(video)
+
+
+def _to_load(
+    session: Session,
+    directory: Path,
+    names: list[str] | None,
+    report: ImportReport,
+    split: Split | None,
+) -> list[urfd.Sequence]:
+    """The sequences still to import, read from the keypoint file only when there are any (a
+    second `make run` reads nothing); the videos already there go to the report."""
+    wanted = list(names) if names is not None else list(urfd.NAMES)
+    there = {
+        video.name: video
+        for video in session.scalars(
+            select(Video).where(Video.name.in_(wanted), Video.source == "urfd")
+        )
+    }
+    if names is None and len(there) < len(wanted):
+        return urfd.load(directory)  # every sequence of the file, as asked
+    for name in wanted:
+        if name in there:
+            _skip(there[name], report, split)
+    missing = [name for name in wanted if name not in there]
+    return urfd.load(directory, missing) if missing else []
+
+
 def import_urfd(
     session: Session,
     directory: Path | str | None = None,
@@ -92,13 +125,12 @@ def import_urfd(
     for in that split, those imported before included (default: `split_for` on new videos)."""
     directory = Path(directory) if directory else urfd.default_dir()
     report = ImportReport()
-    for sequence in sequences if sequences is not None else urfd.load(directory, names):
+    if sequences is None:
+        sequences = _to_load(session, directory, names, report, split)
+    for sequence in sequences:
         existing = video_by_name(session, sequence.name)
         if existing is not None:
-            if split is not None:
-                existing.split = split
-            report.skipped.append(sequence.name)
-            report.videos.append(existing)
+            _skip(existing, report, split)
             continue
         clip = directory / "video" / f"{sequence.name}-cam0.mp4"
         video = Video(
