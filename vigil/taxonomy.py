@@ -1,7 +1,9 @@
 """Fine labels (stages of a fall, everyday situations) and their class per transport mode.
 
 The taxonomy is versioned data: the database holds the editable copy (seeded from
-DEFAULT_TAXONOMY by a migration); models record the version they were trained on.
+DEFAULT_TAXONOMY by a migration); models record the version they were trained on. `Taxonomy` is
+its one shape: the backend loads the database's copy as one (backend.labelling.taxonomy), the
+API serialises it, the worker reads the classes of training labels from it.
 """
 
 from __future__ import annotations
@@ -39,10 +41,20 @@ class Taxonomy:
                 raise ValueError(f"{label.key}: walking mode has only Normal and Emergency")
 
     def by_key(self, key: str) -> FineLabel:
+        label = self.get(key)
+        if label is None:
+            raise KeyError(f"unknown fine label {key!r}")
+        return label
+
+    def get(self, key: str) -> FineLabel | None:
+        """The fine label called `key`, or None (a placeholder or a label of another version)."""
         for label in self.labels:
             if label.key == key:
                 return label
-        raise KeyError(f"unknown fine label {key!r}")
+        return None
+
+    def __contains__(self, key: object) -> bool:
+        return any(label.key == key for label in self.labels)
 
     def decision(self, key: str, mode: TransportMode) -> Decision:
         return self.by_key(key).decision(mode)

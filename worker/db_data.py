@@ -15,8 +15,8 @@ import numpy as np
 from sqlalchemy import select
 from sqlalchemy.orm import Session
 
+from backend.labelling.taxonomy import load_taxonomy, taxonomy_versions
 from backend.models.annotations import AnnotationSegment, SegmentStatus
-from backend.models.taxonomy import TaxonomyLabel
 from backend.models.videos import Frame, Split, Video
 from vigil.classes import MODE_CLASSES, Decision, TransportMode
 from vigil.observation import Observation
@@ -32,15 +32,11 @@ from worker.training.data import FrameData, sequence_arrays
 
 def label_decisions(session: Session, mode: TransportMode) -> dict[tuple[int, str], Decision]:
     """(taxonomy version, fine label key) -> class in `mode`, from the database's taxonomy."""
-    column = {
-        TransportMode.WALKING: TaxonomyLabel.walking,
-        TransportMode.WHEELCHAIR: TaxonomyLabel.wheelchair,
-        TransportMode.COMBINED: TaxonomyLabel.combined,
-    }[TransportMode(mode)]
-    rows = session.execute(select(TaxonomyLabel.version, TaxonomyLabel.key, column)).all()
-    mapping = {(v, k): Decision(d) for v, k, d in rows}
-    for label in DEFAULT_TAXONOMY.labels:  # the seeded copy, should the table be empty
-        mapping.setdefault((DEFAULT_TAXONOMY.version, label.key), label.decision(mode))
+    taxonomies = [load_taxonomy(session, v) for v in taxonomy_versions(session)]
+    mapping = {}
+    for taxonomy in [*taxonomies, DEFAULT_TAXONOMY]:  # the seeded copy, should the table be empty
+        for label in taxonomy.labels:
+            mapping.setdefault((taxonomy.version, label.key), label.decision(mode))
     return mapping
 
 

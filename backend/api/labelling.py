@@ -198,7 +198,7 @@ def _segment_outs(session, items: list[AnnotationSegment]) -> list[SegmentOut]:
     )
     out = []
     for s in items:
-        label = taxonomy.labels.get(s.label_key)
+        label = taxonomy.get(s.label_key)
         item = SegmentOut.model_validate(s)
         item.label_name = label.name if label else placeholder_name(s.label_key)
         item.decision = label.decision(modes[s.video_id]) if label else None
@@ -429,7 +429,7 @@ def video_agreement(
             raise LabellingError(f"{param}: {who} has no segments on video {video.name}")
         spans[param] = found
     stages = {
-        key for key, label in taxonomy.labels.items()
+        label.key for label in taxonomy.labels
         if label.decision(video.mode) == Decision.EMERGENCY
     }  # fmt: skip
     result = agreement(video.frame_count, video.fps, spans["a"], spans["b"], stages)

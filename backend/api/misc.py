@@ -3,11 +3,11 @@ from typing import Literal
 from fastapi import APIRouter, HTTPException, Query, Request, status
 from fastapi.responses import JSONResponse
 from pydantic import BaseModel, ConfigDict, Field
-from sqlalchemy import func, select
 
 from backend import health as health_checks
 from backend.deps import MAX_DB_INT, CurrentUser, SessionDep
-from backend.models.taxonomy import TaxonomyLabel
+from backend.labelling.errors import LabellingError
+from backend.labelling.taxonomy import load_taxonomy
 from vigil.classes import Decision
 
 router = APIRouter(prefix="/api", tags=["system"])
@@ -89,13 +89,12 @@ def taxonomy(
     user: CurrentUser,
     version: int | None = Query(default=None, ge=1, le=MAX_DB_INT),
 ) -> TaxonomyOut:
-    if version is None:
-        version = session.scalar(select(func.max(TaxonomyLabel.version)))
-    labels = session.scalars(
-        select(TaxonomyLabel)
-        .where(TaxonomyLabel.version == version)
-        .order_by(TaxonomyLabel.position)
-    ).all()
-    if not labels:
-        raise HTTPException(status.HTTP_404_NOT_FOUND, f"taxonomy version {version} not found")
-    return TaxonomyOut(version=version, labels=[TaxonomyLabelOut.model_validate(x) for x in labels])
+    try:
+        found = load_taxonomy(session, version)
+    except LabellingError:
+        raise HTTPException(
+            status.HTTP_404_NOT_FOUND, f"taxonomy version {version} not found"
+        ) from None
+    return TaxonomyOut(
+        version=found.version, labels=[TaxonomyLabelOut.model_validate(x) for x in found.labels]
+    )

@@ -55,7 +55,7 @@ def export_csv(session: Session, video: Video, statuses=(SegmentStatus.ACCEPTED,
     writer = csv.writer(out, lineterminator="\n")
     writer.writerow(CSV_COLUMNS)
     for index, label in enumerate(labels):
-        known = taxonomy.labels.get(label) if label else None
+        known = taxonomy.get(label) if label else None
         ts = timestamps.get(index, index / video.fps)
         writer.writerow(
             [video.name, index, f"{ts:.6f}", label or ""]
@@ -137,7 +137,7 @@ def export_coco(session: Session, video: Video, statuses=(SegmentStatus.ACCEPTED
         for (x, y, _), seen in zip(points, visible, strict=True):
             flat += [round(float(x), 6), round(float(y), 6), 2] if seen else [0, 0, 0]
         xs, ys = points[visible, 0], points[visible, 1]
-        known = taxonomy.labels.get(label) if label else None
+        known = taxonomy.get(label) if label else None
         annotations.append(
             {
                 "id": index + 1,

@@ -37,7 +37,7 @@ class QueueItem:
 
 
 def _model_disagrees(session: Session, segment: AnnotationSegment, video: Video, taxonomy) -> bool:
-    label = taxonomy.labels.get(segment.label_key)
+    label = taxonomy.get(segment.label_key)
     if label is None:
         return False
     decisions = session.scalars(

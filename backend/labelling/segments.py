@@ -12,7 +12,7 @@ from sqlalchemy.orm import Session
 
 from backend.labelling.errors import Forbidden, LabellingError, NotFound
 from backend.labelling.status import EDITABLE, REVIEW_ACTIONS, next_status
-from backend.labelling.taxonomy import load_taxonomy
+from backend.labelling.taxonomy import load_taxonomy, require
 from backend.models._types import utcnow
 from backend.models.annotations import (
     AnnotationSegment,
@@ -96,7 +96,7 @@ def create_segment(
     priority: int = 0,
 ) -> AnnotationSegment:
     taxonomy = load_taxonomy(session)
-    taxonomy.require(draft.label_key)
+    require(taxonomy, draft.label_key)
     validate_frames(video, draft.first_frame, draft.last_frame)
     segment = AnnotationSegment(
         video_id=video.id,
@@ -143,7 +143,7 @@ def update_segment(
     last = segment.last_frame if last_frame is None else last_frame
     validate_frames(video, first, last)
     if label_key is not None:
-        load_taxonomy(session).require(label_key)
+        require(load_taxonomy(session), label_key)
         segment.label_key = label_key
     segment.first_frame, segment.last_frame = first, last
     if segment.status == SegmentStatus.REJECTED:
@@ -175,7 +175,7 @@ def transition(
             raise Forbidden("reviewer: nobody reviews their own segment")
         if action == "reject" and not (comment and comment.strip()):
             raise LabellingError("comment: a rejection needs a comment saying what to fix")
-        if segment.label_key not in load_taxonomy(session, segment.taxonomy_version).labels:
+        if segment.label_key not in load_taxonomy(session, segment.taxonomy_version):
             raise LabellingError(
                 f"label_key: {segment.label_key!r} is a placeholder; set a fine label first"
             )

@@ -1,43 +1,18 @@
-"""The database copy of the taxonomy, as the labelling services need it."""
+"""The database copy of the taxonomy, in the taxonomy's one shape (`vigil.taxonomy.Taxonomy`)."""
 
 from __future__ import annotations
-
-from dataclasses import dataclass
 
 from sqlalchemy import func, select
 from sqlalchemy.orm import Session
 
 from backend.labelling.errors import LabellingError
 from backend.models.taxonomy import TaxonomyLabel
-from vigil.classes import Decision, TransportMode
+from vigil.classes import Decision
+from vigil.taxonomy import FineLabel, Taxonomy
 
 
-@dataclass(frozen=True, slots=True)
-class LabelClasses:
-    key: str
-    name: str
-    walking: Decision
-    wheelchair: Decision
-    combined: Decision
-
-    def decision(self, mode: TransportMode | str) -> Decision:
-        return Decision(getattr(self, TransportMode(mode).value))
-
-
-@dataclass(frozen=True, slots=True)
-class DbTaxonomy:
-    version: int
-    labels: dict[str, LabelClasses]
-
-    def require(self, key: str) -> LabelClasses:
-        if key not in self.labels:
-            raise LabellingError(
-                f"label_key: {key!r} is not a fine label of taxonomy v{self.version}"
-            )
-        return self.labels[key]
-
-
-def load_taxonomy(session: Session, version: int | None = None) -> DbTaxonomy:
+def load_taxonomy(session: Session, version: int | None = None) -> Taxonomy:
+    """Version `version` (default: the newest); LabellingError if it does not exist."""
     if version is None:
         version = session.scalar(select(func.max(TaxonomyLabel.version)))
         if version is None:
@@ -49,9 +24,26 @@ def load_taxonomy(session: Session, version: int | None = None) -> DbTaxonomy:
     ).all()
     if not rows:
         raise LabellingError(f"taxonomy_version: {version} does not exist")
-    return DbTaxonomy(
+    return Taxonomy(
         version=version,
-        labels={
-            r.key: LabelClasses(r.key, r.name, r.walking, r.wheelchair, r.combined) for r in rows
-        },
+        labels=tuple(
+            FineLabel(
+                r.key, r.name, Decision(r.walking), Decision(r.wheelchair), Decision(r.combined)
+            )
+            for r in rows
+        ),  # fmt: skip
     )
+
+
+def taxonomy_versions(session: Session) -> list[int]:
+    return list(session.scalars(select(TaxonomyLabel.version).distinct()))
+
+
+def require(taxonomy: Taxonomy, key: str) -> FineLabel:
+    """The fine label `key`; a LabellingError naming the field where the taxonomy has none."""
+    label = taxonomy.get(key)
+    if label is None:
+        raise LabellingError(
+            f"label_key: {key!r} is not a fine label of taxonomy v{taxonomy.version}"
+        )
+    return label

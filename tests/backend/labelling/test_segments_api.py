@@ -114,3 +114,17 @@ def test_video_list_shows_progress_and_filters(client, urfd_videos, annotator, a
     tests_only = client.get(f"{API}/videos?split=test&person=P-07", headers=annotator.headers)
     assert [v["name"] for v in tests_only.json()] == ["adl-01"]
     assert "P-07" in client.get(f"{API}/facets", headers=annotator.headers).json()["persons"]
+
+
+def test_the_taxonomy_endpoint_serves_the_database_copy_in_the_one_shape(client, annotator):
+    from vigil.taxonomy import DEFAULT_TAXONOMY
+
+    served = client.get("/api/taxonomy", headers=annotator.headers)
+    assert served.status_code == 200
+    body = served.json()
+    assert body["version"] == DEFAULT_TAXONOMY.version
+    assert [(x["key"], x["walking"], x["wheelchair"]) for x in body["labels"]] == [
+        (label.key, label.walking, label.wheelchair) for label in DEFAULT_TAXONOMY.labels
+    ]
+    missing = client.get("/api/taxonomy", params={"version": 99}, headers=annotator.headers)
+    assert missing.status_code == 404
