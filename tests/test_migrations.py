@@ -1,5 +1,6 @@
 """Migrations on the test database kind (throwaway database): upgrade from empty to head
-matches the models, downgrade goes back to empty, and 0002 can be undone and redone."""
+matches the models, downgrade goes back to empty, and 0002 can be undone and redone; 0009
+merges a database built by the old double URFD import."""
 
 from __future__ import annotations
 
