@@ -109,12 +109,16 @@ class StateMachine(Generic[S]):
 
     # -- asking -------------------------------------------------------------------------------
 
+    def _state(self, value: S | str) -> S:
+        # An enum call costs microseconds; the tracker moves on every frame.
+        return value if type(value) is self.states else self.states(value)
+
     def allows(self, current: S | str, new: S | str) -> bool:
-        return self.states(new) in self.edges[self.states(current)]
+        return self._state(new) in self.edges[self._state(current)]
 
     def check(self, current: S | str, new: S | str, obj: Any = None) -> S:
         """The new state, if `current -> new` is allowed; raises otherwise."""
-        current, new = self.states(current), self.states(new)
+        current, new = self._state(current), self._state(new)
         if new not in self.edges[current]:
             raise self.error(self._subject(obj), current, target=new)
         return new
@@ -126,7 +130,7 @@ class StateMachine(Generic[S]):
                 self._subject(obj), current, action=action, unknown_action=True,
                 actions=self.actions,
             )  # fmt: skip
-        current = self.states(current)
+        current = self._state(current)
         try:
             return self.actions[action][current]
         except KeyError:
@@ -137,7 +141,7 @@ class StateMachine(Generic[S]):
         return {self.attribute: self.check(current, new, obj)}
 
     def state_of(self, obj: Any) -> S:
-        return self.states(getattr(obj, self.attribute))
+        return self._state(getattr(obj, self.attribute))
 
     # -- changing: the only writes of a state attribute ----------------------------------------
 
