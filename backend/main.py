@@ -47,6 +47,7 @@ from backend.realtime.bus import AlarmBus
 from backend.realtime.hub import BrowserHub
 from backend.registry import push as model_push
 from backend.settings import Settings
+from vigil.states import IllegalTransition
 
 log = logging.getLogger("vigil.backend")
 
@@ -166,6 +167,11 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         for kind in AlarmKind:
             metrics.open_alarms.labels(kind.value).set(counts.get(kind, 0))
         return Response(generate_latest(metrics.registry), media_type=CONTENT_TYPE_LATEST)
+
+    @app.exception_handler(IllegalTransition)
+    def illegal_transition(request: Request, error: IllegalTransition) -> JSONResponse:
+        # Every state machine (vigil.states): a transition its state does not allow.
+        return JSONResponse({"detail": str(error)}, status_code=409)
 
     @app.exception_handler(DataError)
     def unstorable_value(request: Request, error: DataError) -> JSONResponse:

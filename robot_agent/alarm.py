@@ -19,6 +19,7 @@ from collections.abc import Callable
 from enum import StrEnum
 
 from robot_agent.outbox import Outbox
+from vigil.states import StateMachine
 
 log = logging.getLogger(__name__)
 HOOK_TIMEOUT_S = 10.0
@@ -29,8 +30,19 @@ class AlarmState(StrEnum):
     RAISED = "raised"
 
 
+LOCAL_ALARM = StateMachine(
+    AlarmState,
+    actions={
+        "raise": {AlarmState.QUIET: AlarmState.RAISED},
+        "clear": {AlarmState.RAISED: AlarmState.QUIET},
+    },
+    attribute="state",
+    initial=AlarmState.QUIET,
+    subject="local alarm",
+)
+
+
 class LocalAlarm:
-    # Transitions, written once: QUIET -raise-> RAISED -clear-> QUIET.
     def __init__(
         self,
         robot_id: str,
@@ -48,7 +60,7 @@ class LocalAlarm:
         self.after_s = after_s
         self.hook = shlex.split(hook) if hook else None
         self.period_s = period_s
-        self.state = AlarmState.QUIET
+        LOCAL_ALARM.start(self)
         self.raised_count = 0
         self._hooks: set[asyncio.Task] = set()
 
@@ -62,7 +74,7 @@ class LocalAlarm:
         oldest = self.outbox.oldest_unacked_emergency()
         if self.state == AlarmState.QUIET and oldest is not None and now - oldest >= self.after_s:
             reason = self.problem() or "the backend did not acknowledge the Emergency frames"
-            self.state = AlarmState.RAISED
+            LOCAL_ALARM.act(self, "raise")
             self.raised_count += 1
             log.error(
                 "LOCAL ALARM robot %s: Emergency since %s not acknowledged by the backend for "
@@ -74,7 +86,7 @@ class LocalAlarm:
             )
             self._run_hook("raised", oldest, reason)
         elif self.state == AlarmState.RAISED and oldest is None:
-            self.state = AlarmState.QUIET
+            LOCAL_ALARM.act(self, "clear")
             log.warning(
                 "local alarm cleared, robot %s: the backend acknowledged the Emergency frames",
                 self.robot_id,

@@ -31,6 +31,7 @@ import numpy as np
 from vigil.depth import people_with_depth
 from vigil.observation import Observation
 from vigil.skeleton import INDEX, SkeletonFrame
+from vigil.states import StateMachine
 
 TORSO = np.array([INDEX[k] for k in ("neck", "r_shoulder", "l_shoulder", "mid_hip", "r_hip",
                                      "l_hip")])  # fmt: skip
@@ -45,12 +46,18 @@ class TrackState(StrEnum):
     LOST = "lost"  # the patient was not matched; still remembered for max_missed frames
 
 
-#: Every allowed state change, written once; anything else is a bug.
-TRANSITIONS: dict[TrackState, frozenset[TrackState]] = {
-    TrackState.SEARCHING: frozenset({TrackState.SEARCHING, TrackState.TRACKING}),
-    TrackState.TRACKING: frozenset({TrackState.TRACKING, TrackState.LOST}),
-    TrackState.LOST: frozenset({TrackState.LOST, TrackState.TRACKING, TrackState.SEARCHING}),
-}
+#: Every allowed state change, declared once; anything else is a bug (IllegalTransition).
+TRACKER = StateMachine(
+    TrackState,
+    edges={
+        TrackState.SEARCHING: {TrackState.SEARCHING, TrackState.TRACKING},
+        TrackState.TRACKING: {TrackState.TRACKING, TrackState.LOST},
+        TrackState.LOST: {TrackState.LOST, TrackState.TRACKING, TrackState.SEARCHING},
+    },
+    attribute="state_",
+    initial=TrackState.SEARCHING,
+    subject="tracker",
+)
 
 
 class SelectedBy(StrEnum):
@@ -291,7 +298,7 @@ class PatientTracker:
 
     def reset(self) -> None:
         """Start over (a new transport): the next observation selects the patient anew."""
-        self.state_ = TrackState.SEARCHING
+        TRACKER.start(self)
         self.tracks_: list[_Track] = []
         self.patient_: _Track | None = None
         self.frame_ = 0
@@ -300,11 +307,6 @@ class PatientTracker:
     @property
     def missed_(self) -> int:
         return self.patient_.missed if self.patient_ is not None else 0
-
-    def _move(self, new: TrackState) -> None:
-        if new not in TRANSITIONS[self.state_]:
-            raise RuntimeError(f"tracker: illegal transition {self.state_} -> {new}")
-        self.state_ = new
 
     def update(self, observation: Observation) -> TrackResult:
         self.frame_ += 1
@@ -320,12 +322,12 @@ class PatientTracker:
             index = self._reacquire(assigned)
         if index is not None:
             self._mark_bystanders(assigned)
-            self._move(TrackState.TRACKING)
+            TRACKER.move(self, TrackState.TRACKING)
             return TrackResult(self.state_, people[index], index)
-        self._move(TrackState.LOST)
+        TRACKER.move(self, TrackState.LOST)
         if self.missed_ <= self.max_missed:
             return TrackResult(self.state_, None, None, missed=self.missed_)
-        self._move(TrackState.SEARCHING)
+        TRACKER.move(self, TrackState.SEARCHING)
         self.patient_ = None
         return self._select(observation, assigned)
 
@@ -341,12 +343,12 @@ class PatientTracker:
             index = None if choice is None else candidates[choice]
             how = SelectedBy.CENTRAL_CLOSEST
         if index is None:
-            self._move(TrackState.SEARCHING)
+            TRACKER.move(self, TrackState.SEARCHING)
             return TrackResult(self.state_, None, None)
         self.patient_ = assigned[index]
         self.patient_.bystander = False
         self._mark_bystanders(assigned)
-        self._move(TrackState.TRACKING)
+        TRACKER.move(self, TrackState.TRACKING)
         return TrackResult(self.state_, people[index], index, selected_by=how)
 
     def _reacquire(self, assigned: dict[int, _Track]) -> int | None:

@@ -18,11 +18,11 @@ from backend.security import (
 
 
 class AccountError(Exception):
-    """A refused account change; `status` is the HTTP status it maps to."""
+    """A refused account change; `status_code` is the HTTP status it maps to."""
 
     def __init__(self, status: int, message: str) -> None:
         super().__init__(message)
-        self.status = status
+        self.status_code = status
 
 
 def password_matches(user: User | None, password: str) -> bool:

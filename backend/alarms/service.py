@@ -8,7 +8,7 @@ from datetime import datetime
 from sqlalchemy import select
 from sqlalchemy.orm import Session
 
-from backend.alarms.state import AlarmAction, next_state
+from backend.alarms.state import ALARM, AlarmAction
 from backend.models._types import utcnow
 from backend.models.alarms import (
     PRIORITY_OF_KIND,
@@ -74,7 +74,7 @@ def find_unresolved(
 
 def fold_evidence(alarm: Alarm, evidence: DecisionEvidence, now: datetime) -> Alarm:
     """A repeated decision updates the unresolved alarm instead of opening another."""
-    next_state(alarm.state, AlarmAction.UPDATE)
+    ALARM.target(alarm.state, AlarmAction.UPDATE)
     alarm.updated_at = now
     alarm.decision_count += 1
     if evidence.seq is not None:
@@ -102,7 +102,7 @@ def raise_or_update(
     alarm = Alarm(
         kind=kind,
         priority=PRIORITY_OF_KIND[kind],
-        state=AlarmState.OPEN,
+        state=ALARM.initial,
         robot_id=robot.id,
         transport_id=transport_id,
         transport_key=transport_id or "",
@@ -130,7 +130,7 @@ def raise_or_update(
 
 def acknowledge(session: Session, alarm: Alarm, user: User, comment: str | None = None) -> Alarm:
     before = alarm.state
-    alarm.state = next_state(before, AlarmAction.ACKNOWLEDGE)
+    ALARM.act(alarm, AlarmAction.ACKNOWLEDGE)
     alarm.updated_at = alarm.acknowledged_at = utcnow()
     alarm.acknowledged_by_id = user.id
     alarm.acknowledged_by_user = user
@@ -148,7 +148,7 @@ def resolve(
     comment: str | None,
 ) -> Alarm:
     before = alarm.state
-    alarm.state = next_state(before, AlarmAction.RESOLVE)
+    ALARM.act(alarm, AlarmAction.RESOLVE)
     alarm.updated_at = alarm.resolved_at = utcnow()
     alarm.resolved_by_id = user.id
     alarm.resolved_by_user = user
@@ -166,7 +166,7 @@ def resolve(
 def clear(session: Session, alarm: Alarm, now: datetime, comment: str) -> Alarm:
     """The system resolves a technical alarm whose cause ended (no verdict, no user)."""
     before = alarm.state
-    alarm.state = next_state(before, AlarmAction.CLEAR)
+    ALARM.act(alarm, AlarmAction.CLEAR)
     alarm.updated_at = alarm.resolved_at = now
     _record(session, alarm, AlarmAction.CLEAR, before, "system", comment=comment)
     return alarm
@@ -178,7 +178,7 @@ def escalate(
     """Raise the escalation level: the alarm is announced again, with its tone, on every board
     that shows its ward. The audit entry names who had such a board open (`notified`)."""
     before = alarm.state
-    alarm.state = next_state(before, AlarmAction.ESCALATE)
+    ALARM.act(alarm, AlarmAction.ESCALATE)
     alarm.escalation_level += 1
     alarm.escalated_at = alarm.updated_at = now
     audience = (
@@ -194,7 +194,7 @@ def escalate(
 
 def realarm(session: Session, alarm: Alarm, now: datetime) -> Alarm:
     before = alarm.state
-    alarm.state = next_state(before, AlarmAction.REALARM)
+    ALARM.act(alarm, AlarmAction.REALARM)
     alarm.realarmed_at = alarm.updated_at = now
     _record(session, alarm, AlarmAction.REALARM, before, "system",
             comment="acknowledged but not resolved in time")  # fmt: skip

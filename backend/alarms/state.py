@@ -1,4 +1,4 @@
-"""The alarm state machine, written down once.
+"""The alarm state machine, declared once (with `vigil.states`).
 
     open ──acknowledge──▶ acknowledged ──resolve──▶ resolved
       └──────────────────resolve──────────────────────▲
@@ -11,6 +11,8 @@ Escalation and re-alarm do not change the state: they raise `escalation_level` o
 from enum import StrEnum
 
 from backend.models.alarms import AlarmState
+from vigil.states import IllegalTransition as _IllegalTransition
+from vigil.states import StateMachine
 
 
 class AlarmAction(StrEnum):
@@ -23,29 +25,25 @@ class AlarmAction(StrEnum):
     CLEAR = "clear"  # the system resolves a technical alarm whose cause ended (no verdict)
 
 
-TRANSITIONS: dict[tuple[AlarmState, AlarmAction], AlarmState] = {
-    (AlarmState.OPEN, AlarmAction.UPDATE): AlarmState.OPEN,
-    (AlarmState.ACKNOWLEDGED, AlarmAction.UPDATE): AlarmState.ACKNOWLEDGED,
-    (AlarmState.OPEN, AlarmAction.ACKNOWLEDGE): AlarmState.ACKNOWLEDGED,
-    (AlarmState.OPEN, AlarmAction.RESOLVE): AlarmState.RESOLVED,
-    (AlarmState.ACKNOWLEDGED, AlarmAction.RESOLVE): AlarmState.RESOLVED,
-    (AlarmState.OPEN, AlarmAction.ESCALATE): AlarmState.OPEN,
-    (AlarmState.ACKNOWLEDGED, AlarmAction.REALARM): AlarmState.ACKNOWLEDGED,
-    (AlarmState.OPEN, AlarmAction.CLEAR): AlarmState.RESOLVED,
-    (AlarmState.ACKNOWLEDGED, AlarmAction.CLEAR): AlarmState.RESOLVED,
-}
+OPEN, ACKNOWLEDGED, RESOLVED = AlarmState.OPEN, AlarmState.ACKNOWLEDGED, AlarmState.RESOLVED
 
 
-class IllegalTransition(Exception):
-    def __init__(self, state: AlarmState, action: AlarmAction) -> None:
-        super().__init__(f"cannot {action.value} an alarm that is {state.value}")
-        self.state = state
-        self.action = action
+class IllegalTransition(_IllegalTransition):
+    """An alarm action its state does not allow (HTTP 409)."""
 
 
-def next_state(state: AlarmState | str, action: AlarmAction) -> AlarmState:
-    state = AlarmState(state)
-    try:
-        return TRANSITIONS[(state, action)]
-    except KeyError:
-        raise IllegalTransition(state, action) from None
+ALARM = StateMachine(
+    AlarmState,
+    actions={
+        AlarmAction.UPDATE: {OPEN: OPEN, ACKNOWLEDGED: ACKNOWLEDGED},
+        AlarmAction.ACKNOWLEDGE: {OPEN: ACKNOWLEDGED},
+        AlarmAction.RESOLVE: {OPEN: RESOLVED, ACKNOWLEDGED: RESOLVED},
+        AlarmAction.ESCALATE: {OPEN: OPEN},
+        AlarmAction.REALARM: {ACKNOWLEDGED: ACKNOWLEDGED},
+        AlarmAction.CLEAR: {OPEN: RESOLVED, ACKNOWLEDGED: RESOLVED},
+    },
+    attribute="state",
+    initial=OPEN,
+    subject="alarm",
+    error=IllegalTransition,
+)

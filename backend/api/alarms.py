@@ -5,7 +5,6 @@ from fastapi import APIRouter, BackgroundTasks, HTTPException, Request, status
 from backend.alarm_review import feedback
 from backend.alarms import queries, service
 from backend.alarms.schemas import AcknowledgeIn, AlarmEventOut, AlarmOut, ResolveIn
-from backend.alarms.state import IllegalTransition
 from backend.deps import CurrentUser, DbId, SessionDep
 from backend.models.alarms import Alarm, AlarmKind, AlarmState
 
@@ -65,10 +64,7 @@ def acknowledge(
     body: AcknowledgeIn | None = None,
 ) -> AlarmOut:
     alarm = _get(session, user, alarm_id)
-    try:
-        service.acknowledge(session, alarm, user, body.comment if body else None)
-    except IllegalTransition as error:
-        raise HTTPException(status.HTTP_409_CONFLICT, str(error)) from None
+    service.acknowledge(session, alarm, user, body.comment if body else None)
     return _commit_and_publish(session, request, tasks, alarm)
 
 
@@ -82,9 +78,6 @@ def resolve(
     tasks: BackgroundTasks,
 ) -> AlarmOut:
     alarm = _get(session, user, alarm_id)
-    try:
-        service.resolve(session, alarm, user, body.verdict, body.reason, body.comment)
-    except IllegalTransition as error:
-        raise HTTPException(status.HTTP_409_CONFLICT, str(error)) from None
+    service.resolve(session, alarm, user, body.verdict, body.reason, body.comment)
     feedback.propose_label_from_verdict(session, alarm, user.id)
     return _commit_and_publish(session, request, tasks, alarm)

@@ -46,7 +46,7 @@ async def _set_active(
     try:
         target = service.set_active(session, actor, user_id, active)
     except service.AccountError as error:
-        raise HTTPException(error.status, str(error)) from None
+        raise HTTPException(error.status_code, str(error)) from None
     out = UserOut.model_validate(target)
     session.commit()  # before the sockets close: a reconnect must already be refused
     if not active:

@@ -9,7 +9,7 @@ double-claim either, they just retry).
 Claimable: queued jobs, and running jobs whose heartbeat is older than `stale_after_s` (their
 worker died); a job claimed `max_attempts` times without finishing is failed instead.
 
-State transitions are written once, in ALLOWED below.
+State transitions are declared once, in JOB below (`vigil.states`).
 """
 
 from __future__ import annotations
@@ -23,27 +23,34 @@ from sqlalchemy.orm import Session, sessionmaker
 from backend.db import transaction
 from backend.models._types import utcnow
 from backend.models.jobs import Job, JobKind, JobStatus
+from vigil.states import IllegalTransition, StateMachine
 
-ALLOWED: dict[JobStatus, frozenset[JobStatus]] = {
-    JobStatus.QUEUED: frozenset({JobStatus.RUNNING, JobStatus.CANCELLED}),
-    JobStatus.RUNNING: frozenset(
-        {JobStatus.SUCCEEDED, JobStatus.FAILED, JobStatus.CANCELLED, JobStatus.RUNNING}
-    ),
-    JobStatus.SUCCEEDED: frozenset(),
-    JobStatus.FAILED: frozenset(),
-    JobStatus.CANCELLED: frozenset(),
-}
+
+class JobStateError(IllegalTransition):
+    """A job change its status does not allow (HTTP 409)."""
+
+
+JOB = StateMachine(
+    JobStatus,
+    edges={
+        JobStatus.QUEUED: {JobStatus.RUNNING, JobStatus.CANCELLED},
+        # running -> running: a dead worker's job is taken over
+        JobStatus.RUNNING: {
+            JobStatus.SUCCEEDED,
+            JobStatus.FAILED,
+            JobStatus.CANCELLED,
+            JobStatus.RUNNING,
+        },
+        JobStatus.SUCCEEDED: set(),
+        JobStatus.FAILED: set(),
+        JobStatus.CANCELLED: set(),
+    },
+    initial=JobStatus.QUEUED,
+    subject=lambda job: f"job {job.id}",
+    error=JobStateError,
+)
 FINISHED = frozenset({JobStatus.SUCCEEDED, JobStatus.FAILED, JobStatus.CANCELLED})
 MAX_LOG_CHARS = 200_000
-
-
-class JobStateError(ValueError):
-    pass
-
-
-def check_transition(current: JobStatus, new: JobStatus) -> None:
-    if new not in ALLOWED[JobStatus(current)]:
-        raise JobStateError(f"job cannot go from {current} to {new}")
 
 
 def enqueue(
@@ -51,7 +58,7 @@ def enqueue(
 ) -> Job:
     job = Job(
         kind=JobKind(kind),
-        status=JobStatus.QUEUED,
+        status=JOB.initial,
         params=params,
         created_by_id=created_by_id,
         progress=0.0,
@@ -71,7 +78,7 @@ def request_cancel(session: Session, job: Job) -> None:
         job.cancel_requested = True
         job.message = "cancel requested"
     else:
-        raise JobStateError(f"job {job.id} already {job.status}")
+        JOB.check(job.status, JobStatus.CANCELLED, job)  # a finished job: raises
 
 
 def _claimable(now: datetime, stale_after_s: float):
@@ -127,7 +134,7 @@ def claim(
                 update(Job)
                 .where(Job.id == job.id, _claimable(now, stale_after_s))
                 .values(
-                    status=JobStatus.RUNNING,
+                    **JOB.column(job.status, JobStatus.RUNNING, job),
                     worker_id=worker_id,
                     heartbeat_at=now,
                     started_at=now,
@@ -183,8 +190,7 @@ def report(
 
 
 def _finish(job: Job, status: JobStatus, message: str, result: dict | None = None) -> None:
-    check_transition(job.status, status)
-    job.status = status
+    JOB.move(job, status)
     job.message = message[:512]
     job.finished_at = utcnow()
     if result is not None:

@@ -11,7 +11,7 @@ from sqlalchemy import select
 from sqlalchemy.orm import Session
 
 from backend.labelling.errors import Forbidden, LabellingError, NotFound
-from backend.labelling.status import EDITABLE, REVIEW_ACTIONS, next_status
+from backend.labelling.status import EDITABLE, REVIEW_ACTIONS, SEGMENT, next_status
 from backend.labelling.taxonomy import load_taxonomy, require
 from backend.models._types import utcnow
 from backend.models.annotations import (
@@ -146,8 +146,7 @@ def update_segment(
         require(load_taxonomy(session), label_key)
         segment.label_key = label_key
     segment.first_frame, segment.last_frame = first, last
-    if segment.status == SegmentStatus.REJECTED:
-        segment.status = SegmentStatus.DRAFT
+    SEGMENT.act(segment, "edit")  # a rejected segment becomes a draft again
     if segment.annotator_id is None:
         # A proposal (or a command-line import) becomes the fixing annotator's segment, so
         # someone else reviews it.
@@ -162,14 +161,14 @@ def delete_segment(session: Session, segment: AnnotationSegment, actor: User) ->
         raise LabellingError(f"status: a {segment.status} segment cannot be deleted")
     if segment.status == SegmentStatus.DELETED:
         raise NotFound(f"segment {segment.id} is already deleted")
-    segment.status = SegmentStatus.DELETED
+    SEGMENT.act(segment, "delete")
     record(session, segment, actor, "deleted")
 
 
 def transition(
     session: Session, segment: AnnotationSegment, actor: User, action: str, comment: str | None
 ) -> AnnotationSegment:
-    target = next_status(segment.status, action)
+    next_status(segment.status, action)  # refused before anything changes
     if action in REVIEW_ACTIONS:
         if actor.role == Role.ANNOTATOR and segment.annotator_id == actor.id:
             raise Forbidden("reviewer: nobody reviews their own segment")
@@ -185,7 +184,7 @@ def transition(
         _may_edit(segment, actor)
         if action == "submit" and segment.annotator_id is None:
             segment.annotator_id = actor.id
-    segment.status = target
+    SEGMENT.act(segment, action)
     segment.updated_at = utcnow()
     record(session, segment, actor, action, comment)
     return segment

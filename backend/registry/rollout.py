@@ -27,18 +27,8 @@ from backend.models.registry import (
 from backend.models.robots import Robot
 from backend.models.users import User
 from backend.registry import capability
+from vigil.states import IllegalTransition, StateMachine
 
-ALLOWED: dict[DeploymentStatus, frozenset[DeploymentStatus]] = {
-    DeploymentStatus.PENDING_APPROVAL: frozenset(
-        {DeploymentStatus.CANARY, DeploymentStatus.ACTIVE, DeploymentStatus.ROLLED_BACK}
-    ),
-    DeploymentStatus.CANARY: frozenset(
-        {DeploymentStatus.ACTIVE, DeploymentStatus.ROLLED_BACK, DeploymentStatus.SUPERSEDED}
-    ),
-    DeploymentStatus.ACTIVE: frozenset({DeploymentStatus.ROLLED_BACK, DeploymentStatus.SUPERSEDED}),
-    DeploymentStatus.ROLLED_BACK: frozenset(),
-    DeploymentStatus.SUPERSEDED: frozenset(),
-}
 LIVE = (DeploymentStatus.CANARY, DeploymentStatus.ACTIVE)
 
 
@@ -50,12 +40,50 @@ class CapabilityError(RolloutError):
     """A robot in the scope cannot feed the model an input it needs (HTTP 409)."""
 
 
-def _move(deployment: Deployment, new: DeploymentStatus) -> None:
-    if new not in ALLOWED[DeploymentStatus(deployment.status)]:
-        raise RolloutError(
-            f"deployment {deployment.id} cannot go from {deployment.status} to {new}"
-        )
-    deployment.status = new
+class RolloutStateError(IllegalTransition, RolloutError):
+    """A deployment or model version status change its table does not allow (HTTP 409)."""
+
+
+ROLLOUT = StateMachine(
+    DeploymentStatus,
+    edges={
+        DeploymentStatus.PENDING_APPROVAL: {
+            DeploymentStatus.CANARY,
+            DeploymentStatus.ACTIVE,
+            DeploymentStatus.ROLLED_BACK,
+        },
+        DeploymentStatus.CANARY: {
+            DeploymentStatus.ACTIVE,
+            DeploymentStatus.ROLLED_BACK,
+            DeploymentStatus.SUPERSEDED,
+        },
+        DeploymentStatus.ACTIVE: {DeploymentStatus.ROLLED_BACK, DeploymentStatus.SUPERSEDED},
+        DeploymentStatus.ROLLED_BACK: set(),
+        DeploymentStatus.SUPERSEDED: set(),
+    },
+    initial=DeploymentStatus.PENDING_APPROVAL,
+    subject=lambda deployment: f"deployment {deployment.id}",
+    error=RolloutStateError,
+)
+_C, _A, _P, _R = (
+    ModelStatus.CANDIDATE, ModelStatus.APPROVED, ModelStatus.PRODUCTION, ModelStatus.RETIRED
+)  # fmt: skip
+#: A registered model is a candidate; it never becomes one again. A canary start approves it
+#: (even one in production elsewhere, as before), a full rollout or a rollback that restores it
+#: puts it in production, a rollback that leaves no robot on it retires it (a pending
+#: deployment's candidate too). A retired model may be promoted again.
+MODEL = StateMachine(
+    ModelStatus,
+    edges={
+        _C: {_A, _P, _R},
+        _A: {_A, _P, _R},
+        _P: {_A, _P, _R},
+        _R: {_A, _P, _R},
+    },
+    initial=_C,
+    subject=lambda model: f"model {model.version}",
+    error=RolloutStateError,
+)
 
 
 def robots_in_scope(session: Session, scope: DeploymentScope, target: str | None) -> list[Robot]:
@@ -120,7 +148,7 @@ def _supersede_older(session: Session, deployment: Deployment) -> None:
     for other in older:
         theirs = set((other.rollout or {}).get("assigned", []))
         if theirs and theirs <= mine:
-            _move(other, DeploymentStatus.SUPERSEDED)
+            ROLLOUT.move(other, DeploymentStatus.SUPERSEDED)
 
 
 def _start(session: Session, deployment: Deployment) -> list[str]:
@@ -128,14 +156,14 @@ def _start(session: Session, deployment: Deployment) -> list[str]:
     robots = deployment.rollout["robots"]
     model = session.get(ModelVersion, deployment.model_version_id)
     if deployment.shadow or len(robots) == 1:
-        _move(deployment, DeploymentStatus.ACTIVE)
+        ROLLOUT.move(deployment, DeploymentStatus.ACTIVE)
         changed = _assign(session, deployment, robots)
         if not deployment.shadow:
-            model.status = ModelStatus.PRODUCTION
+            MODEL.move(model, ModelStatus.PRODUCTION)
         _supersede_older(session, deployment)
         return changed
-    _move(deployment, DeploymentStatus.CANARY)
-    model.status = ModelStatus.APPROVED
+    ROLLOUT.move(deployment, DeploymentStatus.CANARY)
+    MODEL.move(model, ModelStatus.APPROVED)
     return _assign(session, deployment, [deployment.rollout["canary"]])
 
 
@@ -178,7 +206,7 @@ def promote(
         scope=scope,
         target=target,
         shadow=shadow,
-        status=DeploymentStatus.PENDING_APPROVAL,
+        status=ROLLOUT.initial,
         gate_report=gate,
         approved_by_id=user.id,
         comment=comment,
@@ -227,10 +255,10 @@ def advance(session: Session, deployment: Deployment) -> list[str]:
             f"canary robot {canary.id} runs {canary.running_model_version or 'no model'}, "
             f"not {model.version} yet"
         )
-    _move(deployment, DeploymentStatus.ACTIVE)
+    ROLLOUT.move(deployment, DeploymentStatus.ACTIVE)
     rest = [r for r in deployment.rollout["robots"] if r not in deployment.rollout["assigned"]]
     changed = _assign(session, deployment, rest)
-    model.status = ModelStatus.PRODUCTION
+    MODEL.move(model, ModelStatus.PRODUCTION)
     _supersede_older(session, deployment)
     return changed
 
@@ -242,7 +270,7 @@ def rollback(session: Session, deployment: Deployment, reason: str) -> list[str]
     unassigned it would go on running the rolled-back model, which is what a rollback must end.
     """
     _guard_last_fallback(session, deployment)
-    _move(deployment, DeploymentStatus.ROLLED_BACK)
+    ROLLOUT.move(deployment, DeploymentStatus.ROLLED_BACK)
     deployment.rolled_back_at = utcnow()
     deployment.rollback_reason = reason
     previous = (deployment.rollout or {}).get("previous", {})
@@ -262,14 +290,14 @@ def rollback(session: Session, deployment: Deployment, reason: str) -> list[str]
             changed.append(robot.id)
             restored = session.get(ModelVersion, restored_id) if restored_id else None
             if restored is not None:
-                restored.status = ModelStatus.PRODUCTION
+                MODEL.move(restored, ModelStatus.PRODUCTION)
     if restored_to:
         deployment.rollout = {**deployment.rollout, "restored": restored_to}
     still_used = session.scalars(
         select(Robot.id).where(Robot.assigned_model_id == model.id).limit(1)
     ).first()
     if not deployment.shadow and still_used is None:
-        model.status = ModelStatus.RETIRED
+        MODEL.move(model, ModelStatus.RETIRED)
     return changed
 
 

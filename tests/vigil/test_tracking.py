@@ -7,9 +7,10 @@ import pytest
 from robot_agent.sources.simulator import SimulatorSource
 from vigil.observation import Observation
 from vigil.skeleton import SkeletonFrame
+from vigil.states import IllegalTransition
 from vigil.synthetic import generate_transport
 from vigil.tracking import (
-    TRANSITIONS,
+    TRACKER,
     PatientTracker,
     SelectedBy,
     TrackState,
@@ -81,9 +82,9 @@ def test_occluded_patient_goes_lost_then_back_and_searches_after_max_missed():
 
 def test_state_transitions_are_checked():
     tracker = PatientTracker()
-    assert TrackState.LOST not in TRANSITIONS[TrackState.SEARCHING]
-    with pytest.raises(RuntimeError, match="illegal transition searching -> lost"):
-        tracker._move(TrackState.LOST)
+    assert TrackState.LOST not in TRACKER.edges[TrackState.SEARCHING]
+    with pytest.raises(IllegalTransition, match="tracker cannot go from searching to lost"):
+        TRACKER.move(tracker, TrackState.LOST)
     with pytest.raises(ValueError, match="max_missed"):
         PatientTracker(max_missed=-1)
 

@@ -1,330 +1,75 @@
-import { useCallback, useEffect, useMemo, useRef, useState } from "react";
+import { useCallback, useMemo } from "react";
 import { Link, useParams, useSearchParams } from "react-router-dom";
 import { api, errorMessage } from "../../api/client";
 import { useAuth } from "../../auth/AuthContext";
+import { useLabellingData } from "./hooks/useLabellingData";
+import { useLabelSearch } from "./hooks/useLabelSearch";
+import { useLabelShortcuts } from "./hooks/useLabelShortcuts";
+import { useSegments } from "./hooks/useSegments";
+import { useStatusLine } from "./hooks/useStatusLine";
+import { useTimeline } from "./hooks/useTimeline";
+import { useViewOptions } from "./hooks/useViewOptions";
 import { Player } from "./Player";
 import { ShortcutsHelp } from "./ShortcutsHelp";
-import { Timeline, type TimelineRow } from "./Timeline";
-import {
-  QUICK_LABELS,
-  UndoStack,
-  clampFrame,
-  labelColours,
-  moveActive,
-  nextSpeed,
-  playbackAdvance,
-  searchChoice,
-  searchLabels,
-  segmentAt,
-  spanFromMarks,
-  step,
-  type Edit,
-  type SegmentData,
-  type Span,
-} from "./timelineLogic";
-import type { LabellingVideo, Probability, Segment, SkeletonFrame, TaxonomyLabel } from "./types";
+import { Timeline } from "./Timeline";
+import { QUICK_LABELS, labelColours } from "./timelineLogic";
+import type { TaxonomyLabel } from "./types";
 import { classColour } from "./types";
 
-const FRAMES_PER_REQUEST = 2000;
-const EDITABLE = new Set(["draft", "pending", "rejected"]);
-
-function dataOf(s: Segment | SegmentData): SegmentData {
-  return { first_frame: s.first_frame, last_frame: s.last_frame, label_key: s.label_key };
-}
-
+/** The annotator's workspace for one video: player, quick labels and search, the timeline of
+ * everyone's segments. State lives in the hooks under ./hooks; this page composes them. */
 export function LabelPage() {
   const videoId = Number(useParams().videoId);
   const [search] = useSearchParams();
   const { user } = useAuth();
-  const [video, setVideo] = useState<LabellingVideo | null>(null);
-  const [frames, setFrames] = useState<(SkeletonFrame | undefined)[]>([]);
-  const [labels, setLabels] = useState<TaxonomyLabel[]>([]);
-  const [segments, setSegments] = useState<Segment[]>([]);
-  const [lane, setLane] = useState<Probability | null>(null);
-  const [frame, setFrame] = useState(Number(search.get("frame") ?? 0));
-  const [playing, setPlaying] = useState(false);
-  const [speed, setSpeed] = useState(1);
-  const [inPoint, setInPoint] = useState<number | null>(null);
-  const [outPoint, setOutPoint] = useState<number | null>(null);
-  const [selectedId, setSelectedId] = useState<number | null>(null);
-  const [query, setQuery] = useState("");
-  const [activeMatch, setActiveMatch] = useState<number | null>(null);
-  const [help, setHelp] = useState(false);
-  const [showRgb, setShowRgb] = useState(true);
-  const [blur, setBlur] = useState(true);
-  const [message, setMessage] = useState<string>("");
-  const [error, setError] = useState<string | null>(null);
-  const undo = useRef(new UndoStack());
-  const searchBox = useRef<HTMLInputElement>(null);
-  const frameCount = video?.frame_count ?? 0;
-  const frameRef = useRef(frame); // read by the key handler, never stale between renders
-  frameRef.current = frame;
   const mayUnblur = user?.role === "annotator";
-
-  const loadSegments = useCallback(async () => {
-    const { data, error } = await api.GET("/api/labelling/videos/{video_id}/segments", {
-      params: { path: { video_id: videoId } },
-    });
-    if (data) setSegments(data);
-    else setError(errorMessage(error, "Could not load segments"));
-  }, [videoId]);
-
-  useEffect(() => {
-    void (async () => {
-      const { data, error } = await api.GET("/api/labelling/videos/{video_id}", {
-        params: { path: { video_id: videoId } },
-      });
-      if (!data) return setError(errorMessage(error, "Could not load the video"));
-      setVideo(data);
-      const loaded: (SkeletonFrame | undefined)[] = new Array(data.frame_count);
-      for (let start = 0; start < data.frame_count; start += FRAMES_PER_REQUEST) {
-        const chunk = await api.GET("/api/videos/{video_id}/frames", {
-          params: {
-            path: { video_id: videoId },
-            query: { start, end: Math.min(start + FRAMES_PER_REQUEST, data.frame_count) - 1 },
-          },
-        });
-        for (const f of chunk.data ?? []) loaded[f.index] = f;
-      }
-      setFrames(loaded);
-    })();
-    void api.GET("/api/taxonomy").then(({ data }) => data && setLabels(data.labels));
-    void api
-      .GET("/api/labelling/videos/{video_id}/probability", { params: { path: { video_id: videoId } } })
-      .then(({ data }) => data && setLane(data));
-    void loadSegments();
-  }, [videoId, loadSegments]);
-
-  // Playback: advance by elapsed time x fps x speed, carrying fractions of a frame.
-  useEffect(() => {
-    if (!playing || !video) return;
-    let last = performance.now();
-    let carry = 0;
-    let handle = 0;
-    const tick = (now: number) => {
-      carry += playbackAdvance(now - last, video.fps, speed);
-      last = now;
-      const whole = Math.floor(carry);
-      if (whole > 0) {
-        carry -= whole;
-        setFrame((f) => {
-          const next = f + whole;
-          if (next >= video.frame_count - 1) setPlaying(false);
-          return clampFrame(next, video.frame_count);
-        });
-      }
-      handle = requestAnimationFrame(tick);
-    };
-    handle = requestAnimationFrame(tick);
-    return () => cancelAnimationFrame(handle);
-  }, [playing, speed, video]);
-
-  const mine = useCallback(
-    (s: Segment) => s.annotator === user?.username || (s.annotator === null && s.source !== "import"),
-    [user],
-  );
-
-  /** Apply an edit on the server; returns the created id for creates. */
-  const apply = useCallback(
-    async (edit: Edit): Promise<number | null> => {
-      if (edit.kind === "create") {
-        const { data, error } = await api.POST("/api/labelling/videos/{video_id}/segments", {
-          params: { path: { video_id: videoId } },
-          body: { ...edit.data, source: "annotator" },
-        });
-        if (!data) throw new Error(errorMessage(error, "Could not create the segment"));
-        return data.id;
-      }
-      if (edit.kind === "update") {
-        const { error } = await api.PATCH("/api/labelling/segments/{segment_id}", {
-          params: { path: { segment_id: edit.id } },
-          body: edit.after,
-        });
-        if (error) throw new Error(errorMessage(error, "Could not change the segment"));
-        return null;
-      }
-      const { error } = await api.DELETE("/api/labelling/segments/{segment_id}", {
-        params: { path: { segment_id: edit.id } },
-      });
-      if (error) throw new Error(errorMessage(error, "Could not delete the segment"));
-      return null;
-    },
-    [videoId],
-  );
-
-  const perform = useCallback(
-    async (edit: Edit, note: string) => {
-      try {
-        const id = await apply(edit);
-        undo.current.push(id !== null ? { ...edit, id } : edit);
-        if (id !== null) setSelectedId(id);
-        setError(null);
-        setMessage(note);
-      } catch (e) {
-        setError((e as Error).message);
-      }
-      await loadSegments();
-    },
-    [apply, loadSegments],
-  );
-
-  const undoRedo = useCallback(
-    async (isUndo: boolean) => {
-      const edit = isUndo ? undo.current.undo() : undo.current.redo();
-      if (!edit) return setMessage(isUndo ? "Nothing to undo" : "Nothing to redo");
-      try {
-        const id = await apply(edit);
-        if (id !== null) undo.current.remap(edit.id, id);
-        setError(null);
-        setMessage(`${isUndo ? "Undone" : "Redone"}: ${edit.kind} ${edit.kind === "update" ? edit.after.label_key : edit.data.label_key}`);
-      } catch (e) {
-        undo.current.rollback(isUndo);
-        setError((e as Error).message);
-      }
-      await loadSegments();
-    },
-    [apply, loadSegments],
-  );
+  const status = useStatusLine();
+  const { say, fail } = status;
+  const { video, frames, labels, segments, lane, loadSegments } = useLabellingData(videoId, fail);
+  const timeline = useTimeline(video, Number(search.get("frame") ?? 0));
+  const view = useViewOptions(mayUnblur);
 
   const colours = useMemo(() => labelColours(labels.map((l) => l.key)), [labels]);
   const labelColour = useCallback((key: string) => colours.get(key) ?? "#64748b", [colours]);
-
   const labelName = useCallback(
     (key: string) => labels.find((l) => l.key === key)?.name ?? key,
     [labels],
   );
-
-  const applyLabel = useCallback(
-    async (key: string) => {
-      const span = spanFromMarks(inPoint, outPoint);
-      if (span) {
-        setInPoint(null);
-        setOutPoint(null);
-        return perform({ kind: "create", id: -1, data: { ...span, label_key: key } },
-          `${labelName(key)}: frames ${span.first_frame}–${span.last_frame}`);
-      }
-      const editable = segments.filter((s) => mine(s) && EDITABLE.has(s.status));
-      const target = editable.find((s) => s.id === selectedId) ?? segmentAt(editable, frame);
-      if (!target) return setMessage("Set in (I) and out (O) points first, or select one of your segments");
-      return perform(
-        { kind: "update", id: target.id, before: dataOf(target), after: { ...dataOf(target), label_key: key } },
-        `Relabelled as ${labelName(key)}`,
-      );
-    },
-    [inPoint, outPoint, segments, selectedId, frame, mine, perform, labelName],
-  );
-
-  const deleteSelected = useCallback(async () => {
-    const target = segments.find((s) => s.id === selectedId);
-    if (!target || !mine(target) || !EDITABLE.has(target.status))
-      return setMessage("Select one of your draft segments to delete");
-    setSelectedId(null);
-    await perform({ kind: "delete", id: target.id, data: dataOf(target) }, "Segment deleted");
-  }, [segments, selectedId, mine, perform]);
-
-  const submit = useCallback(async () => {
-    const { data, error } = await api.POST("/api/labelling/videos/{video_id}/submit", {
-      params: { path: { video_id: videoId } },
-    });
-    if (data) {
-      setMessage(`Submitted ${data.submitted.length} segment(s) for review`);
-      undo.current = new UndoStack(); // submitted segments are the reviewers' now
-      setError(null);
-    } else setError(errorMessage(error, "Could not submit"));
-    await loadSegments();
-  }, [videoId, loadSegments]);
-
-  const open3d = useCallback(async () => {
-    const { data, error } = await api.POST("/api/labelling/videos/{video_id}/view3d", {
-      params: { path: { video_id: videoId }, query: { frame: frameRef.current } },
-    });
-    if (!data) return setError(errorMessage(error, "Could not open the 3D view"));
-    setMessage(`3D view: frame ${data.centre_frame} (nearest with depth) and ${data.frames_shown.length - 1} more`);
-    window.open(data.url, "vigil-3d");
-  }, [videoId]);
-
   const quick = useMemo(() => {
     const keys = QUICK_LABELS[video?.mode ?? "walking"] ?? QUICK_LABELS.walking;
     return keys.map((k) => labels.find((l) => l.key === k)).filter((l): l is TaxonomyLabel => !!l);
   }, [labels, video]);
 
-  useEffect(() => {
-    const onKey = (event: KeyboardEvent) => {
-      const typing = event.target instanceof HTMLInputElement || event.target instanceof HTMLTextAreaElement
-        || event.target instanceof HTMLSelectElement;
-      if (typing) return;
-      const ctrl = event.ctrlKey || event.metaKey;
-      const key = event.key;
-      let handled = true;
-      if (ctrl && key.toLowerCase() === "z") void undoRedo(!event.shiftKey);
-      else if (ctrl && key.toLowerCase() === "y") void undoRedo(false);
-      else if (ctrl && key === "Enter") void submit();
-      else if (ctrl) handled = false;
-      else if (key === " ") setPlaying((p) => !p);
-      else if (key === "ArrowRight") setFrame((f) => step(f, event.shiftKey ? 10 : 1, frameCount));
-      else if (key === "ArrowLeft") setFrame((f) => step(f, event.shiftKey ? -10 : -1, frameCount));
-      else if (key === "Home") setFrame(0);
-      else if (key === "End") setFrame(Math.max(frameCount - 1, 0));
-      else if (key === "i" || key === "I") setInPoint(frameRef.current);
-      else if (key === "o" || key === "O") setOutPoint(frameRef.current);
-      else if (/^[1-9]$/.test(key) && quick[Number(key) - 1]) void applyLabel(quick[Number(key) - 1].key);
-      else if (key === "/") searchBox.current?.focus();
-      else if (key === "?") setHelp((h) => !h);
-      else if (key === "Escape") { setInPoint(null); setOutPoint(null); setHelp(false); }
-      else if (key === "Delete" || key === "Backspace") void deleteSelected();
-      else if (key === "[") setSpeed((s) => nextSpeed(s, -1));
-      else if (key === "]") setSpeed((s) => nextSpeed(s, 1));
-      else if (key === "v" || key === "V") setShowRgb((s) => !s);
-      else if ((key === "b" || key === "B") && mayUnblur) setBlur((b) => !b);
-      else handled = false;
-      if (handled) event.preventDefault();
-    };
-    window.addEventListener("keydown", onKey);
-    return () => window.removeEventListener("keydown", onKey);
-  }, [frameCount, quick, applyLabel, undoRedo, submit, deleteSelected, mayUnblur]);
+  const edits = useSegments({ videoId, user, segments, loadSegments, labelName, timeline, status });
+  const labelSearch = useLabelSearch(labels, edits.applyLabel, say);
 
-  const rows: TimelineRow[] = useMemo(() => {
-    const you = segments.filter(mine);
-    const others = new Map<string, Segment[]>();
-    for (const s of segments) {
-      if (mine(s)) continue;
-      const title = s.annotator ?? (s.source === "import" ? "imported" : s.source.replace("_", " "));
-      others.set(title, [...(others.get(title) ?? []), s]);
-    }
-    const list: Omit<TimelineRow, "isEditable">[] = [
-      { title: `you (${user?.username ?? ""})`, segments: you, editable: true },
-      ...[...others].map(([title, group]) => ({ title, segments: group, editable: user?.role === "admin" })),
-    ];
-    return list.map((row) => ({
-      ...row,
-      isEditable: (s: Segment) => row.editable && EDITABLE.has(s.status),
-    }));
-  }, [segments, mine, user]);
+  const { frameRef } = timeline;
+  const open3d = useCallback(async () => {
+    const { data, error } = await api.POST("/api/labelling/videos/{video_id}/view3d", {
+      params: { path: { video_id: videoId }, query: { frame: frameRef.current } },
+    });
+    if (!data) return fail(errorMessage(error, "Could not open the 3D view"));
+    say(`3D view: frame ${data.centre_frame} (nearest with depth) and ${data.frames_shown.length - 1} more`);
+    window.open(data.url, "vigil-3d");
+  }, [videoId, frameRef, say, fail]);
 
-  const onResize = useCallback(
-    (id: number, span: Span) => {
-      const s = segments.find((x) => x.id === id);
-      if (!s || (s.first_frame === span.first_frame && s.last_frame === span.last_frame)) return;
-      void perform({ kind: "update", id, before: dataOf(s), after: { ...dataOf(s), ...span } },
-        `Moved to frames ${span.first_frame}–${span.last_frame}`);
-    },
-    [segments, perform],
-  );
+  const { setHelp } = view;
+  const closeHelp = useCallback(() => setHelp(false), [setHelp]);
+  useLabelShortcuts({
+    timeline, quick, applyLabel: edits.applyLabel, undoRedo: edits.undoRedo, submit: edits.submit,
+    deleteSelected: edits.deleteSelected, focusSearch: labelSearch.focus, toggleHelp: view.toggleHelp,
+    closeHelp, toggleRgb: view.toggleRgb, toggleBlur: view.toggleBlur, mayUnblur,
+  });
 
-  const acceptSuggestion = useCallback(
-    (span: Span) =>
-      void perform({ kind: "create", id: -1, data: { ...span, label_key: "falling" } },
-        `Model suggestion accepted as Falling ${span.first_frame}–${span.last_frame}: fix the stages`),
-    [perform],
-  );
+  const { error, message } = status;
+  const { frame, frameCount, playing, speed, inPoint, outPoint } = timeline;
+  const { query, matches, activeMatch } = labelSearch;
+  const { selected, selectedId, drafts } = edits;
 
   if (error && !video) return <main className="page"><p role="alert" className="error">{error}</p></main>;
   if (!video) return <main className="page"><p className="muted">Loading…</p></main>;
 
-  const selected = segments.find((s) => s.id === selectedId) ?? null;
-  const matches = searchLabels(labels, query).slice(0, 8);
   const timeMs = ((frames[frame]?.ts ?? frame / video.fps) * 1000).toFixed(0);
-  const drafts = segments.filter((s) => mine(s) && (s.status === "draft" || s.status === "rejected")).length;
   const laneNote =
     lane?.source === "model" ? `computed · ${lane.model_version}`
       : lane?.source === "stored" ? `stored · ${lane.model_version ?? ""}`
@@ -351,30 +96,30 @@ export function LabelPage() {
         <button type="button" onClick={() => setHelp(true)} title="Keyboard shortcuts (?)">?</button>
       </div>
       <div className="label-main">
-        <Player video={video} frames={frames} frame={frame} showRgb={showRgb} blur={blur || !mayUnblur} />
+        <Player video={video} frames={frames} frame={frame} showRgb={view.showRgb} blur={view.blur} />
         <aside className="label-side">
           <div className="frame-counter" data-testid="frame-counter">
             frame <strong>{frame}</strong> / {frameCount - 1} · {timeMs} ms
           </div>
           <div className="transport">
-            <button type="button" onClick={() => setPlaying((p) => !p)}>{playing ? "Pause" : "Play"}</button>
+            <button type="button" onClick={timeline.togglePlay}>{playing ? "Pause" : "Play"}</button>
             <span data-testid="speed">{speed}x</span>
             <span>in {inPoint ?? "–"} · out {outPoint ?? "–"}</span>
           </div>
           <label className="toggle">
-            <input type="checkbox" checked={showRgb} onChange={() => setShowRgb(!showRgb)} disabled={!video.has_rgb} />
+            <input type="checkbox" checked={view.showRgb} onChange={view.toggleRgb} disabled={!video.has_rgb} />
             RGB picture (off = skeleton only)
           </label>
           {mayUnblur && (
             <label className="toggle">
-              <input type="checkbox" checked={blur} onChange={() => setBlur(!blur)} /> blur head
+              <input type="checkbox" checked={view.blurSetting} onChange={view.toggleBlur} /> blur head
             </label>
           )}
           <h2>Labels</h2>
           <ol className="quick-labels">
             {quick.map((l, i) => (
               <li key={l.key}>
-                <button type="button" onClick={() => void applyLabel(l.key)}
+                <button type="button" onClick={() => void edits.applyLabel(l.key)}
                   style={{ borderLeft: `6px solid ${labelColour(l.key)}`, borderRight: `4px solid ${classColour(l[video.mode])}` }}>
                   <kbd>{i + 1}</kbd> {l.name}
                 </button>
@@ -382,36 +127,14 @@ export function LabelPage() {
             ))}
           </ol>
           <input
-            ref={searchBox}
+            ref={labelSearch.box}
             type="search"
             placeholder="Search labels ( / )"
             aria-label="Search labels"
             aria-controls="label-matches"
             value={query}
-            onChange={(e) => {
-              setQuery(e.target.value);
-              setActiveMatch(null);
-            }}
-            onKeyDown={(e) => {
-              if (e.key === "ArrowDown" || e.key === "ArrowUp") {
-                e.preventDefault();
-                setActiveMatch((a) => moveActive(a, e.key === "ArrowDown" ? 1 : -1, matches.length));
-              } else if (e.key === "Enter") {
-                const choice = searchChoice(matches, activeMatch);
-                if (!choice) {
-                  setMessage(
-                    matches.length === 0
-                      ? `No label matches “${query}”`
-                      : `${matches.length} labels match “${query}”: choose one with ↓ ↑ and Enter, or click it`,
-                  );
-                  return;
-                }
-                void applyLabel(choice.key);
-                setQuery("");
-                setActiveMatch(null);
-                e.currentTarget.blur();
-              } else if (e.key === "Escape") e.currentTarget.blur();
-            }}
+            onChange={labelSearch.onChange}
+            onKeyDown={labelSearch.onKeyDown}
           />
           {query && (
             <ul className="label-matches" id="label-matches" data-testid="label-matches">
@@ -422,7 +145,7 @@ export function LabelPage() {
                     className={i === activeMatch ? "active" : undefined}
                     aria-current={i === activeMatch ? "true" : undefined}
                     style={{ borderLeft: `6px solid ${labelColour(l.key)}` }}
-                    onClick={() => { void applyLabel(l.key); setQuery(""); setActiveMatch(null); }}
+                    onClick={() => labelSearch.choose(l.key)}
                   >
                     {l.name} <span className="muted">{l[video.mode]}</span>
                   </button>
@@ -436,7 +159,7 @@ export function LabelPage() {
               {selected.review_comment ? ` · “${selected.review_comment}”` : ""}
             </p>
           )}
-          <button type="button" className="primary" onClick={() => void submit()} disabled={drafts === 0}>
+          <button type="button" className="primary" onClick={() => void edits.submit()} disabled={drafts === 0}>
             Submit {drafts} draft(s) for review
           </button>
           <p className="status-line" role="status" data-testid="status">{message}</p>
@@ -447,7 +170,7 @@ export function LabelPage() {
         frameCount={frameCount}
         fps={video.fps}
         frame={frame}
-        rows={rows}
+        rows={edits.rows}
         selectedId={selectedId}
         inPoint={inPoint}
         outPoint={outPoint}
@@ -456,13 +179,13 @@ export function LabelPage() {
         suggestions={lane?.suggestions ?? []}
         laneNote={laneNote}
         laneError={lane?.error ?? null}
-        onSeek={(f) => setFrame(clampFrame(f, frameCount))}
-        onSelect={setSelectedId}
-        onResize={onResize}
-        onAcceptSuggestion={acceptSuggestion}
+        onSeek={timeline.seek}
+        onSelect={edits.setSelectedId}
+        onResize={edits.resize}
+        onAcceptSuggestion={edits.acceptSuggestion}
         labelColour={labelColour}
       />
-      {help && <ShortcutsHelp onClose={() => setHelp(false)} />}
+      {view.help && <ShortcutsHelp onClose={closeHelp} />}
     </main>
   );
 }
