@@ -3,6 +3,11 @@
     open ──acknowledge──▶ acknowledged ──resolve──▶ resolved
       └──────────────────resolve──────────────────────▲
       └──────────────────clear────────────────────────┘  (technical: the cause ended)
+      └──miss──▶ missed ──acknowledge──▶ acknowledged      (Emergency past the last
+                   └──────resolve──────▶ resolved          escalation level)
+
+"missed: needs review" is latched: new decisions, the transport's end or the robot going
+offline leave it missed; only a person (acknowledge or resolve) moves it on.
 
 Escalation and re-alarm do not change the state: they raise `escalation_level` or
 `realarmed_at` on an open or acknowledged alarm and push it again.
@@ -21,6 +26,7 @@ class AlarmAction(StrEnum):
     ESCALATE = "escalate"
     REALARM = "realarm"
     CLEAR = "clear"  # the system resolves a technical alarm whose cause ended (no verdict)
+    MISS = "miss"  # the escalation chain ended without an acknowledgement
 
 
 TRANSITIONS: dict[tuple[AlarmState, AlarmAction], AlarmState] = {
@@ -33,6 +39,10 @@ TRANSITIONS: dict[tuple[AlarmState, AlarmAction], AlarmState] = {
     (AlarmState.ACKNOWLEDGED, AlarmAction.REALARM): AlarmState.ACKNOWLEDGED,
     (AlarmState.OPEN, AlarmAction.CLEAR): AlarmState.RESOLVED,
     (AlarmState.ACKNOWLEDGED, AlarmAction.CLEAR): AlarmState.RESOLVED,
+    (AlarmState.OPEN, AlarmAction.MISS): AlarmState.MISSED,
+    (AlarmState.MISSED, AlarmAction.UPDATE): AlarmState.MISSED,
+    (AlarmState.MISSED, AlarmAction.ACKNOWLEDGE): AlarmState.ACKNOWLEDGED,
+    (AlarmState.MISSED, AlarmAction.RESOLVE): AlarmState.RESOLVED,
 }
 
 
