@@ -155,8 +155,8 @@ def to_csv(report: dict, since: datetime, until: datetime, ward: str | None) -> 
     writer = csv.writer(out, lineterminator="\n")
     writer.writerow(["# Vigil shift handover", f"ward {ward or 'all wards'}",
                      f"from {since.isoformat()}", f"to {until.isoformat()}"])  # fmt: skip
-    writer.writerow(["# fatigue (alarms raised in the shift)",
-                     *(f"{k}={'' if v is None else v}" for k, v in report["fatigue"].items())])  # fmt: skip
+    figures = (f"{k}={'' if v is None else v}" for k, v in report["fatigue"].items())
+    writer.writerow(["# fatigue (alarms raised in the shift)", *figures])
     writer.writerow(CSV_COLUMNS)
     for row in report["alarms"]:
         a = row["alarm"]
