@@ -54,9 +54,7 @@ def _ack_wait_s(alarm: Alarm, until: datetime) -> float:
     return max((end - alarm.raised_at).total_seconds(), 0.0)
 
 
-def fatigue_figures(
-    alarms: Iterable[Alarm], missed_ids: Collection[int], until: datetime
-) -> dict:
+def fatigue_figures(alarms: Iterable[Alarm], missed_ids: Collection[int], until: datetime) -> dict:
     alarms = list(alarms)
     with_verdict = [a for a in alarms if a.verdict is not None]
     false_alarms = sum(a.verdict == Verdict.FALSE_ALARM for a in with_verdict)

@@ -149,8 +149,11 @@ def _handover(
         per_robot=report["per_robot"],
         fatigue=report["fatigue"],
         alarms=[
-            {"section": r["section"], "was_missed": r["was_missed"],
-             "alarm": AlarmOut.model_validate(r["alarm"])}
+            {
+                "section": r["section"],
+                "was_missed": r["was_missed"],
+                "alarm": AlarmOut.model_validate(r["alarm"]),
+            }
             for r in report["alarms"]
         ],  # fmt: skip
     )
