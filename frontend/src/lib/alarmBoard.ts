@@ -85,15 +85,24 @@ export function kindRank(alarm: Alarm): number {
 
 const GROUP_RANK: Record<TriageGroup, number> = { new: 0, missed: 1, acknowledged: 2 };
 
+/** An alarm's place in triage order as numbers; alarm objects are never changed in place (an
+ * update is a new object), so the key is computed once per version. */
+const sortKeys = new WeakMap<Alarm, [number, number, number]>();
+function sortKey(alarm: Alarm): [number, number, number] {
+  let key = sortKeys.get(alarm);
+  if (!key) {
+    key = [GROUP_RANK[triageGroup(alarm)] * 3 + kindRank(alarm), -Date.parse(alarm.raised_at), -alarm.id];
+    sortKeys.set(alarm, key);
+  }
+  return key;
+}
+
 /** Triage order: group (needs attention, missed, acknowledged), then Emergency before
  * technical before Pause, then newest first (the alarm raised a second ago is the first card). */
 export function compareForBoard(a: Alarm, b: Alarm): number {
-  return (
-    GROUP_RANK[triageGroup(a)] - GROUP_RANK[triageGroup(b)] ||
-    kindRank(a) - kindRank(b) ||
-    Date.parse(b.raised_at) - Date.parse(a.raised_at) ||
-    b.id - a.id
-  );
+  const x = sortKey(a);
+  const y = sortKey(b);
+  return x[0] - y[0] || x[1] - y[1] || x[2] - y[2];
 }
 
 export function sortForBoard(alarms: Iterable<Alarm>): Alarm[] {

@@ -21,24 +21,27 @@ export function stateText(alarm: Alarm): string {
   return "New";
 }
 
-/** The compact board for many alarms: one row each, grouped in triage order. */
+/** The compact board for many alarms: one row each, grouped in triage order. Rows are grid
+ * boxes, not table rows, so the browser can skip laying out those off screen. */
 export function AlarmList({ groups, now, busyId, onAcknowledge, onResolve }: Props) {
   return (
-    <table className="alarm-list" aria-label="Alarm list">
-      <thead>
-        <tr><th>Alarm</th><th>State</th><th>Robot</th><th>Patient</th><th>Location</th><th>Raised</th><th /></tr>
-      </thead>
+    <div className="alarm-list" role="table" aria-label="Alarm list">
+      <div role="row" className="alarm-list-head">
+        {["Alarm", "State", "Robot", "Patient", "Location", "Raised", ""].map((h, i) => (
+          <span role="columnheader" key={i}>{h}</span>
+        ))}
+      </div>
       {groups.map(({ group, alarms }) => (
-        <tbody key={group} data-group={group} className={`group-${group}`}>
-          <tr className="group-head"><th colSpan={7}>{GROUP_LABEL[group]} ({alarms.length})</th></tr>
+        <div role="rowgroup" key={group} data-group={group} className={`group-${group}`} aria-label={GROUP_LABEL[group]}>
+          <div role="row" className="group-head"><span role="rowheader">{GROUP_LABEL[group]} ({alarms.length})</span></div>
           {alarms.map((alarm) => (
             <Row key={alarm.id} alarm={alarm} since={`${elapsed(alarm.raised_at, now)} ago`}
               ended={transportEndedText(alarm, now)} busy={busyId === alarm.id}
               onAcknowledge={onAcknowledge} onResolve={onResolve} />
           ))}
-        </tbody>
+        </div>
       ))}
-    </table>
+    </div>
   );
 }
 
@@ -55,22 +58,22 @@ interface RowProps {
 const Row = memo(function Row({ alarm, since, ended, busy, onAcknowledge, onResolve }: RowProps) {
   const stored = isStored(alarm);
   return (
-    <tr className={`alarm-row alarm-${styleOf(alarm)} state-${alarm.state}`} data-alarm-id={alarm.id}
+    <div role="row" className={`alarm-row alarm-${styleOf(alarm)} state-${alarm.state}`} data-alarm-id={alarm.id}
       data-state={alarm.state} data-stored={stored ? "true" : "false"}>
-      <td className="kind">{alarmTitle(alarm)}</td>
-      <td className="state">{stateText(alarm)}</td>
-      <td>{alarm.robot_id}</td>
-      <td>{alarm.patient ?? "–"}</td>
-      <td>{alarm.location ?? "–"}{ended && <span className="transport-ended"> · {ended}</span>}</td>
-      <td className="since" title={alarm.raised_at}>{since}</td>
-      <td className="actions">
+      <span role="cell" className="kind">{alarmTitle(alarm)}</span>
+      <span role="cell" className="state">{stateText(alarm)}</span>
+      <span role="cell">{alarm.robot_id}</span>
+      <span role="cell">{alarm.patient ?? "–"}</span>
+      <span role="cell">{alarm.location ?? "–"}{ended && <span className="transport-ended"> · {ended}</span>}</span>
+      <span role="cell" className="since" title={alarm.raised_at}>{since}</span>
+      <span role="cell" className="actions">
         {stored && (alarm.state === "open" || alarm.state === "missed") && (
           <button type="button" className="ack" disabled={busy} onClick={() => onAcknowledge(alarm)}>Acknowledge</button>
         )}
         {stored && <button type="button" className="resolve" disabled={busy} onClick={() => onResolve(alarm)}>Resolve…</button>}
         {stored && <Link to={`/nurse/alarms/${alarm.id}`}>Replay</Link>}
         {!stored && <span className="unstored">Not yet stored</span>}
-      </td>
-    </tr>
+      </span>
+    </div>
   );
 });
