@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from datetime import datetime, timedelta
+from datetime import UTC, datetime, timedelta
 
 from fastapi import APIRouter, HTTPException, Query, Response, status
 
@@ -130,6 +130,8 @@ def _handover(
     now = utcnow()
     shift_start, shift_name = shift_of(now)
     since = since or shift_start
+    if since.tzinfo is None:  # a time without a zone is UTC, as every time the API sends
+        since = since.replace(tzinfo=UTC)
     if since >= now:
         raise HTTPException(status.HTTP_422_UNPROCESSABLE_CONTENT, "since must be in the past")
     if now - since > timedelta(days=MAX_FATIGUE_DAYS):
