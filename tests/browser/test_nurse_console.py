@@ -27,6 +27,7 @@ from backend.models import (
     User,
 )
 from backend.models._types import utcnow
+from vigil.protocol import TransportEnd
 
 from .live_server import ROBOT_TOKEN, SCREENSHOTS, LiveServer, sign_in
 from .simulated_robot import SimulatedRobot, fall_frames
@@ -188,7 +189,8 @@ def test_board_reconnects_and_shows_alarms_raised_while_disconnected(live_server
     live_server.start()
 
     expect(board).to_have_attribute("data-link", "live", timeout=15_000)
-    expect(page.get_by_role("alert")).to_have_count(0)
+    # The disconnection banner is gone; the Emergency's own banner (an alert too) is there.
+    expect(page.get_by_role("alert").filter(has_text="Disconnected")).to_have_count(0)
     card = _card(page, alarm.id)
     expect(card).to_be_visible()
     expect(card).to_contain_text("Pause")
@@ -358,8 +360,10 @@ def test_triage_order_missed_state_banner_filters_and_handover_export(live_serve
         robot = session.get(Robot, "robot-a")
         nina = session.scalars(select(User).where(User.username == "nina")).one()
         ids = {}
-        for name, ended in (("t-missed", now - timedelta(minutes=40)), ("t-acked", None),
-                            ("t-pause", None)):  # fmt: skip
+        # Ended transports: the monitor raises no robot-offline alarm for them.
+        for name, ended in (("t-missed", now - timedelta(minutes=40)),
+                            ("t-acked", now - timedelta(seconds=20)),
+                            ("t-pause", now - timedelta(seconds=20))):  # fmt: skip
             session.add(Transport(id=name, robot_id="robot-a", mode="walking", patient=f"P-{name}",
                                   location="corridor C", started_at=now - timedelta(hours=1),
                                   ended_at=ended))  # fmt: skip
@@ -386,7 +390,11 @@ def test_triage_order_missed_state_banner_filters_and_handover_export(live_serve
 
     with SimulatedRobot(live_server.robot_ws_url, "robot-a", ROBOT_TOKEN) as robot:
         robot.start_transport("t-new", patient="P-NEW", location="lift lobby")
-        robot.stream(fall_frames(0, time.time() - 5, "t-new"))
+        frames = fall_frames(0, time.time() - 5, "t-new")
+        robot.stream(frames)
+        robot.send(TransportEnd(transport_id="t-new", ts=time.time()))
+        robot.send_batch(frames[-1:])  # a replay, acknowledged once the end is stored
+        robot.wait_ack(frames[-1].seq)
     expect(_card(page)).to_have_count(4)
     new_id = int(_card(page).first.get_attribute("data-alarm-id"))
     order = [int(_card(page).nth(i).get_attribute("data-alarm-id")) for i in range(4)]
