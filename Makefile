@@ -11,7 +11,8 @@ PYTEST_ARGS ?=
 .PHONY: run test test-python test-sqlite test-postgresql test-frontend test-browser setup \
 	frontend chromium lint format bench-detection bench-detection-splits bench-fall-onset \
 	bench-floor bench-ingest bench-robot bench-video bench-labelling bench-registry \
-	bench-alarm-latency bench-storage-stall bench-login-flood readme screenshots clean
+	bench-alarm-latency bench-storage-stall bench-login-flood bench-nurse-soak readme screenshots \
+	clean
 
 setup: $(STAMP) frontend
 
@@ -91,6 +92,10 @@ bench-registry: $(STAMP)
 
 bench-alarm-latency: $(STAMP) frontend chromium
 	$(PY) -m bench.alarm_latency
+
+# 30 minutes in Chromium (VIGIL_SOAK_MINUTES=2 for a quick check); not part of `make test`.
+bench-nurse-soak: $(STAMP) frontend chromium
+	$(PY) -m bench.nurse_soak
 
 bench-storage-stall: $(STAMP)
 	$(PY) -m bench.storage_stall

@@ -40,6 +40,8 @@ PERMISSIONS: dict[tuple[str, str], frozenset[Role]] = {
     ("GET", "/api/alarms/{alarm_id}/replay"): frozenset({NURSE, ENGINEER, ADMIN}),
     ("GET", "/api/alarm-history"): frozenset({NURSE, ENGINEER, ADMIN}),
     ("GET", "/api/alarm-fatigue"): frozenset({NURSE, ENGINEER, ADMIN}),
+    ("GET", "/api/handover"): frozenset({NURSE, ENGINEER, ADMIN}),
+    ("GET", "/api/handover.csv"): frozenset({NURSE, ENGINEER, ADMIN}),
     ("GET", "/api/review-queue"): frozenset({ANNOTATOR, ENGINEER, ADMIN}),
     ("GET", "/api/videos"): frozenset({ANNOTATOR, ENGINEER, ADMIN}),
     ("GET", "/api/videos/{video_id}"): frozenset({ANNOTATOR, ENGINEER, ADMIN}),

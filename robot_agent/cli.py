@@ -61,6 +61,11 @@ RUN_FLAGS = {
     "--location": "location",
     "--outbox": "outbox_path",
 }
+SIMULATE_FLAGS = {
+    "--falls-per-hour": "falls_per_hour",
+    "--pauses-per-hour": "pauses_per_hour",
+    "--lookalikes-per-hour": "lookalikes_per_hour",
+}
 SWITCHES = {"--loop": "loop", "--exit-when-done": "exit_when_done"}
 
 
@@ -83,6 +88,8 @@ def _parser() -> argparse.ArgumentParser:
             )
     for flag, field in RUN_FLAGS.items():
         run.add_argument(flag, dest=field, help=AgentSettings.model_fields[field].description)
+    for flag, field in SIMULATE_FLAGS.items():
+        simulate.add_argument(flag, dest=field, help=AgentSettings.model_fields[field].description)
     simulate.add_argument("--robots", default="3", help="number of robots (from the tokens file)")
     simulate.add_argument(
         "--tokens-file",

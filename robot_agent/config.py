@@ -91,6 +91,24 @@ class AgentSettings(BaseSettings):
         default=30.0, gt=0, description="generated source: length of a transport in seconds"
     )
     people: int = Field(default=3, ge=1, le=5, description="generated source: people in view")
+    falls_per_hour: float = Field(
+        default=4.0,
+        ge=0,
+        description="simulated fleet: Emergencies (falls, stumbles; slumps in "
+        "a wheelchair) per robot per hour; the default, one every 15 min, is a believable ward",
+    )
+    pauses_per_hour: float = Field(
+        default=3.0,
+        ge=0,
+        description="simulated fleet: Pause situations (too far away, standing "
+        "up from the wheelchair, crushing hazard) per robot per hour",
+    )
+    lookalikes_per_hour: float = Field(
+        default=6.0,
+        ge=0,
+        description="simulated fleet: look-alikes of a fall (bending, sitting "
+        "down, lying down on a bed) per robot per hour",
+    )
     patient: str | None = Field(default=None, max_length=64, description="patient pseudonym")
     location: str | None = Field(default=None, max_length=128)
     model_dir: Path | None = Field(

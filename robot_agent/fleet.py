@@ -1,6 +1,8 @@
 """`vigil-robot simulate`: several robots in one process (asyncio), each with its own outbox,
-link and pipeline, streaming GENERATED transports (walking and rollator patients, falls,
-stumbles, bystanders).
+link and pipeline, streaming GENERATED transports (walking and rollator patients, bystanders)
+at a ward's pace: falls, Pause situations and fall look-alikes at `falls_per_hour`,
+`pauses_per_hour` and `lookalikes_per_hour` per robot (default one fall per robot per 15 min),
+routine movement otherwise.
 
 Decisions: with --model-dir every robot classifies with that model; without it a robot streams
 the generator's ground truth, marked model_version 'generated-ground-truth' (no threshold, no
@@ -19,7 +21,7 @@ from robot_agent.config import AgentSettings, ConfigError
 from robot_agent.outbox import Outbox
 from robot_agent.pipeline import Pipeline
 from robot_agent.runner import agent_options, initial_classifier, starting_model
-from robot_agent.source_factory import generated_transports
+from robot_agent.source_factory import EventRates, generated_transports
 from vigil.classes import TransportMode
 
 log = logging.getLogger(__name__)
@@ -79,6 +81,9 @@ def build_fleet(
             n_people=settings.people,
             duration_s=settings.duration_s,
             patient_prefix=f"GEN-{number + 1}",
+            rates=EventRates(
+                settings.falls_per_hour, settings.pauses_per_hour, settings.lookalikes_per_hour
+            ),
         )
         agents.append(
             RobotAgent(

@@ -5,12 +5,50 @@ from __future__ import annotations
 import importlib
 import itertools
 from collections.abc import Iterator
+from dataclasses import dataclass
 from pathlib import Path
 
 from robot_agent.agent import TransportPlan
 from robot_agent.config import AgentSettings, ConfigError, SourceKind
 
 GENERATED_LOCATION = "simulated corridor (GENERATED data)"
+
+
+@dataclass(frozen=True, slots=True)
+class EventRates:
+    """How often a simulated robot meets each kind of situation, per hour of transports."""
+
+    falls_per_hour: float = 4.0
+    pauses_per_hour: float = 3.0
+    lookalikes_per_hour: float = 6.0
+
+
+#: Situations per kind, of those the generator knows for a locomotion (vigil.synthetic).
+PAUSE_EVENTS = ("too_far_away", "standing_up_from_wheelchair", "crushing_hazard")
+LOOKALIKE_EVENTS = ("bending", "sitting_down", "lying_down_deliberately")
+ROUTINE_EVENTS = ("turning", "gesturing", "standing")
+
+
+def ward_events(rng, locomotion: str, transport_s: float, rates: EventRates) -> list[str]:
+    """The events of one GENERATED transport of `transport_s` seconds: at most one situation,
+    drawn so that each kind happens at its rate per hour; otherwise routine movement."""
+    from vigil.synthetic import EMERGENCY_EVENTS, EVENTS_BY_LOCOMOTION, Locomotion
+
+    loc = Locomotion(locomotion)
+    known = EVENTS_BY_LOCOMOTION[loc]
+    kinds = [
+        (rates.falls_per_hour, EMERGENCY_EVENTS[loc]),
+        (rates.pauses_per_hour, tuple(e for e in PAUSE_EVENTS if e in known)),
+        (rates.lookalikes_per_hour, tuple(e for e in LOOKALIKE_EVENTS if e in known)),
+    ]
+    draw = rng.random()
+    for per_hour, events in kinds:
+        chance = per_hour * transport_s / 3600
+        if draw < chance and events:
+            return [events[int(rng.integers(len(events)))]]
+        draw -= chance
+    routine = [e for e in ROUTINE_EVENTS if e in known]
+    return [routine[int(rng.integers(len(routine)))]]
 
 
 def generated_transports(
@@ -21,13 +59,21 @@ def generated_transports(
     n_people: int = 3,
     duration_s: float = 30.0,
     patient_prefix: str = "GEN",
+    rates: EventRates | None = None,
 ) -> Iterator[TransportPlan]:
     """GENERATED transports (robot_agent.sources.simulator), one plan per transport; the agent
-    paces them, the simulator itself runs flat out (speed 0)."""
+    paces them, the simulator itself runs flat out (speed 0). With `rates` each transport's
+    events are drawn at those rates (`ward_events`); else `events` (None: the generator picks,
+    always with an Emergency)."""
+    import numpy as np
+
     from robot_agent.sources.simulator import SimulatorSource
 
     numbers = itertools.count() if count is None else range(count)
     for number in numbers:
+        if rates is not None:
+            rng = np.random.default_rng([seed, number, 21])
+            events = ward_events(rng, locomotion, duration_s, rates)
         source = SimulatorSource(
             mode=locomotion,
             seed=seed + number,

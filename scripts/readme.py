@@ -287,6 +287,42 @@ def _alarm_latency() -> str | None:
     )
 
 
+def _nurse_soak() -> str | None:
+    data = _load("nurse_soak.json")
+    if data is None:
+        return None
+    cfg, goals, met = data["settings"], data["goals"], data["goals_met"]
+    mark = lambda ok: "met" if ok else "**not met**"  # noqa: E731
+    rows = [
+        ["board first render (navigation → every seeded alarm shown)",
+         f"{_fmt(data['first_render_ms'], 0)} ms", f"≤ {goals['first_render_ms']} ms",
+         mark(met["first_render"])],
+        ["new Emergency → first row of the board, p50 / p95",
+         f"{_fmt(data['top']['p50_ms'], 0)} / {_fmt(data['top']['p95_ms'], 0)} ms "
+         f"(n={data['top']['n']})", f"p95 ≤ {goals['top_p95_ms']} ms", mark(met["top_p95"])],
+        ["new Emergency → first beep of the tone, p50 / p95",
+         f"{_fmt(data['tone']['p50_ms'], 0)} / {_fmt(data['tone']['p95_ms'], 0)} ms "
+         f"(n={data['tone']['n']})", f"p95 ≤ {goals['tone_p95_ms']} ms", mark(met["tone_p95"])],
+        ["JS heap start → end (after GC)",
+         f"{data['heap_mb']['start']} → {data['heap_mb']['end']} MB",
+         f"growth ≤ {goals['heap_growth_mb']} MB", mark(met["heap_growth"])],
+        ["console errors", data["console_errors"], "0", mark(met["console_errors"])],
+        ["after the reconnect: duplicated / missing / extra cards",
+         f"{data['after_reconnect']['duplicates']} / {data['after_reconnect']['missing']} / "
+         f"{data['after_reconnect']['extra']} of {data['after_reconnect']['cards']}", "0 / 0",
+         mark(met["after_reconnect"])],
+    ]  # fmt: skip
+    return (
+        "**Nurse board soak in Chromium** (`make bench-nurse-soak` → "
+        f"`bench/results/nurse_soak.json`, {data['data']}): {cfg['seeded_alarms']} unresolved "
+        f"alarms in the ward, then {cfg['rate_per_min']:g} new Emergencies a minute for "
+        f"{cfg['minutes']:g} min ({cfg['new_alarms']} alarms), one "
+        f"{cfg['drop_s']:g} s network drop; load average "
+        f"{data['machine']['load_avg_1m']} on {data['machine']['cpus']} cores at the end "
+        "(the machine was shared).\n\n" + _table(["what", "measured", "goal", ""], rows)
+    )
+
+
 def _storage_stall() -> str | None:
     data = _load("storage_stall.json")
     if data is None:
@@ -454,6 +490,7 @@ BENCH_SECTIONS = (
     _ingest,
     _robot,
     _alarm_latency,
+    _nurse_soak,
     _storage_stall,
     _login_flood,
     _labelling,

@@ -20,6 +20,16 @@ HOST, PORT = "127.0.0.1", int(os.environ.get("VIGIL_PORT", "8000"))
 MODEL_DIR = VAR / "models" / "default-walking"  # feature set "full": keypoints + floor measures
 KEYPOINTS_MODEL_DIR = VAR / "models" / "keypoints-walking"  # every walking robot's fallback
 ROBOTS = 3
+#: The simulated ward's pace per robot (robot_agent.config: falls_per_hour, pauses_per_hour,
+#: lookalikes_per_hour); VIGIL_FALLS_PER_HOUR etc. override the defaults.
+FLEET_RATES = [
+    arg
+    for flag, name in (("--falls-per-hour", "VIGIL_FALLS_PER_HOUR"),
+                       ("--pauses-per-hour", "VIGIL_PAUSES_PER_HOUR"),
+                       ("--lookalikes-per-hour", "VIGIL_LOOKALIKES_PER_HOUR"))
+    if os.environ.get(name)
+    for arg in (flag, os.environ[name])
+]  # fmt: skip
 TOKENS = VAR / "robot_tokens.json"
 
 
@@ -117,7 +127,8 @@ def main() -> int:
         children.append(start("worker", "-m", "worker.cli", "run"))
         children.append(
             start(
-                "simulated fleet of 3 robots (generated transports, including falls)",
+                "simulated fleet of 3 robots (generated transports at a ward's pace: about "
+                "one fall per robot per 15 min, Pause situations and look-alikes)",
                 "-m",
                 "robot_agent.cli",
                 "simulate",
@@ -127,8 +138,10 @@ def main() -> int:
                 str(ROBOTS),
                 "--tokens-file",
                 str(TOKENS),
-                "--model-dir",
-                str(KEYPOINTS_MODEL_DIR),  # any robot can feed it; the backend assigns the rest
+                # No local model: a robot runs only what the registry assigned it through the
+                # promotion gate; until then it streams the generator's ground truth, marked
+                # model_version "generated-ground-truth". Rates: --falls-per-hour etc.
+                *FLEET_RATES,
             )  # fmt: skip
         )
         # The robots' hellos said what they feed: the floor model goes to those that can.

@@ -7,13 +7,13 @@ period): leaving them out would make the slowest responses look fast."""
 from __future__ import annotations
 
 from collections import defaultdict
-from collections.abc import Iterable
+from collections.abc import Collection, Iterable
 from dataclasses import dataclass
 from datetime import datetime, timedelta
 from statistics import median
 from typing import Literal, Protocol
 
-from backend.models.alarms import TECHNICAL_KINDS, AlarmKind, Verdict
+from backend.models.alarms import TECHNICAL_KINDS, AlarmKind, AlarmState, Verdict
 
 ShiftName = Literal["early", "late", "night"]
 
@@ -44,15 +44,18 @@ def shift_of(moment: datetime) -> tuple[datetime, ShiftName]:
 class _Tally:
     alarms: int = 0
     emergencies: int = 0
+    missed: int = 0
     resolved: int = 0
     false_alarms: int = 0
     acknowledged: int = 0
     unacknowledged: int = 0
     ack_seconds: list[float] | None = None
 
-    def add(self, alarm: AlarmFacts, until: datetime) -> None:
+    def add(self, alarm: AlarmFacts, until: datetime, missed: Collection[int] = ()) -> None:
         self.alarms += 1
         self.emergencies += alarm.kind == AlarmKind.EMERGENCY
+        self.missed += (getattr(alarm, "state", None) == AlarmState.MISSED
+                        or getattr(alarm, "id", None) in missed)  # fmt: skip
         if alarm.verdict is not None:
             self.resolved += 1
             self.false_alarms += alarm.verdict == Verdict.FALSE_ALARM
@@ -74,17 +77,20 @@ class _Tally:
         return round(self.false_alarms / self.resolved, 4) if self.resolved else None
 
 
-def fatigue_stats(alarms: Iterable[AlarmFacts], until: datetime) -> dict:
+def fatigue_stats(
+    alarms: Iterable[AlarmFacts], until: datetime, missed: Collection[int] = ()
+) -> dict:
     """Per (shift, ward) and per model version; technical alarms count for load only by shift.
     `until` is the end of the period: an alarm still unacknowledged then counts as waiting
-    until it."""
+    until it. `missed`: ids of alarms that were "missed: needs review" at some point (those
+    missed now count whatever it holds)."""
     by_shift: dict[tuple[datetime, ShiftName, str], _Tally] = defaultdict(_Tally)
     by_model: dict[str | None, _Tally] = defaultdict(_Tally)
     for alarm in alarms:
         start, name = shift_of(alarm.raised_at)
-        by_shift[(start, name, alarm.ward)].add(alarm, until)
+        by_shift[(start, name, alarm.ward)].add(alarm, until, missed)
         if alarm.kind not in TECHNICAL_KINDS:
-            by_model[alarm.model_version].add(alarm, until)
+            by_model[alarm.model_version].add(alarm, until, missed)
     shifts = [
         {
             "shift_start": start,
@@ -92,6 +98,7 @@ def fatigue_stats(alarms: Iterable[AlarmFacts], until: datetime) -> dict:
             "ward": ward,
             "alarms": t.alarms,
             "emergencies": t.emergencies,
+            "missed": t.missed,
             "resolved": t.resolved,
             "false_alarms": t.false_alarms,
             "acknowledged": t.acknowledged,
@@ -104,6 +111,7 @@ def fatigue_stats(alarms: Iterable[AlarmFacts], until: datetime) -> dict:
         {
             "model_version": version,
             "alarms": t.alarms,
+            "missed": t.missed,
             "resolved": t.resolved,
             "false_alarms": t.false_alarms,
             "false_share": t.false_share,

@@ -5,10 +5,11 @@ from __future__ import annotations
 from dataclasses import dataclass
 from datetime import datetime
 
-from sqlalchemy import Select, func, select
+from sqlalchemy import Select, and_, func, or_, select
 from sqlalchemy.orm import Session
 
-from backend.models import Alarm, Frame
+from backend.models import Alarm, AlarmEvent, Frame
+from backend.models.alarms import AlarmState
 
 MAX_REPLAY_FRAMES = 3000
 
@@ -70,3 +71,35 @@ def alarms_between(
     if ward:
         query = query.where(Alarm.ward == ward)
     return list(session.scalars(query))
+
+
+def handover_alarms(
+    session: Session, since: datetime, until: datetime, ward: str | None
+) -> list[Alarm]:
+    """Every alarm unresolved now, plus every alarm raised in [since, until)."""
+    query = select(Alarm).where(
+        or_(
+            Alarm.state != AlarmState.RESOLVED,
+            and_(Alarm.raised_at >= since, Alarm.raised_at < until),
+        )
+    )
+    if ward:
+        query = query.where(Alarm.ward == ward)
+    return list(session.scalars(query).unique())
+
+
+def ever_missed(session: Session, alarm_ids: list[int]) -> set[int]:
+    """Of these alarms, those the escalation chain ever moved to missed (audit trail)."""
+    if not alarm_ids:
+        return set()
+    found: set[int] = set()
+    for start in range(0, len(alarm_ids), 500):
+        chunk = alarm_ids[start : start + 500]
+        found.update(
+            session.scalars(
+                select(AlarmEvent.alarm_id).where(
+                    AlarmEvent.alarm_id.in_(chunk), AlarmEvent.action == "miss"
+                )
+            )
+        )
+    return found

@@ -36,6 +36,7 @@ class ShiftRow(BaseModel):
     ward: str
     alarms: int
     emergencies: int
+    missed: int = Field(default=0, description='Emergencies that ended up "missed: needs review"')
     resolved: int
     false_alarms: int
     acknowledged: int
@@ -49,6 +50,7 @@ class ShiftRow(BaseModel):
 class ModelRow(BaseModel):
     model_version: str | None
     alarms: int
+    missed: int = 0
     resolved: int
     false_alarms: int
     false_share: float | None
@@ -83,3 +85,62 @@ class ReviewItemOut(BaseModel):
     model_version: str | None
     review_comment: str | None
     created_at: datetime
+
+
+class HandoverCounts(BaseModel):
+    open: int
+    missed: int = Field(description='now "missed: needs review"')
+    acknowledged_unresolved: int
+    resolved: int
+    escalated: int
+    ever_missed: int = Field(description="missed at some point (resolved since or not)")
+
+
+class HandoverRobotRow(HandoverCounts):
+    robot_id: str
+    alarms: int
+
+
+class HandoverFatigue(BaseModel):
+    """Over the alarms raised during the shift."""
+
+    alarms: int
+    emergencies: int
+    pauses: int
+    technical: int
+    resolved_with_verdict: int
+    non_actionable: int = Field(description='resolved with the verdict "false alarm"')
+    non_actionable_share: float | None = Field(
+        description="non_actionable / resolved_with_verdict (None: no verdict yet)"
+    )
+    acknowledged: int
+    unacknowledged: int
+    escalated: int
+    missed: int
+    ack_p50_s: float | None = Field(
+        description="time to acknowledge; an unacknowledged alarm counts the time until it was "
+        "resolved or the period ended"
+    )
+    ack_p90_s: float | None
+    ack_p95_s: float | None
+
+
+class HandoverAlarm(BaseModel):
+    section: Literal["open", "missed", "acknowledged", "resolved"]
+    was_missed: bool
+    alarm: AlarmOut
+
+
+class HandoverOut(BaseModel):
+    since: datetime
+    until: datetime
+    shift: Literal["early", "late", "night"] | None = Field(
+        description="the shift [since, until) is, when it is exactly one"
+    )
+    ward: str | None
+    counts: HandoverCounts
+    per_robot: list[HandoverRobotRow]
+    fatigue: HandoverFatigue
+    alarms: list[HandoverAlarm] = Field(
+        description="every alarm unresolved now and every alarm raised in the shift, newest first"
+    )

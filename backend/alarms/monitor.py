@@ -3,7 +3,8 @@
 - raises technical alarms for transports under way whose robot fell silent (robot offline) or
   whose frame stream stopped while the robot still talks (stream stalled), one per outage; a
   robot whose messages wait in the frame writer (storage stalled) is neither;
-- escalates an open Emergency not acknowledged within the ward's escalation time;
+- escalates an open Emergency not acknowledged within the ward's escalation time, and moves
+  one still unacknowledged an escalation time after the last level to "missed: needs review";
 - re-alarms an acknowledged alarm not resolved within `realarm_minutes`.
 
 Each change is committed, then pushed like any other alarm change.
@@ -117,16 +118,19 @@ class AlarmMonitor:
         def due(alarm: Alarm) -> bool:
             if alarm.state != AlarmState.OPEN:
                 return False
-            if alarm.escalation_level >= self._settings.escalation_max_level:
-                return False
             wait = timedelta(seconds=self._settings.escalation_seconds_for(alarm.ward))
             return now - (alarm.escalated_at or alarm.raised_at) >= wait
+
+        def last_level(alarm: Alarm) -> bool:
+            return alarm.escalation_level >= self._settings.escalation_max_level
 
         candidates = [a.id for a in queries.open_emergencies(session) if due(a)]
         claimed = [a for a in queries.claim(session, candidates) if due(a)]
         names = queries.viewer_names(session, [v.user_id for v in viewers])
         return [
-            service.escalate(
+            service.miss(session, a, now)
+            if last_level(a)
+            else service.escalate(
                 session, a, now, [names[v.user_id] for v in viewers if v.can_see(a.ward)]
             )
             for a in claimed

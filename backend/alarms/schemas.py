@@ -51,6 +51,11 @@ class AlarmOut(BaseModel):
         description="technical alarms: what it is about (detection_degraded: missing_inputs, "
         "reason, assigned_model, running_model, fallback, summary)",
     )
+    transport_ended_at: datetime | None = Field(
+        default=None,
+        description="when the alarm's transport ended (the alarm stays latched until a nurse "
+        "acts on it)",
+    )
     stored: bool = Field(
         default=True,
         description="false: pushed before it could be stored (storage stalled; a provisional "

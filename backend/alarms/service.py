@@ -192,6 +192,17 @@ def escalate(
     return alarm
 
 
+def miss(session: Session, alarm: Alarm, now: datetime) -> Alarm:
+    """The last escalation level went unanswered too: "missed: needs review" (latched)."""
+    before = alarm.state
+    ALARM.act(alarm, AlarmAction.MISS)
+    alarm.updated_at = now
+    _record(session, alarm, AlarmAction.MISS, before, "system",
+            comment=f"not acknowledged after the last escalation level "
+                    f"({alarm.escalation_level}): missed, needs review")  # fmt: skip
+    return alarm
+
+
 def realarm(session: Session, alarm: Alarm, now: datetime) -> Alarm:
     before = alarm.state
     ALARM.act(alarm, AlarmAction.REALARM)

@@ -3,6 +3,11 @@
     open ──acknowledge──▶ acknowledged ──resolve──▶ resolved
       └──────────────────resolve──────────────────────▲
       └──────────────────clear────────────────────────┘  (technical: the cause ended)
+      └──miss──▶ missed ──acknowledge──▶ acknowledged      (Emergency past the last
+                   └──────resolve──────▶ resolved          escalation level)
+
+"missed: needs review" is latched: new decisions, the transport's end or the robot going
+offline leave it missed; only a person (acknowledge or resolve) moves it on.
 
 Escalation and re-alarm do not change the state: they raise `escalation_level` or
 `realarmed_at` on an open or acknowledged alarm and push it again.
@@ -23,9 +28,11 @@ class AlarmAction(StrEnum):
     ESCALATE = "escalate"
     REALARM = "realarm"
     CLEAR = "clear"  # the system resolves a technical alarm whose cause ended (no verdict)
+    MISS = "miss"  # the escalation chain ended without an acknowledgement
 
 
 OPEN, ACKNOWLEDGED, RESOLVED = AlarmState.OPEN, AlarmState.ACKNOWLEDGED, AlarmState.RESOLVED
+MISSED = AlarmState.MISSED
 
 
 class IllegalTransition(_IllegalTransition):
@@ -35,12 +42,13 @@ class IllegalTransition(_IllegalTransition):
 ALARM = StateMachine(
     AlarmState,
     actions={
-        AlarmAction.UPDATE: {OPEN: OPEN, ACKNOWLEDGED: ACKNOWLEDGED},
-        AlarmAction.ACKNOWLEDGE: {OPEN: ACKNOWLEDGED},
-        AlarmAction.RESOLVE: {OPEN: RESOLVED, ACKNOWLEDGED: RESOLVED},
+        AlarmAction.UPDATE: {OPEN: OPEN, ACKNOWLEDGED: ACKNOWLEDGED, MISSED: MISSED},
+        AlarmAction.ACKNOWLEDGE: {OPEN: ACKNOWLEDGED, MISSED: ACKNOWLEDGED},
+        AlarmAction.RESOLVE: {OPEN: RESOLVED, ACKNOWLEDGED: RESOLVED, MISSED: RESOLVED},
         AlarmAction.ESCALATE: {OPEN: OPEN},
         AlarmAction.REALARM: {ACKNOWLEDGED: ACKNOWLEDGED},
         AlarmAction.CLEAR: {OPEN: RESOLVED, ACKNOWLEDGED: RESOLVED},
+        AlarmAction.MISS: {OPEN: MISSED},
     },
     attribute="state",
     initial=OPEN,

@@ -2,17 +2,19 @@
 
 from __future__ import annotations
 
-from datetime import datetime, timedelta
+from datetime import UTC, datetime, timedelta
 
-from fastapi import APIRouter, HTTPException, Query, status
+from fastapi import APIRouter, HTTPException, Query, Response, status
 
 from backend import wards
 from backend.alarm_review import feedback, queries
-from backend.alarm_review.fatigue import fatigue_stats
+from backend.alarm_review.fatigue import fatigue_stats, shift_of
+from backend.alarm_review.handover import handover, to_csv
 from backend.alarm_review.schemas import (
     AlarmPageOut,
     AlarmReplayOut,
     FatigueOut,
+    HandoverOut,
     ReplayFrameOut,
     ReviewItemOut,
 )
@@ -116,7 +118,80 @@ def alarm_fatigue(
             status.HTTP_422_UNPROCESSABLE_CONTENT, f"at most {MAX_FATIGUE_DAYS} days at once"
         )
     alarms = queries.alarms_between(session, since, until, _ward_of(user, ward))
-    return FatigueOut(since=since, until=until, **fatigue_stats(alarms, min(until, utcnow())))
+    missed = queries.ever_missed(session, [a.id for a in alarms])
+    return FatigueOut(
+        since=since, until=until, **fatigue_stats(alarms, min(until, utcnow()), missed)
+    )
+
+
+def _handover(
+    session: SessionDep, user: User, since: datetime | None, ward: str | None
+) -> tuple[HandoverOut, dict]:
+    now = utcnow()
+    shift_start, shift_name = shift_of(now)
+    since = since or shift_start
+    if since.tzinfo is None:  # a time without a zone is UTC, as every time the API sends
+        since = since.replace(tzinfo=UTC)
+    if since >= now:
+        raise HTTPException(status.HTTP_422_UNPROCESSABLE_CONTENT, "since must be in the past")
+    if now - since > timedelta(days=MAX_FATIGUE_DAYS):
+        raise HTTPException(
+            status.HTTP_422_UNPROCESSABLE_CONTENT, f"at most {MAX_FATIGUE_DAYS} days at once"
+        )
+    ward = _ward_of(user, ward)
+    alarms = queries.handover_alarms(session, since, now, ward)
+    missed = queries.ever_missed(session, [a.id for a in alarms])
+    report = handover(alarms, missed, since, now)
+    out = HandoverOut(
+        since=since,
+        until=now,
+        shift=shift_name if since == shift_start else None,
+        ward=ward,
+        counts=report["counts"],
+        per_robot=report["per_robot"],
+        fatigue=report["fatigue"],
+        alarms=[
+            {
+                "section": r["section"],
+                "was_missed": r["was_missed"],
+                "alarm": AlarmOut.model_validate(r["alarm"]),
+            }
+            for r in report["alarms"]
+        ],  # fmt: skip
+    )
+    return out, report
+
+
+@router.get("/handover")
+def shift_handover(
+    session: SessionDep,
+    user: CurrentUser,
+    since: datetime | None = Query(default=None, description="default: the current shift's start"),
+    ward: str | None = None,
+) -> HandoverOut:
+    """The shift so far: open, missed, acknowledged-unresolved and escalated alarms, per robot,
+    with the shift's fatigue figures."""
+    return _handover(session, user, since, ward)[0]
+
+
+@router.get(
+    "/handover.csv",
+    response_class=Response,
+    responses={200: {"content": {"text/csv": {}}, "description": "the handover as CSV"}},
+)
+def shift_handover_csv(
+    session: SessionDep,
+    user: CurrentUser,
+    since: datetime | None = Query(default=None, description="default: the current shift's start"),
+    ward: str | None = None,
+) -> Response:
+    out, report = _handover(session, user, since, ward)
+    name = f"handover-{out.ward or 'all-wards'}-{out.until:%Y%m%d-%H%M}.csv"
+    return Response(
+        to_csv(report, out.since, out.until, out.ward),
+        media_type="text/csv; charset=utf-8",
+        headers={"Content-Disposition": f'attachment; filename="{name}"'},
+    )
 
 
 @router.get("/review-queue")

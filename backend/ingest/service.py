@@ -110,10 +110,20 @@ def start_transport(session: Session, robot: Robot, message: TransportStart) -> 
     return transport
 
 
-def end_transport(session: Session, robot: Robot, message: TransportEnd) -> None:
+def end_transport(session: Session, robot: Robot, message: TransportEnd) -> list[Alarm]:
+    """Mark the transport ended; returns its unresolved alarms, which stay latched but are
+    pushed again so the board can say "transport ended N min ago"."""
     transport = session.get(Transport, message.transport_id)
     if transport is not None and transport.robot_id == robot.id and transport.ended_at is None:
         transport.ended_at = datetime.fromtimestamp(message.ts, UTC)
+        return list(
+            session.scalars(
+                select(Alarm).where(
+                    Alarm.transport_id == transport.id, Alarm.state != AlarmState.RESOLVED
+                )
+            ).unique()
+        )
+    return []
 
 
 @dataclass(slots=True)

@@ -343,7 +343,8 @@ class FrameWriter:
                     raise _refused(error) from None
                 context.transports[transport.id] = transport
             elif isinstance(message, TransportEnd):
-                service.end_transport(session, robot, message)
+                for alarm in service.end_transport(session, robot, message):
+                    touched[alarm.id] = alarm
             elif isinstance(message, Heartbeat):
                 robot.last_seen_at = service.utcnow()
                 if message.running_model is not None:

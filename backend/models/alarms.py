@@ -6,6 +6,7 @@ from sqlalchemy.orm import Mapped, mapped_column, relationship
 
 from backend.db import Base
 from backend.models._types import UTCDateTime, utcnow
+from backend.models.robots import Transport
 from backend.models.users import User
 
 
@@ -47,6 +48,9 @@ class AlarmState(StrEnum):
     OPEN = "open"
     ACKNOWLEDGED = "acknowledged"
     RESOLVED = "resolved"
+    # The end of the escalation chain: an Emergency still unacknowledged after the last
+    # escalation level. Latched (only a nurse's acknowledge or resolve ends it).
+    MISSED = "missed"
 
 
 class Verdict(StrEnum):
@@ -120,6 +124,11 @@ class Alarm(Base):
     resolved_by_user: Mapped[User | None] = relationship(
         foreign_keys=[resolved_by_id], lazy="joined"
     )
+    transport: Mapped[Transport | None] = relationship(lazy="joined", viewonly=True)
+
+    @property
+    def transport_ended_at(self) -> datetime | None:
+        return self.transport.ended_at if self.transport is not None else None
 
     @property
     def acknowledged_by(self) -> str | None:

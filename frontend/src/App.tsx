@@ -4,6 +4,7 @@ import { RequireRole } from "./auth/RequireRole";
 import { homeFor } from "./lib/roles";
 import { AlarmDetailPage } from "./nurse/AlarmDetailPage";
 import { FatiguePage } from "./nurse/FatiguePage";
+import { HandoverPage } from "./nurse/HandoverPage";
 import { HistoryPage } from "./nurse/HistoryPage";
 import { NurseBoard } from "./nurse/NurseBoard";
 import { AgreementPage } from "./pages/annotator/AgreementPage";
@@ -32,6 +33,7 @@ export function App() {
         <Route path="/annotate/agreement" element={<RequireRole section="annotate"><AgreementPage /></RequireRole>} />
         <Route path="/nurse" element={<RequireRole section="nurse"><NurseBoard /></RequireRole>} />
         <Route path="/nurse/history" element={<RequireRole section="nurse"><HistoryPage /></RequireRole>} />
+        <Route path="/nurse/handover" element={<RequireRole section="nurse"><HandoverPage /></RequireRole>} />
         <Route path="/nurse/fatigue" element={<RequireRole section="nurse"><FatiguePage /></RequireRole>} />
         <Route path="/nurse/alarms/:alarmId" element={<RequireRole section="nurse"><AlarmDetailPage /></RequireRole>} />
         <Route path="/admin" element={<RequireRole section="admin"><AdminPage /></RequireRole>} />

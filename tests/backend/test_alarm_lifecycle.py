@@ -86,14 +86,22 @@ def test_unacknowledged_emergency_escalates_per_ward_and_is_pushed_again(
         assert sorted((a["robot_id"], a["escalation_level"]) for a in changed) == [
             ("robot-a", 2), ("robot-b", 1)
         ]  # fmt: skip
-        # The maximum level (2 here) is not exceeded.
+        # The maximum level (2 here) is not exceeded: one more escalation time after it, the
+        # alarm is "missed: needs review".
         changed = tick(client, start + timedelta(seconds=200))
-        assert [(a["robot_id"], a["escalation_level"]) for a in changed] == [("robot-b", 2)]
+        assert sorted((a["robot_id"], a["escalation_level"], a["state"]) for a in changed) == [
+            ("robot-a", 2, "missed"), ("robot-b", 2, "open")
+        ]  # fmt: skip
+        # Latched: the missed alarm does not change again; robot-b's follows after its 60 s.
+        changed = tick(client, start + timedelta(seconds=400))
+        assert [(a["robot_id"], a["state"]) for a in changed] == [("robot-b", "missed")]
+        assert tick(client, start + timedelta(seconds=4000)) == []
 
     assert events(session_factory, alarm_a.id) == [
         ("raise", None, "open", "robot:robot-a"),
         ("escalate", "open", "open", "system"),
         ("escalate", "open", "open", "system"),
+        ("miss", "open", "missed", "system"),
     ]
     # Each escalation says to whom: who had a board of the alarm's ward open at the time.
     with session_factory() as session:
@@ -224,3 +232,78 @@ def test_reconnecting_browser_first_receives_every_open_alarm(client, robot, mak
         snapshot = browser.receive_json()
     assert snapshot["type"] == "snapshot"
     assert sorted(a["kind"] for a in snapshot["alarms"]) == ["emergency", "pause"]
+
+
+def test_missed_emergency_is_latched_says_its_transport_ended_and_counts_in_the_handover(
+    client, robot, make_account, session_factory
+):
+    nurse = make_account(Role.NURSE, ward="ward-a", username="nora")
+    stream(client, robot, ROBOT_TOKEN, "t-m", frame(0, "emergency", "t-m"), end=False)
+    with session_factory() as session:
+        alarm = session.scalars(select(Alarm)).one()
+    start = alarm.raised_at
+    for seconds in (31, 62):
+        tick(client, start + timedelta(seconds=seconds))
+    changed = tick(client, start + timedelta(seconds=93))
+    assert [(a["id"], a["state"]) for a in changed] == [(alarm.id, "missed")]
+
+    # New decisions of the same transport fold into the missed alarm; the transport's end is
+    # pushed to the board and leaves the latch alone.
+    with client.websocket_connect("/ws/browser", headers=nurse.headers) as browser:
+        # (the silent robot's technical alarm is there too: not the subject here)
+        snapshot = [a for a in browser.receive_json()["alarms"] if a["kind"] == "emergency"]
+        assert [(a["id"], a["state"]) for a in snapshot] == [(alarm.id, "missed")]
+        assert snapshot[0]["transport_ended_at"] is None
+        with client.websocket_connect("/ws/robot") as ws:
+            ws.send_text(Hello(robot_id=robot, token=ROBOT_TOKEN).model_dump_json())
+            ws.receive_text()
+            ws.send_text(FrameBatch(frames=[frame(1, "emergency", "t-m")]).model_dump_json())
+            assert json.loads(ws.receive_text())["type"] == "ack"
+            ws.send_text(TransportEnd(transport_id="t-m", ts=2.0).model_dump_json())
+            ws.send_text(FrameBatch(frames=[frame(1, "emergency", "t-m")]).model_dump_json())
+            assert json.loads(ws.receive_text())["type"] == "ack"
+        pushed = [browser.receive_json()["alarm"] for _ in range(3)]
+        pushed = [a for a in pushed if a["id"] == alarm.id]
+        assert {(a["id"], a["state"]) for a in pushed} == {(alarm.id, "missed")}
+        assert pushed[-1]["transport_ended_at"] is not None
+        assert pushed[-1]["decision_count"] == 2
+    assert [a for a in tick(client, start + timedelta(hours=2)) if a["id"] == alarm.id] == []
+
+    handover = client.get("/api/handover", headers=nurse.headers)
+    assert handover.status_code == 200, handover.text
+    body = handover.json()
+    assert body["counts"]["missed"] == 1 and body["counts"]["escalated"] == 1
+    assert body["per_robot"] == [{
+        "robot_id": robot, "alarms": 2, "open": 1, "missed": 1, "acknowledged_unresolved": 0,
+        "resolved": 0, "escalated": 1, "ever_missed": 1,
+    }]  # fmt: skip
+    rows = [(r["section"], r["alarm"]["id"]) for r in body["alarms"]]
+    assert ("missed", alarm.id) in rows and len(rows) == 2
+
+    # A nurse opens it: acknowledged (late), then resolved; the handover still counts it missed.
+    response = client.post(f"/api/alarms/{alarm.id}/acknowledge", headers=nurse.headers)
+    assert response.status_code == 200, response.text
+    assert response.json()["state"] == "acknowledged"
+    response = client.post(f"/api/alarms/{alarm.id}/resolve", headers=nurse.headers,
+                           json={"verdict": "true_emergency"})  # fmt: skip
+    assert response.status_code == 200, response.text
+    body = client.get("/api/handover", headers=nurse.headers).json()
+    assert body["counts"]["missed"] == 0 and body["counts"]["ever_missed"] == 1
+    assert body["fatigue"]["missed"] == 1 and body["fatigue"]["non_actionable_share"] == 0.0
+    assert body["fatigue"]["ack_p50_s"] is not None and body["fatigue"]["alarms"] == 2
+    fatigue = client.get("/api/alarm-fatigue", headers=nurse.headers).json()
+    assert [row["missed"] for row in fatigue["shifts"]] == [1]
+    csv_text = client.get("/api/handover.csv", headers=nurse.headers)
+    assert csv_text.status_code == 200
+    assert csv_text.headers["content-type"].startswith("text/csv")
+    lines = csv_text.text.splitlines()
+    assert lines[0].startswith("# Vigil shift handover,ward ward-a")
+    assert lines[2].startswith("section,alarm_id,kind,state,robot_id")
+    (row,) = [line for line in lines[3:] if line.startswith(f"resolved,{alarm.id},")]
+    assert row.startswith(f"resolved,{alarm.id},emergency,resolved,{robot},ward-a,P-1")
+    assert ",true_emergency," in row and ",yes," in row
+    assert events(session_factory, alarm.id)[-3:] == [
+        ("miss", "open", "missed", "system"),
+        ("acknowledge", "missed", "acknowledged", "nurse:nora"),
+        ("resolve", "acknowledged", "resolved", "nurse:nora"),
+    ]

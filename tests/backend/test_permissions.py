@@ -204,6 +204,14 @@ def test_every_resource_carrying_a_ward_is_scoped_by_role_and_ward(client, make_
             lambda body: {a["id"] for a in body},
             {alarms[r]: w for r, w in WARD_OF_ROBOT.items()},
         ),
+        "/api/handover": (
+            lambda body: {row["alarm"]["id"] for row in body["alarms"]},
+            {alarms[r]: w for r, w in WARD_OF_ROBOT.items()},
+        ),
+        "/api/handover.csv": (
+            lambda body: {int(line.split(",")[1]) for line in body.splitlines()[3:]},
+            {alarms[r]: w for r, w in WARD_OF_ROBOT.items()},
+        ),
     }
     failures, checked = [], 0
     for caller in callers:
@@ -216,7 +224,8 @@ def test_every_resource_carrying_a_ward_is_scoped_by_role_and_ward(client, make_
                 continue
             expected = {i for i, w in ward_of_id.items()
                         if _expected_visible(caller.role, caller.ward, w)}  # fmt: skip
-            got = ids_of(response.json()) & set(ward_of_id)
+            body = response.text if template.endswith(".csv") else response.json()
+            got = ids_of(body) & set(ward_of_id)
             checked += 1
             if got != expected:
                 failures.append(f"{who} GET {template}: {sorted(got)}, expected {sorted(expected)}")

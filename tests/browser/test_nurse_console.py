@@ -2,8 +2,12 @@
 
 from __future__ import annotations
 
+import csv
+import io
 import re
 import time
+from datetime import timedelta
+from pathlib import Path
 
 import pytest
 from playwright.sync_api import expect
@@ -12,8 +16,18 @@ from sqlalchemy import select
 from backend.alarms import service
 from backend.alarms.service import DecisionEvidence
 from backend.db import transaction
-from backend.models import Alarm, AlarmEvent, AlarmKind, AnnotationSegment, Frame, Robot, User
+from backend.models import (
+    Alarm,
+    AlarmEvent,
+    AlarmKind,
+    AnnotationSegment,
+    Frame,
+    Robot,
+    Transport,
+    User,
+)
 from backend.models._types import utcnow
+from vigil.protocol import TransportEnd
 
 from .live_server import ROBOT_TOKEN, SCREENSHOTS, LiveServer, sign_in
 from .simulated_robot import SimulatedRobot, fall_frames
@@ -175,7 +189,8 @@ def test_board_reconnects_and_shows_alarms_raised_while_disconnected(live_server
     live_server.start()
 
     expect(board).to_have_attribute("data-link", "live", timeout=15_000)
-    expect(page.get_by_role("alert")).to_have_count(0)
+    # The disconnection banner is gone; the Emergency's own banner (an alert too) is there.
+    expect(page.get_by_role("alert").filter(has_text="Disconnected")).to_have_count(0)
     card = _card(page, alarm.id)
     expect(card).to_be_visible()
     expect(card).to_contain_text("Pause")
@@ -190,7 +205,9 @@ def test_board_reconnects_and_shows_alarms_raised_while_disconnected(live_server
     technical = _card(page, offline.id)
     expect(technical).to_contain_text("Robot offline")
     expect(technical).to_have_class(re.compile(r"alarm-technical"))
-    expect(_card(page).last).to_have_attribute("data-alarm-id", str(offline.id))
+    # Triage order: Emergency, then technical, then Pause.
+    expect(_card(page).nth(1)).to_have_attribute("data-alarm-id", str(offline.id))
+    expect(_card(page).last).to_have_attribute("data-alarm-id", str(alarm.id))
     page.screenshot(path=str(SCREENSHOTS / "nurse_board_kinds.png"), full_page=True)
 
     # The escalation says to whom it went: the nurse's board was cut off at the time.
@@ -332,3 +349,110 @@ def test_audio_pause_silences_for_now_and_lifts_for_a_new_emergency(live_server,
     expect(_card(page)).to_have_count(2)
     expect(board).to_have_attribute("data-audio-state", "playing")  # a new Emergency: pause lifted
     expect(page.get_by_test_id("audio-paused")).to_have_count(0)
+
+
+def test_triage_order_missed_state_banner_filters_and_handover_export(live_server, page, db):
+    """Issue 21: what needs a person now comes first and the newest Emergency is the first card
+    and named in the banner; a missed Emergency is latched in its own group and says its
+    transport ended; the handover exports the shift as CSV."""
+    now = utcnow()
+    with transaction(db) as session:
+        robot = session.get(Robot, "robot-a")
+        nina = session.scalars(select(User).where(User.username == "nina")).one()
+        ids = {}
+        # Ended transports: the monitor raises no robot-offline alarm for them.
+        for name, ended in (("t-missed", now - timedelta(minutes=40)),
+                            ("t-acked", now - timedelta(seconds=20)),
+                            ("t-pause", now - timedelta(seconds=20))):  # fmt: skip
+            session.add(Transport(id=name, robot_id="robot-a", mode="walking", patient=f"P-{name}",
+                                  location="corridor C", started_at=now - timedelta(hours=1),
+                                  ended_at=ended))  # fmt: skip
+        session.flush()
+        evidence = DecisionEvidence(seq=None, ts=None)
+        for name, kind in (("t-missed", AlarmKind.EMERGENCY), ("t-acked", AlarmKind.EMERGENCY),
+                           ("t-pause", AlarmKind.PAUSE)):  # fmt: skip
+            alarm, _ = service.raise_or_update(
+                session, robot, session.get(Transport, name), kind, evidence
+            )
+            ids[name] = alarm.id
+        missed = session.get(Alarm, ids["t-missed"])
+        for _ in range(3):
+            service.escalate(session, missed, utcnow())
+        service.miss(session, missed, utcnow())
+        service.acknowledge(session, session.get(Alarm, ids["t-acked"]), nina)
+
+    sign_in(page, live_server.base_url)
+    board = page.locator("main.board")
+    expect(board).to_have_attribute("data-link", "live")
+    page.get_by_role("button", name="Start shift").click()
+    expect(board).to_have_attribute("data-audio-state", "ready")  # a missed alarm does not sound
+    expect(_card(page)).to_have_count(3)
+
+    with SimulatedRobot(live_server.robot_ws_url, "robot-a", ROBOT_TOKEN) as robot:
+        robot.start_transport("t-new", patient="P-NEW", location="lift lobby")
+        frames = fall_frames(0, time.time() - 5, "t-new")
+        robot.stream(frames)
+        robot.send(TransportEnd(transport_id="t-new", ts=time.time()))
+        robot.send_batch(frames[-1:])  # a replay, acknowledged once the end is stored
+        robot.wait_ack(frames[-1].seq)
+    expect(_card(page)).to_have_count(4)
+    new_id = int(_card(page).first.get_attribute("data-alarm-id"))
+    order = [int(_card(page).nth(i).get_attribute("data-alarm-id")) for i in range(4)]
+    assert order == [new_id, ids["t-pause"], ids["t-missed"], ids["t-acked"]]
+    groups = page.locator("section.alarm-group")
+    expect(groups).to_have_count(3)
+    expect(groups.nth(1)).to_contain_text("Missed: needs review")
+    expect(board).to_have_attribute("data-audio-state", "playing")
+
+    banner = page.get_by_test_id("emergency-banner")
+    for text in ("robot-a", "P-NEW", "lift lobby"):
+        expect(banner).to_contain_text(text)
+    missed_card = _card(page, ids["t-missed"])
+    expect(missed_card).to_have_attribute("data-state", "missed")
+    expect(missed_card).to_contain_text("Missed: needs review")
+    expect(missed_card).to_contain_text("Transport ended 40 min ago")
+    expect(page.get_by_test_id("board-counts")).to_contain_text(
+        "2 need attention · 1 missed · 1 acknowledged"
+    )
+
+    # Filters and the compact list.
+    page.get_by_label("State").select_option("missed")
+    expect(_card(page)).to_have_count(1)
+    expect(_card(page).first).to_have_attribute("data-alarm-id", str(ids["t-missed"]))
+    page.get_by_label("State").select_option("")
+    page.get_by_label("Robot").select_option("robot-a")
+    page.get_by_role("button", name="List").click()
+    rows = page.locator("main.board [role='row'][data-alarm-id]")
+    expect(rows).to_have_count(4)
+    expect(rows.first).to_have_attribute("data-alarm-id", str(new_id))
+    expect(page.locator(f"[role='row'][data-alarm-id='{ids['t-missed']}']")).to_contain_text(
+        "transport ended 40 min ago"
+    )
+    page.screenshot(path=str(SCREENSHOTS / "nurse_board_list.png"), full_page=True)
+
+    # The banner stays until someone acknowledges; the tone with it.
+    banner.get_by_role("button", name="Acknowledge").click()
+    expect(banner).to_have_count(0)
+    expect(board).to_have_attribute("data-audio-state", "ready")
+    expect(rows.first).to_have_attribute("data-alarm-id", str(ids["t-pause"]))
+
+    page.get_by_role("link", name="Handover").click()
+    counts = page.get_by_test_id("handover-counts")
+    expect(counts).to_contain_text("1missed: needs review")
+    expect(page.get_by_role("region", name="Missed: needs review")).to_contain_text(
+        f"Emergency #{ids['t-missed']}"
+    )
+    page.screenshot(path=str(SCREENSHOTS / "shift_handover.png"), full_page=True)
+    with page.expect_download() as download:
+        page.get_by_role("button", name="Export CSV").click()
+    assert download.value.suggested_filename.startswith("handover-ward-a-")
+    text = Path(download.value.path()).read_text(encoding="utf-8")
+    rows = list(csv.reader(io.StringIO(text)))
+    header = rows[2]
+    by_id = {int(r[header.index("alarm_id")]): dict(zip(header, r, strict=True)) for r in rows[3:]}
+    assert set(by_id) == {new_id, *ids.values()}
+    assert by_id[ids["t-missed"]]["section"] == "missed"
+    assert by_id[ids["t-missed"]]["was_missed"] == "yes"
+    assert by_id[ids["t-missed"]]["transport_ended_at"] != ""
+    assert by_id[new_id]["state"] == "acknowledged"
+    assert by_id[new_id]["acknowledged_by"] == "nina"

@@ -429,6 +429,44 @@ export interface paths {
         patch?: never;
         trace?: never;
     };
+    "/api/handover": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /**
+         * Shift Handover
+         * @description The shift so far: open, missed, acknowledged-unresolved and escalated alarms, per robot,
+         *     with the shift's fatigue figures.
+         */
+        get: operations["shift_handover_api_handover_get"];
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/handover.csv": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /** Shift Handover Csv */
+        get: operations["shift_handover_csv_api_handover_csv_get"];
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
     "/api/review-queue": {
         parameters: {
             query?: never;
@@ -1274,6 +1312,11 @@ export interface components {
                 [key: string]: unknown;
             } | null;
             /**
+             * Transport Ended At
+             * @description when the alarm's transport ended (the alarm stays latched until a nurse acts on it)
+             */
+            transport_ended_at?: string | null;
+            /**
              * Stored
              * @description false: pushed before it could be stored (storage stalled; a provisional negative id). The stored alarm with the same key replaces it once storage recovers
              * @default true
@@ -1316,7 +1359,7 @@ export interface components {
          * AlarmState
          * @enum {string}
          */
-        AlarmState: "open" | "acknowledged" | "resolved";
+        AlarmState: "open" | "acknowledged" | "resolved" | "missed";
         /** AnnotatorsOut */
         AnnotatorsOut: {
             /** Annotators */
@@ -1555,6 +1598,135 @@ export interface components {
         HTTPValidationError: {
             /** Detail */
             detail?: components["schemas"]["ValidationError"][];
+        };
+        /** HandoverAlarm */
+        HandoverAlarm: {
+            /**
+             * Section
+             * @enum {string}
+             */
+            section: "open" | "missed" | "acknowledged" | "resolved";
+            /** Was Missed */
+            was_missed: boolean;
+            alarm: components["schemas"]["AlarmOut"];
+        };
+        /** HandoverCounts */
+        HandoverCounts: {
+            /** Open */
+            open: number;
+            /**
+             * Missed
+             * @description now "missed: needs review"
+             */
+            missed: number;
+            /** Acknowledged Unresolved */
+            acknowledged_unresolved: number;
+            /** Resolved */
+            resolved: number;
+            /** Escalated */
+            escalated: number;
+            /**
+             * Ever Missed
+             * @description missed at some point (resolved since or not)
+             */
+            ever_missed: number;
+        };
+        /**
+         * HandoverFatigue
+         * @description Over the alarms raised during the shift.
+         */
+        HandoverFatigue: {
+            /** Alarms */
+            alarms: number;
+            /** Emergencies */
+            emergencies: number;
+            /** Pauses */
+            pauses: number;
+            /** Technical */
+            technical: number;
+            /** Resolved With Verdict */
+            resolved_with_verdict: number;
+            /**
+             * Non Actionable
+             * @description resolved with the verdict "false alarm"
+             */
+            non_actionable: number;
+            /**
+             * Non Actionable Share
+             * @description non_actionable / resolved_with_verdict (None: no verdict yet)
+             */
+            non_actionable_share: number | null;
+            /** Acknowledged */
+            acknowledged: number;
+            /** Unacknowledged */
+            unacknowledged: number;
+            /** Escalated */
+            escalated: number;
+            /** Missed */
+            missed: number;
+            /**
+             * Ack P50 S
+             * @description time to acknowledge; an unacknowledged alarm counts the time until it was resolved or the period ended
+             */
+            ack_p50_s: number | null;
+            /** Ack P90 S */
+            ack_p90_s: number | null;
+            /** Ack P95 S */
+            ack_p95_s: number | null;
+        };
+        /** HandoverOut */
+        HandoverOut: {
+            /**
+             * Since
+             * Format: date-time
+             */
+            since: string;
+            /**
+             * Until
+             * Format: date-time
+             */
+            until: string;
+            /**
+             * Shift
+             * @description the shift [since, until) is, when it is exactly one
+             */
+            shift: ("early" | "late" | "night") | null;
+            /** Ward */
+            ward: string | null;
+            counts: components["schemas"]["HandoverCounts"];
+            /** Per Robot */
+            per_robot: components["schemas"]["HandoverRobotRow"][];
+            fatigue: components["schemas"]["HandoverFatigue"];
+            /**
+             * Alarms
+             * @description every alarm unresolved now and every alarm raised in the shift, newest first
+             */
+            alarms: components["schemas"]["HandoverAlarm"][];
+        };
+        /** HandoverRobotRow */
+        HandoverRobotRow: {
+            /** Open */
+            open: number;
+            /**
+             * Missed
+             * @description now "missed: needs review"
+             */
+            missed: number;
+            /** Acknowledged Unresolved */
+            acknowledged_unresolved: number;
+            /** Resolved */
+            resolved: number;
+            /** Escalated */
+            escalated: number;
+            /**
+             * Ever Missed
+             * @description missed at some point (resolved since or not)
+             */
+            ever_missed: number;
+            /** Robot Id */
+            robot_id: string;
+            /** Alarms */
+            alarms: number;
         };
         /** HealthOut */
         HealthOut: {
@@ -1854,6 +2026,11 @@ export interface components {
             model_version: string | null;
             /** Alarms */
             alarms: number;
+            /**
+             * Missed
+             * @default 0
+             */
+            missed: number;
             /** Resolved */
             resolved: number;
             /** False Alarms */
@@ -2259,6 +2436,12 @@ export interface components {
             alarms: number;
             /** Emergencies */
             emergencies: number;
+            /**
+             * Missed
+             * @description Emergencies that ended up "missed: needs review"
+             * @default 0
+             */
+            missed: number;
             /** Resolved */
             resolved: number;
             /** False Alarms */
@@ -3292,6 +3475,72 @@ export interface operations {
                 };
                 content: {
                     "application/json": components["schemas"]["FatigueOut"];
+                };
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+        };
+    };
+    shift_handover_api_handover_get: {
+        parameters: {
+            query?: {
+                /** @description default: the current shift's start */
+                since?: string | null;
+                ward?: string | null;
+            };
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HandoverOut"];
+                };
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+        };
+    };
+    shift_handover_csv_api_handover_csv_get: {
+        parameters: {
+            query?: {
+                /** @description default: the current shift's start */
+                since?: string | null;
+                ward?: string | null;
+            };
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description the handover as CSV */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "text/csv": unknown;
                 };
             };
             /** @description Validation Error */

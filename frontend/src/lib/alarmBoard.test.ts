@@ -2,9 +2,16 @@ import { describe, expect, it } from "vitest";
 import {
   alarmTitle,
   applyMessage,
+  bannerEmergency,
+  countBoard,
   emptyBoard,
+  filterBoard,
   inWard,
+  isLive,
   isRealarmed,
+  robotsOf,
+  transportEndedText,
+  triageGroup,
   soundRequired,
   sortForBoard,
   wardsOf,
@@ -93,7 +100,7 @@ describe("alarms pushed before they are stored (fail open)", () => {
 });
 
 describe("board ordering and sound", () => {
-  it("puts unacknowledged first, then priority, then the oldest", () => {
+  it("puts unacknowledged first, then Emergency, technical, Pause, then the newest", () => {
     const alarms = [
       alarm({ id: 1, state: "acknowledged" }),
       alarm({ id: 2, kind: "robot_offline", priority: "technical" }),
@@ -101,7 +108,64 @@ describe("board ordering and sound", () => {
       alarm({ id: 4, raised_at: "2026-01-01T10:00:03Z" }),
       alarm({ id: 5, raised_at: "2026-01-01T09:59:00Z" }),
     ];
-    expect(sortForBoard(alarms).map((a) => a.id)).toEqual([5, 4, 3, 2, 1]);
+    expect(sortForBoard(alarms).map((a) => a.id)).toEqual([4, 5, 2, 3, 1]);
+  });
+
+  it("keeps missed Emergencies in a group of their own, after fresh alarms, before acknowledged ones", () => {
+    const alarms = [
+      alarm({ id: 1, state: "acknowledged", raised_at: "2026-01-01T10:09:00Z" }),
+      alarm({ id: 2, state: "missed", escalation_level: 3, raised_at: "2026-01-01T09:00:00Z" }),
+      alarm({ id: 3, state: "missed", escalation_level: 3, raised_at: "2026-01-01T09:30:00Z" }),
+      alarm({ id: 4, kind: "pause", priority: "medium", raised_at: "2026-01-01T08:00:00Z" }),
+      alarm({ id: 5, kind: "pause", priority: "medium", state: "acknowledged", raised_at: "2026-01-01T10:10:00Z" }),
+      alarm({ id: 6, kind: "stream_stalled", priority: "technical", state: "acknowledged" }),
+    ];
+    const sorted = sortForBoard(alarms);
+    expect(sorted.map((a) => a.id)).toEqual([4, 3, 2, 1, 6, 5]);
+    expect(sorted.map(triageGroup)).toEqual(["new", "missed", "missed", "acknowledged", "acknowledged", "acknowledged"]);
+    // A missed Emergency is latched on the board and does not drive the repeating tone.
+    expect(isLive(alarms[1])).toBe(true);
+    expect(soundRequired([alarms[1]])).toBe(false);
+    expect(countBoard(alarms)).toEqual({ new: 1, missed: 2, acknowledged: 3, emergency: 3, technical: 1, pause: 2, total: 6 });
+  });
+
+  it("a new alarm goes to the top of 500 older ones", () => {
+    const old = Array.from({ length: 500 }, (_, i) =>
+      alarm({ id: i + 1, raised_at: new Date(Date.parse("2026-01-01T08:00:00Z") + i * 1000).toISOString() }));
+    const fresh = alarm({ id: 501, raised_at: "2026-01-01T10:00:00Z" });
+    expect(sortForBoard([...old, fresh])[0].id).toBe(501);
+    expect(sortForBoard(old)[0].id).toBe(500);
+  });
+
+  it("filters by ward, robot and group; lists the robots", () => {
+    const alarms = [
+      alarm({ id: 1, robot_id: "r2" }),
+      alarm({ id: 2, robot_id: "r1", state: "missed" }),
+      alarm({ id: 3, robot_id: "r1", ward: "B" }),
+    ];
+    expect(robotsOf(alarms)).toEqual(["r1", "r2"]);
+    expect(filterBoard(alarms, { ward: null, robot: "r1", group: null }).map((a) => a.id)).toEqual([2, 3]);
+    expect(filterBoard(alarms, { ward: "A", robot: "r1", group: null }).map((a) => a.id)).toEqual([2]);
+    expect(filterBoard(alarms, { ward: null, robot: null, group: "missed" }).map((a) => a.id)).toEqual([2]);
+    expect(filterBoard(alarms, { ward: null, robot: null, group: null })).toHaveLength(3);
+  });
+
+  it("announces the newest unacknowledged Emergency in the banner, not a missed or acknowledged one", () => {
+    expect(bannerEmergency([alarm({ kind: "pause" }), alarm({ state: "missed" })])).toBeNull();
+    const banner = bannerEmergency([
+      alarm({ id: 1, raised_at: "2026-01-01T10:00:00Z" }),
+      alarm({ id: 2, raised_at: "2026-01-01T10:05:00Z", patient: "P-9" }),
+      alarm({ id: 3, state: "acknowledged", raised_at: "2026-01-01T10:09:00Z" }),
+    ]);
+    expect(banner?.alarm.id).toBe(2);
+    expect(banner?.others).toBe(1);
+  });
+
+  it("says when the transport of an alarm ended", () => {
+    const now = Date.parse("2026-01-01T11:00:00Z");
+    expect(transportEndedText(alarm({}), now)).toBeNull();
+    expect(transportEndedText(alarm({ transport_ended_at: "2026-01-01T10:20:00Z" }), now)).toBe("transport ended 40 min ago");
+    expect(transportEndedText(alarm({ transport_ended_at: "2026-01-01T10:59:40Z" }), now)).toBe("transport ended just now");
   });
 
   it("sounds again for an acknowledged emergency that re-alarmed", () => {

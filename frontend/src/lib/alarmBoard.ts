@@ -41,11 +41,10 @@ export function isStored(alarm: Alarm): boolean {
   return alarm.stored !== false;
 }
 
+/** On the board: open, "missed: needs review" (latched) or acknowledged; not resolved. */
 export function isLive(alarm: Alarm): boolean {
-  return alarm.state === "open" || alarm.state === "acknowledged";
+  return alarm.state === "open" || alarm.state === "acknowledged" || alarm.state === "missed";
 }
-
-const PRIORITY_RANK: Record<Alarm["priority"], number> = { high: 0, medium: 1, technical: 2 };
 
 /** Re-alarmed: acknowledged, then not resolved in time, so it calls for attention again. */
 export function isRealarmed(alarm: Alarm): boolean {
@@ -61,15 +60,115 @@ export function needsAttention(alarm: Alarm): boolean {
   return alarm.state === "open" || isRealarmed(alarm);
 }
 
-/** Needing attention first, then by priority, then oldest first (it has waited longest). */
+/** The board's groups, in triage order: what needs a person now (unacknowledged, or
+ * re-alarmed), then the latched "missed: needs review" Emergencies (kept apart so they never
+ * bury a fresh alarm), then what someone has acknowledged. */
+export type TriageGroup = "new" | "missed" | "acknowledged";
+export const TRIAGE_GROUPS: readonly TriageGroup[] = ["new", "missed", "acknowledged"];
+export const GROUP_LABEL: Record<TriageGroup, string> = {
+  new: "Needs attention",
+  missed: "Missed: needs review",
+  acknowledged: "Acknowledged",
+};
+
+export function triageGroup(alarm: Alarm): TriageGroup {
+  if (alarm.state === "missed") return "missed";
+  return needsAttention(alarm) ? "new" : "acknowledged";
+}
+
+/** Within a group: Emergency, then technical alarms, then Pause. */
+export function kindRank(alarm: Alarm): number {
+  if (alarm.kind === "emergency") return 0;
+  if (alarm.kind === "pause") return 2;
+  return 1;
+}
+
+const GROUP_RANK: Record<TriageGroup, number> = { new: 0, missed: 1, acknowledged: 2 };
+
+/** An alarm's place in triage order as numbers; alarm objects are never changed in place (an
+ * update is a new object), so the key is computed once per version. */
+const sortKeys = new WeakMap<Alarm, [number, number, number]>();
+function sortKey(alarm: Alarm): [number, number, number] {
+  let key = sortKeys.get(alarm);
+  if (!key) {
+    key = [GROUP_RANK[triageGroup(alarm)] * 3 + kindRank(alarm), -Date.parse(alarm.raised_at), -alarm.id];
+    sortKeys.set(alarm, key);
+  }
+  return key;
+}
+
+/** Triage order: group (needs attention, missed, acknowledged), then Emergency before
+ * technical before Pause, then newest first (the alarm raised a second ago is the first card). */
+export function compareForBoard(a: Alarm, b: Alarm): number {
+  const x = sortKey(a);
+  const y = sortKey(b);
+  return x[0] - y[0] || x[1] - y[1] || x[2] - y[2];
+}
+
 export function sortForBoard(alarms: Iterable<Alarm>): Alarm[] {
-  return [...alarms].sort(
-    (a, b) =>
-      Number(!needsAttention(a)) - Number(!needsAttention(b)) ||
-      PRIORITY_RANK[a.priority] - PRIORITY_RANK[b.priority] ||
-      Date.parse(a.raised_at) - Date.parse(b.raised_at) ||
-      a.id - b.id,
+  return [...alarms].sort(compareForBoard);
+}
+
+/** How many alarms each group holds, and how many of each kind class. */
+export interface BoardCounts {
+  new: number;
+  missed: number;
+  acknowledged: number;
+  emergency: number;
+  technical: number;
+  pause: number;
+  total: number;
+}
+
+export function countBoard(alarms: Iterable<Alarm>): BoardCounts {
+  const counts: BoardCounts = { new: 0, missed: 0, acknowledged: 0, emergency: 0, technical: 0, pause: 0, total: 0 };
+  for (const a of alarms) {
+    counts[triageGroup(a)] += 1;
+    counts[styleOf(a)] += 1;
+    counts.total += 1;
+  }
+  return counts;
+}
+
+export interface BoardFilter {
+  ward: string | null;
+  robot: string | null;
+  group: TriageGroup | null;
+}
+
+/** The board's filters: ward, robot and group (null: all). What the server sends is already
+ * confined to the nurse's ward (backend/wards.py); these only narrow it further. */
+export function filterBoard(alarms: Iterable<Alarm>, filter: BoardFilter): Alarm[] {
+  return [...alarms].filter(
+    (a) =>
+      (filter.ward === null || a.ward === filter.ward) &&
+      (filter.robot === null || a.robot_id === filter.robot) &&
+      (filter.group === null || triageGroup(a) === filter.group),
   );
+}
+
+export function robotsOf(alarms: Iterable<Alarm>): string[] {
+  return [...new Set([...alarms].map((a) => a.robot_id))].sort();
+}
+
+/** The sticky banner: the newest Emergency nobody has acknowledged yet (not one already
+ * missed: those have their own group), and how many more wait beside it. */
+export function bannerEmergency(alarms: Iterable<Alarm>): { alarm: Alarm; others: number } | null {
+  let newest: Alarm | null = null;
+  let count = 0;
+  for (const a of alarms) {
+    if (a.kind !== "emergency" || a.state !== "open") continue;
+    count += 1;
+    if (!newest || compareForBoard(a, newest) < 0) newest = a;
+  }
+  return newest ? { alarm: newest, others: count - 1 } : null;
+}
+
+/** "transport ended 40 min ago", for an alarm whose transport is over (null while under way). */
+export function transportEndedText(alarm: Alarm, nowMs: number): string | null {
+  if (!alarm.transport_ended_at) return null;
+  const minutes = Math.max(0, Math.floor((nowMs - Date.parse(alarm.transport_ended_at)) / 60_000));
+  return minutes < 1 ? "transport ended just now" : `transport ended ${minutes} min ago`;
 }
 
 export function inWard(alarms: Iterable<Alarm>, ward: string | null): Alarm[] {

@@ -1,6 +1,6 @@
 import { Link } from "react-router-dom";
 import type { Alarm } from "../api/types";
-import { alarmTitle, isRealarmed, isStored, KIND_LABEL, styleOf } from "../lib/alarmBoard";
+import { alarmTitle, isRealarmed, isStored, KIND_LABEL, styleOf, transportEndedText } from "../lib/alarmBoard";
 import { elapsed } from "../lib/time";
 
 interface Props {
@@ -15,6 +15,7 @@ export function AlarmCard({ alarm, now, busy, onAcknowledge, onResolve }: Props)
   const style = styleOf(alarm);
   const stored = isStored(alarm);
   const summary = typeof alarm.details?.summary === "string" ? alarm.details.summary : null;
+  const ended = transportEndedText(alarm, now);
   return (
     <article
       className={`alarm alarm-${style} state-${alarm.state}${isRealarmed(alarm) ? " realarmed" : ""}`}
@@ -25,7 +26,12 @@ export function AlarmCard({ alarm, now, busy, onAcknowledge, onResolve }: Props)
     >
       <header>
         <span className="kind">{alarmTitle(alarm)}</span>
-        {alarm.escalation_level > 0 && (
+        {alarm.state === "missed" && (
+          <span className="missed" title="Not acknowledged after the last escalation level">
+            Missed: needs review
+          </span>
+        )}
+        {alarm.escalation_level > 0 && alarm.state !== "missed" && (
           <span className="escalated" title="Not acknowledged in time: escalated">
             Escalated{alarm.escalation_level > 1 ? ` ×${alarm.escalation_level}` : ""}
           </span>
@@ -46,6 +52,7 @@ export function AlarmCard({ alarm, now, busy, onAcknowledge, onResolve }: Props)
         <p className="technical-reason">{alarm.details.reason}</p>
       )}
       {alarm.kind === "storage_stalled" && summary && <p className="technical-reason">{summary}</p>}
+      {ended && <p className="transport-ended">{ended[0].toUpperCase() + ended.slice(1)}</p>}
       <dl>
         <dt>Robot</dt><dd>{alarm.robot_id}</dd>
         <dt>Patient</dt><dd>{alarm.patient ?? "–"}</dd>
@@ -69,7 +76,7 @@ export function AlarmCard({ alarm, now, busy, onAcknowledge, onResolve }: Props)
         </footer>
       ) : (
         <footer>
-          {alarm.state === "open" && (
+          {(alarm.state === "open" || alarm.state === "missed") && (
             <button type="button" className="ack" disabled={busy} onClick={() => onAcknowledge(alarm)}>
               Acknowledge
             </button>

@@ -1,46 +1,82 @@
-import { useEffect, useMemo, useState } from "react";
+import { useCallback, useEffect, useMemo, useState } from "react";
 import type { Alarm } from "../api/types";
 import { useAuth } from "../auth/AuthContext";
-import { inWard, needsAttention, soundRequired, sortForBoard, wardsOf } from "../lib/alarmBoard";
+import {
+  bannerEmergency,
+  countBoard,
+  filterBoard,
+  GROUP_LABEL,
+  needsAttention,
+  robotsOf,
+  soundRequired,
+  sortForBoard,
+  TRIAGE_GROUPS,
+  triageGroup,
+  wardsOf,
+  type TriageGroup,
+} from "../lib/alarmBoard";
 import { pauseAudio, pauseHolds, pauseLeft, type AudioPause } from "../lib/audioPause";
 import { useNow } from "../lib/useNow";
 import { AlarmCard } from "./AlarmCard";
+import { AlarmList } from "./AlarmList";
+import { EmergencyBanner } from "./EmergencyBanner";
 import { ResolveDialog, type Resolution } from "./ResolveDialog";
 import { useAlarmActions } from "./useAlarmActions";
 import { useAlarmBoard } from "./useAlarmBoard";
 import { useAlarmSound } from "./useAlarmSound";
 
+type View = "cards" | "list";
+/** Above this many alarms the board shows the compact list unless the nurse picked cards. */
+export const LIST_VIEW_ABOVE = 24;
+
 export function NurseBoard() {
   const { user } = useAuth();
   const { board, status, update } = useAlarmBoard();
   const [ward, setWard] = useState<string | null>(user?.ward ?? null);
+  const [robot, setRobot] = useState<string | null>(null);
+  const [group, setGroup] = useState<TriageGroup | null>(null);
+  const [chosenView, setChosenView] = useState<View | null>(null);
   const [resolving, setResolving] = useState<Alarm | null>(null);
   const { busyId, error, setError, acknowledge, resolve: resolveAlarm } = useAlarmActions(update);
   const now = useNow(1000);
 
-  const shown = useMemo(() => sortForBoard(inWard(board.values(), ward)), [board, ward]);
+  // The ward's alarms (the server sends only wards the nurse may see), then the filters.
+  const inWards = useMemo(() => filterBoard(board.values(), { ward, robot: null, group: null }), [board, ward]);
+  const shown = useMemo(() => sortForBoard(filterBoard(inWards, { ward: null, robot, group })), [inWards, robot, group]);
+  const counts = useMemo(() => countBoard(inWards), [inWards]);
   const wards = useMemo(() => {
     const all = wardsOf(board.values());
     if (user?.ward && !all.includes(user.ward)) all.unshift(user.ward);
     return all;
   }, [board, user]);
+  const robots = useMemo(() => robotsOf(inWards), [inWards]);
+  const view: View = chosenView ?? (shown.length > LIST_VIEW_ABOVE ? "list" : "cards");
+
+  // Sound and banner follow the whole ward, whatever the filters hide.
   const [audioPause, setAudioPause] = useState<AudioPause | null>(null);
-  const paused = pauseHolds(audioPause, shown, now);
+  const paused = pauseHolds(audioPause, inWards, now);
   useEffect(() => { if (audioPause && !paused) setAudioPause(null); }, [audioPause, paused]);
-  const sound = useAlarmSound(soundRequired(shown) && !paused);
+  const sound = useAlarmSound(soundRequired(inWards) && !paused);
+  const banner = useMemo(() => bannerEmergency(inWards), [inWards]);
 
   async function resolve(alarm: Alarm, resolution: Resolution) {
     if (await resolveAlarm(alarm, resolution)) setResolving(null);
   }
+  const startResolve = useCallback((a: Alarm) => { setError(null); setResolving(a); }, [setError]);
+  const onAcknowledge = useCallback((a: Alarm) => void acknowledge(a), [acknowledge]);
 
-  const openCount = shown.filter(needsAttention).length;
+  const openCount = useMemo(() => inWards.filter(needsAttention).length, [inWards]);
+  const titleCount = openCount + counts.missed;
   useEffect(() => {
-    document.title = openCount ? `(${openCount}) Alarms · Vigil` : "Alarms · Vigil";
+    document.title = titleCount ? `(${titleCount}) Alarms · Vigil` : "Alarms · Vigil";
     return () => { document.title = "Vigil"; };
-  }, [openCount]);
+  }, [titleCount]);
+
+  const groups = TRIAGE_GROUPS.map((g) => ({ group: g, alarms: shown.filter((a) => triageGroup(a) === g) }))
+    .filter((g) => g.alarms.length > 0);
 
   return (
-    <main className="board" data-audio-state={sound.state} data-link={status}>
+    <main className="board" data-audio-state={sound.state} data-link={status} data-view={view}>
       {status !== "live" && (
         <div className="banner banner-disconnected" role="alert">
           {status === "connecting"
@@ -56,23 +92,21 @@ export function NurseBoard() {
           </button>
         </div>
       )}
+      {banner && (
+        <EmergencyBanner alarm={banner.alarm} others={banner.others} now={now} busy={busyId === banner.alarm.id}
+          onAcknowledge={onAcknowledge} />
+      )}
       <div className="board-head">
         <h1>Alarms</h1>
-        <span className="count" aria-live="polite">
-          {openCount} need attention · {shown.length} open
+        <span className="count" aria-live="polite" data-testid="board-counts">
+          {counts.new} need attention · {counts.missed} missed · {counts.acknowledged} acknowledged
+          <span className="count-kinds"> ({counts.emergency} Emergency, {counts.technical} technical, {counts.pause} Pause)</span>
         </span>
-        <label className="ward-select">
-          Ward{" "}
-          <select value={ward ?? ""} onChange={(e) => setWard(e.target.value || null)}>
-            <option value="">All wards</option>
-            {wards.map((w) => <option key={w} value={w}>{w}</option>)}
-          </select>
-        </label>
         <span className={`audio audio-${sound.state}`}>
           {sound.state === "playing" ? "● sounding" : sound.state === "ready" ? "sound on" : "sound locked"}
         </span>
         {sound.state === "playing" && (
-          <button type="button" onClick={() => setAudioPause(pauseAudio(shown, Date.now()))}>
+          <button type="button" onClick={() => setAudioPause(pauseAudio(inWards, Date.now()))}>
             Pause audio 2 min
           </button>
         )}
@@ -83,16 +117,54 @@ export function NurseBoard() {
           </span>
         )}
       </div>
+      <div className="board-filters">
+        <label className="ward-select">
+          Ward{" "}
+          <select value={ward ?? ""} onChange={(e) => setWard(e.target.value || null)}>
+            {!user?.ward && <option value="">All wards</option>}
+            {wards.filter((w) => !user?.ward || w === user.ward).map((w) => <option key={w} value={w}>{w}</option>)}
+          </select>
+        </label>
+        <label>
+          Robot{" "}
+          <select value={robot ?? ""} onChange={(e) => setRobot(e.target.value || null)}>
+            <option value="">All robots</option>
+            {robots.map((r) => <option key={r} value={r}>{r}</option>)}
+            {robot && !robots.includes(robot) && <option value={robot}>{robot}</option>}
+          </select>
+        </label>
+        <label>
+          State{" "}
+          <select value={group ?? ""} onChange={(e) => setGroup((e.target.value || null) as TriageGroup | null)}>
+            <option value="">All states</option>
+            {TRIAGE_GROUPS.map((g) => <option key={g} value={g}>{GROUP_LABEL[g]} ({counts[g]})</option>)}
+          </select>
+        </label>
+        <span className="view-switch" role="group" aria-label="View">
+          <button type="button" aria-pressed={view === "cards"} onClick={() => setChosenView("cards")}>Cards</button>
+          <button type="button" aria-pressed={view === "list"} onClick={() => setChosenView("list")}>List</button>
+        </span>
+      </div>
       {error && !resolving && <p role="alert" className="error">{error}</p>}
       {shown.length === 0 ? (
-        <p className="empty">{status === "live" ? "No open alarms." : "Waiting for the alarm server…"}</p>
+        <p className="empty">
+          {status !== "live" ? "Waiting for the alarm server…" : inWards.length ? "No alarm matches the filters." : "No open alarms."}
+        </p>
+      ) : view === "list" ? (
+        <AlarmList groups={groups} now={now} busyId={busyId}
+          onAcknowledge={onAcknowledge} onResolve={startResolve} />
       ) : (
-        <section className="alarm-grid" aria-label="Open alarms">
-          {shown.map((alarm) => (
-            <AlarmCard key={alarm.id} alarm={alarm} now={now} busy={busyId === alarm.id}
-              onAcknowledge={(a) => void acknowledge(a)} onResolve={(a) => { setError(null); setResolving(a); }} />
-          ))}
-        </section>
+        groups.map(({ group: g, alarms }) => (
+          <section key={g} className={`alarm-group group-${g}`} aria-label={GROUP_LABEL[g]} data-group={g}>
+            <h2>{GROUP_LABEL[g]} <span className="group-count">{alarms.length}</span></h2>
+            <div className="alarm-grid">
+              {alarms.map((alarm) => (
+                <AlarmCard key={alarm.id} alarm={alarm} now={now} busy={busyId === alarm.id}
+                  onAcknowledge={onAcknowledge} onResolve={startResolve} />
+              ))}
+            </div>
+          </section>
+        ))
       )}
       {resolving && (
         <ResolveDialog alarm={resolving} error={error} busy={busyId === resolving.id}

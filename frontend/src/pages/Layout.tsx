@@ -15,6 +15,7 @@ export function Layout() {
               <>
                 <NavLink to="/nurse" end>Alarms</NavLink>
                 <NavLink to="/nurse/history">History</NavLink>
+                <NavLink to="/nurse/handover">Handover</NavLink>
                 <NavLink to="/nurse/fatigue">Alarm fatigue</NavLink>
               </>
             )}
