@@ -21,8 +21,7 @@ import numpy as np
 from vigil.classes import Decision
 from vigil.features import FEATURE_NAMES, FEATURE_SETS, FEATURE_VERSION, FeatureExtractor
 from vigil.model_file import Classifier, load_classifier
-from vigil.policy import DecisionPolicy
-from vigil.policy import TIME_EPSILON
+from vigil.policy import TIME_EPSILON, DecisionPolicy
 from vigil.skeleton import SkeletonFrame
 
 #: Seconds of stream time the scores of the last frame with a usable pose hold on frames without

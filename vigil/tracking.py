@@ -20,11 +20,14 @@ patient was lost, and is no known bystander, shows up near the patient's last po
 patient changed pose while hidden). A lone person in view who is no known bystander is taken
 for the patient wherever they are (a fall can change a body beyond every gate within a frame),
 unless the patient went *down* (seen upright, then their last whole-body detection at least as
-wide as tall: lying or huddled on the floor): somebody who went down does not reappear elsewhere a moment later, so
-then only the gates and the nearness rule apply. A pose estimator that loses a fallen patient
-and follows an object elsewhere in the room (MediaPipe on URFD fall-01 took an office chair
-for a person) is not taken for the patient. After ``max_missed`` frames it is SEARCHING and
-selects anew, never choosing a known bystander (the marker, if seen, still decides).
+wide as tall: lying or huddled on the floor): somebody who went down does not reappear
+elsewhere a moment later, so then only the gates and the nearness rule apply. A pose
+estimator that loses a fallen patient and follows an object elsewhere in the room is not taken
+for the patient (MediaPipe on URFD fall-01 took an office chair for a person; MoveNet in URFD
+fall-13, fall-21, fall-23 and fall-29 found a standing "person" at the same spot left of the
+lying patient, whom URFD's depth measures place on the floor). After ``max_missed`` frames it
+is SEARCHING and selects anew, never choosing a known bystander (the marker, if seen, still
+decides).
 """
 
 from __future__ import annotations
@@ -80,6 +83,8 @@ class TrackResult:
     index: int | None
     selected_by: SelectedBy | None = None
     missed: int = 0
+    # A lone person in view was not taken for the patient: the patient went down elsewhere.
+    refused: bool = False
 
 
 def _box(keypoints: np.ndarray, joints: np.ndarray | None = None) -> np.ndarray | None:
@@ -91,7 +96,7 @@ def _box(keypoints: np.ndarray, joints: np.ndarray | None = None) -> np.ndarray 
 
 
 def body_shape(keypoints: np.ndarray) -> str | None:
-    """"down" when a detection of at least WHOLE_BODY_KEYPOINTS joints is at least as wide as
+    """ "down" when a detection of at least WHOLE_BODY_KEYPOINTS joints is at least as wide as
     tall in the image (lying, or huddled on the floor), "up" when it is taller than wide, None
     for a partial detection (too few joints to tell a body's shape)."""
     if int((keypoints[:, 2] > 0).sum()) < WHOLE_BODY_KEYPOINTS:
@@ -345,6 +350,7 @@ class PatientTracker:
             observation = replace(observation, people=people_with_depth(observation))
         people = observation.people
         assigned = self._associate(people)  # detection index -> track, for everyone
+        self._refused = False
         if self.state_ is TrackState.SEARCHING:
             return self._select(observation, assigned)
         index = next((i for i, t in assigned.items() if t is self.patient_), None)
@@ -356,7 +362,7 @@ class PatientTracker:
             return TrackResult(self.state_, people[index], index)
         self._move(TrackState.LOST)
         if self.missed_ <= self.max_missed:
-            return TrackResult(self.state_, None, None, missed=self.missed_)
+            return TrackResult(self.state_, None, None, missed=self.missed_, refused=self._refused)
         self._move(TrackState.SEARCHING)
         self.patient_ = None
         return self._select(observation, assigned)
@@ -402,7 +408,8 @@ class PatientTracker:
             and not (np.isfinite(track.depth) and abs(track.depth - patient.depth) > depth_limit)
         ]
         best = None
-        if len(candidates) == 1 and len(assigned) == 1 and not patient.down:
+        lone = len(candidates) == 1 and len(assigned) == 1
+        if lone and not patient.down:
             best = candidates[0][0]
         else:
             best_distance = self.reacquire_radius
@@ -412,6 +419,7 @@ class PatientTracker:
                 distance = float(np.linalg.norm(track.centre() - last)) / patient.scale
                 if distance <= best_distance:
                     best, best_distance = index, distance
+        self._refused = lone and best is None
         if best is not None:
             self.tracks_.remove(patient)
             self.patient_ = assigned[best]
