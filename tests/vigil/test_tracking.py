@@ -204,3 +204,51 @@ def test_lone_stranger_behind_a_bystander_is_not_taken_for_the_patient():
     stranger = _standing_person(60, 200)
     result = tracker.update(Observation(0.066, [bystander, stranger]))
     assert result.patient is None
+
+
+def _lying_person(centre_x: float, length: float) -> SkeletonFrame:
+    """The standing skeleton turned on its side: a body on the floor, wider than tall."""
+    standing = _standing_person(0, length)
+    kp = standing.keypoints.copy()
+    present = kp[:, 2] > 0
+    xy = kp[present, :2] - (0, 240)
+    kp[present, 0] = xy[:, 1] + centre_x
+    kp[present, 1] = xy[:, 0] * 0.3 + 400
+    return SkeletonFrame(kp, standing.depth)
+
+
+def _went_down_then_lost(tracker: PatientTracker) -> None:
+    t = 0.0
+    for _ in range(5):
+        tracker.update(Observation(t, [_standing_person(320, 200)]))
+        t += 0.033
+    for _ in range(3):
+        assert tracker.update(Observation(t, [_lying_person(320, 200)])).patient is not None
+        t += 0.033
+    for _ in range(3):  # the pose estimator loses the patient on the floor
+        assert tracker.update(Observation(t, [])).patient is None
+        t += 0.033
+
+
+def test_lone_person_far_from_where_the_patient_went_down_is_refused():
+    """GENERATED: MediaPipe on URFD fall-01 lost the fallen patient and followed an office chair
+    across the room, which the tracker took for the patient (the lone-person rule)."""
+    tracker = PatientTracker(sample_depth=False)
+    _went_down_then_lost(tracker)
+    elsewhere = _standing_person(60, 200)
+    for k in range(5):
+        result = tracker.update(Observation(0.4 + 0.033 * k, [elsewhere]))
+        assert result.patient is None and result.refused and result.state is TrackState.LOST
+    # The patient found again where they lie is taken back.
+    back = _lying_person(330, 200)
+    assert tracker.update(Observation(0.6, [back])).patient is back
+
+
+def test_lone_person_is_still_taken_wherever_when_the_patient_was_upright():
+    tracker = PatientTracker(sample_depth=False)
+    for k in range(5):
+        tracker.update(Observation(0.033 * k, [_standing_person(320, 200)]))
+    assert tracker.update(Observation(0.2, [])).patient is None
+    elsewhere = _standing_person(60, 200)
+    result = tracker.update(Observation(0.233, [elsewhere]))
+    assert result.patient is elsewhere and not result.refused
