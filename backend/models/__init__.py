@@ -27,8 +27,7 @@ from backend.models.videos import Frame, Split, Video
 __all__ = [
     "Alarm", "AlarmEvent", "AlarmKind", "AlarmPriority", "AlarmState", "AnnotationSegment",
     "Deployment", "DeploymentScope", "DeploymentStatus", "FalseAlarmReason", "Frame",
-    "FrameArchive", "Job",
-    "JobKind", "JobStatus", "ModelStatus", "ModelVersion", "RevokedSession", "Robot", "Role",
-    "RetentionRun", "SegmentEvent", "SegmentSource", "SegmentStatus", "Split", "TaxonomyLabel", "TaxonomyVersion",
-    "Transport", "User", "Verdict", "Video",
+    "FrameArchive", "Job", "JobKind", "JobStatus", "ModelStatus", "ModelVersion", "RetentionRun",
+    "RevokedSession", "Robot", "Role", "SegmentEvent", "SegmentSource", "SegmentStatus", "Split",
+    "TaxonomyLabel", "TaxonomyVersion", "Transport", "User", "Verdict", "Video",
 ]  # fmt: skip

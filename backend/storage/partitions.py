@@ -217,6 +217,4 @@ def include_object(obj, name, type_, reflected, compare_to) -> bool:
                                       or name == DEFAULT_PARTITION):  # fmt: skip
         return False
     table = getattr(obj, "table", None)
-    if type_ in ("unique_constraint", "index") and table is not None and table.name == "frames":
-        return False
-    return True
+    return not (type_ in ("unique_constraint", "index") and getattr(table, "name", "") == "frames")

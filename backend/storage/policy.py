@@ -113,9 +113,12 @@ class PolicyFacts:
         windows = self.windows.get(robot_id)
         if windows is not None and windows.covers(ts):
             return ALARM_WINDOW
-        if self.policy.downsample_fps > 0 and ts >= self.policy.downsample_until(self.now):
-            if index % self.video_steps.get(video_id, 1) == 0:
-                return DOWNSAMPLED
+        if (
+            self.policy.downsample_fps > 0
+            and ts >= self.policy.downsample_until(self.now)
+            and index % self.video_steps.get(video_id, 1) == 0
+        ):
+            return DOWNSAMPLED
         return None
 
 

@@ -100,9 +100,10 @@ def run_retention(
             _fill(record, tally)
         raise
     verb = "would drop" if dry_run else "dropped"
+    kept = ", ".join(f"{n} {r}" for r, n in sorted(tally.kept.items())) or "none"
+    cutoff = datetime.fromtimestamp(facts.cutoff, UTC)
     message = (f"{verb} {tally.dropped} frames ({tally.dropped_bytes / 1e6:.1f} MB) older than "
-               f"{datetime.fromtimestamp(facts.cutoff, UTC):%Y-%m-%d %H:%M} UTC; kept "
-               + (", ".join(f"{n} {r}" for r, n in sorted(tally.kept.items())) or "none"))  # fmt: skip
+               f"{cutoff:%Y-%m-%d %H:%M} UTC; kept {kept}")  # fmt: skip
     if tally.partitions_dropped:
         message += (f"; {len(tally.partitions_dropped)} day partitions replaced, "
                     f"{tally.disk_bytes_freed / 1e6:.1f} MB freed on disk")  # fmt: skip
