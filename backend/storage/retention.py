@@ -191,12 +191,12 @@ def _partitioned(
             connection = session.connection()
             connection.execute(text(f"LOCK TABLE {name} IN SHARE MODE"))
             kept_ids = []
-            result = connection.execution_options(stream_results=True, yield_per=20000).execute(
+            result = connection.execute(
                 text(
                     f'SELECT id, video_id, robot_id, ts, "index", length(keypoints) '
                     f"+ coalesce(length(depth), 0) + coalesce(length(floor), 0) "
                     f"+ {queries.ROW_OVERHEAD_BYTES} FROM {name}"
-                )
+                ).execution_options(stream_results=True, yield_per=20000)
             )
             for frame_id, video_id, robot_id, ts, index, nbytes in result:
                 reason = facts.reason(video_id, robot_id, ts, index)
