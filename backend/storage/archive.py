@@ -103,8 +103,11 @@ def export_video(
         for s in segments
     ]  # fmt: skip
     table = pa.table(columns, schema=SCHEMA).replace_schema_metadata(
-        {"vigil": json.dumps({"format": FORMAT, "video": video_meta, "segments": segment_meta},
-                             default=str)}  # fmt: skip
+        {
+            "vigil": json.dumps(
+                {"format": FORMAT, "video": video_meta, "segments": segment_meta}, default=str
+            )
+        }  # fmt: skip
     )
     directory.mkdir(parents=True, exist_ok=True)
     stem = f"{_slug(video.name)}-v{video.id}"
@@ -191,7 +194,8 @@ def import_archive(session: Session, archive: FrameArchive) -> Video:
             AnnotationSegment(
                 video_id=video.id, first_frame=s["first_frame"], last_frame=s["last_frame"],
                 label_key=s["label_key"], taxonomy_version=s["taxonomy_version"],
-                status=SegmentStatus.ACCEPTED, source=SegmentSource.IMPORT,
+                status=SegmentStatus.ACCEPTED,
+                source=SegmentSource(s.get("source") or SegmentSource.IMPORT),
                 model_version=s.get("model_version"),
             )
             for s in meta["segments"]

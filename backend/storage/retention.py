@@ -164,18 +164,23 @@ def _chunked(
         after = rows[-1][0]
         seen += len(rows)
         if delete and vacuum:
-            with factory() as session:
-                session.execute(text(f"PRAGMA incremental_vacuum({VACUUM_PAGES_PER_CHUNK})"))
-                session.commit()
+            _incremental_vacuum(factory, VACUUM_PAGES_PER_CHUNK)
         progress(share[0] + share[1] * min(1.0, seen / total),
                  f"{table}: {seen}/{total} old frames checked, {tally.dropped} "
                  + ("dropped" if delete else "would go"))  # fmt: skip
         if delete and pause:
             time.sleep(pause)
     if delete and vacuum:
-        with factory() as session:  # what the chunks did not give back yet
-            session.execute(text("PRAGMA incremental_vacuum"))
-            session.commit()
+        _incremental_vacuum(factory, 0)  # what the chunks did not give back yet
+
+
+def _incremental_vacuum(factory: sessionmaker[Session], pages: int) -> None:
+    """Give up to `pages` free pages (0: all) back to the file system. The statement frees
+    one page per step: a script is stepped to its end (a plain execute stops after one)."""
+    with factory() as session:
+        driver = session.connection().connection.driver_connection
+        driver.executescript(f"PRAGMA incremental_vacuum({int(pages)});")
+        session.commit()
 
 
 def _partitioned(

@@ -102,6 +102,14 @@ def frame_rows(session: Session) -> dict[int, tuple]:
     """id -> (video_id, robot_id, ts, index) of every stored frame."""
     return {
         r.id: (r.video_id, r.robot_id, r.ts, r.index)
-        for r in session.execute(select(Frame.id, Frame.video_id, Frame.robot_id, Frame.ts,
-                                        Frame.index))  # fmt: skip
+        for r in session.execute(
+            select(Frame.id, Frame.video_id, Frame.robot_id, Frame.ts, Frame.index)
+        )  # fmt: skip
     }
+
+
+def live_row(video_id: int, robot_id: str, seq: int, ts: float) -> tuple:
+    """One frame row as the ingest writes it (backend.ingest.bulk.FRAME_COLUMNS)."""
+    keypoints = encode_keypoints(np.full((25, 3), seq % 97, np.float32))
+    return (video_id, seq, ts, robot_id, seq, keypoints, None, None, "normal",
+            '{"normal": 1.0}', "m-1", 0.5, 300, None, None, None)  # fmt: skip

@@ -82,7 +82,9 @@ def test_dry_run_predicts_the_run_and_every_kept_frame_stays(database_url, sessi
     assert set(after) == expected_kept  # row by row
     assert [(r.dry_run, r.status, r.dropped_frames) for r in runs] == [
         (True, "done", dropped), (False, "done", dropped)]  # fmt: skip
-    assert runs[1].dropped_bytes > 0 and sum(d["dropped"] for d in runs[1].by_day.values()) == dropped
+    assert (
+        runs[1].dropped_bytes > 0 and sum(d["dropped"] for d in runs[1].by_day.values()) == dropped
+    )
 
 
 def test_downsampled_copy_keeps_every_step_th_frame_for_more_days(database_url, session_factory):
