@@ -34,7 +34,8 @@ CUTOFF_DAY = (NOW - 30 * DAY_S) // DAY_S * DAY_S
 def policy_settings(**changes) -> SimpleNamespace:
     values = dict(retention_days=30, retention_alarm_before_s=60, retention_alarm_after_s=30,
                   retention_downsample_fps=0, retention_downsample_days=60,
-                  retention_chunk_rows=50, retention_chunk_pause_ms=0, partitions_ahead_days=2)  # fmt: skip
+                  retention_chunk_rows=50, retention_chunk_pause_ms=0,
+                  partitions_ahead_days=2)  # fmt: skip
     values.update(changes)
     return SimpleNamespace(**values)
 

@@ -53,8 +53,8 @@ def test_parquet_round_trip_is_bit_identical(database_url, session_factory, tmp_
         archive.import_archive(session, session.get(FrameArchive, archive_id))
     with transaction(session_factory) as session:
         assert stored(session, video_id) == original
-        segments = session.scalars(select(AnnotationSegment)
-                                   .where(AnnotationSegment.video_id == video_id)).all()  # fmt: skip
+        query = select(AnnotationSegment).where(AnnotationSegment.video_id == video_id)
+        segments = session.scalars(query).all()
         assert [(s.first_frame, s.last_frame, s.label_key) for s in segments] == [
             (5, 14, "falling")
         ]
