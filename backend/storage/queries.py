@@ -3,11 +3,14 @@ figures of the admin's storage page and /metrics."""
 
 from __future__ import annotations
 
+from datetime import UTC, datetime
+
 from sqlalchemy import Integer, and_, cast, func, select, text
 from sqlalchemy.orm import Session
 
 from backend.models.alarms import Alarm
 from backend.models.annotations import AnnotationSegment, SegmentStatus
+from backend.models.jobs import Job, JobKind, JobStatus
 from backend.models.registry import ModelVersion
 from backend.models.storage import FrameArchive, RetentionRun
 from backend.models.videos import Frame, Split, Video
@@ -179,3 +182,26 @@ def video_segments(session: Session, video_id: int) -> list[AnnotationSegment]:
 
 def frame_count(session: Session, video_id: int) -> int:
     return session.scalar(select(func.count()).where(Frame.video_id == video_id)) or 0
+
+
+def due_retention(session: Session, interval_s: float, now: datetime | None = None) -> bool:
+    """Whether a scheduled retention run is due: none queued or running, and the last real run
+    (not a dry run) was queued more than interval_s ago, or there was none."""
+    active = session.scalar(
+        select(Job.id)
+        .where(Job.kind == JobKind.RETENTION, Job.status.in_([JobStatus.QUEUED, JobStatus.RUNNING]))
+        .limit(1)
+    )
+    if active is not None:
+        return False
+    recent = session.execute(
+        select(Job.created_at, Job.params)
+        .where(Job.kind == JobKind.RETENTION)
+        .order_by(Job.id.desc())
+        .limit(100)
+    ).all()
+    now = now or datetime.now(UTC)
+    for created_at, params in recent:
+        if not (params or {}).get("dry_run"):
+            return (now - created_at).total_seconds() >= interval_s
+    return True
