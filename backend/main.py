@@ -29,6 +29,7 @@ from backend.api import (
     misc,
     registry,
     robots,
+    storage,
     users,
     videos,
 )
@@ -47,6 +48,7 @@ from backend.realtime.bus import AlarmBus
 from backend.realtime.hub import BrowserHub
 from backend.registry import push as model_push
 from backend.settings import Settings
+from backend.storage.service import SummaryCache
 
 log = logging.getLogger("vigil.backend")
 
@@ -61,6 +63,7 @@ ROUTERS = (
     videos.router,
     registry.router,
     jobs.router,
+    storage.router,
 )
 
 
@@ -129,6 +132,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.state.settings = settings
     app.add_middleware(BodySizeLimit, settings=settings)
     app.state.metrics = metrics = Metrics()
+    app.state.storage_summary = SummaryCache(settings.storage_summary_ttl_s)
     app.state.hub = BrowserHub()
     app.state.robots = RobotRegistry(on_change=metrics.connected_robots.set)
     app.state.login_throttle = LoginThrottle(
@@ -165,6 +169,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
             )
         for kind in AlarmKind:
             metrics.open_alarms.labels(kind.value).set(counts.get(kind, 0))
+        metrics.set_storage(app.state.storage_summary.get(app.state.session_factory, settings))
         return Response(generate_latest(metrics.registry), media_type=CONTENT_TYPE_LATEST)
 
     @app.exception_handler(DataError)

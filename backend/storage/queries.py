@@ -205,3 +205,13 @@ def due_retention(session: Session, interval_s: float, now: datetime | None = No
         if not (params or {}).get("dry_run"):
             return (now - created_at).total_seconds() >= interval_s
     return True
+
+
+def last_retention_job(session: Session) -> Job | None:
+    """The latest retention job that is not a dry run."""
+    for job in session.scalars(
+        select(Job).where(Job.kind == JobKind.RETENTION).order_by(Job.id.desc()).limit(100)
+    ):
+        if not (job.params or {}).get("dry_run"):
+            return job
+    return None

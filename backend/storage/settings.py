@@ -45,6 +45,12 @@ class StorageSettings(BaseSettings):
     partitions_ahead_days: int = Field(
         default=7, ge=1, description="PostgreSQL: day partitions of frames created ahead"
     )
+    storage_summary_ttl_s: float = Field(
+        default=60,
+        ge=0,
+        description="the storage figures (page, /metrics) are recomputed at "
+        "most this often (they scan every frame)",
+    )
     archive_dir: Path = Field(
         default=REPO_ROOT / "var" / "archive", description="Parquet archives of videos"
     )
