@@ -169,7 +169,9 @@ def create_app(settings: Settings | None = None) -> FastAPI:
             )
         for kind in AlarmKind:
             metrics.open_alarms.labels(kind.value).set(counts.get(kind, 0))
-        metrics.set_storage(app.state.storage_summary.get(app.state.session_factory, settings))
+        storage = app.state.storage_summary.latest(app.state.session_factory, settings)
+        if storage is not None:
+            metrics.set_storage(storage)
         return Response(generate_latest(metrics.registry), media_type=CONTENT_TYPE_LATEST)
 
     @app.exception_handler(DataError)

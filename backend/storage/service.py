@@ -111,6 +111,15 @@ class SummaryCache:
                 self._at = time.monotonic()
             return self._value
 
+    def latest(self, factory: sessionmaker[Session], settings) -> StorageSummary | None:
+        """The last figures without waiting (a /metrics scrape must not scan the frames): a
+        stale or missing value is refreshed in a background thread for the next call."""
+        stale = self._value is None or time.monotonic() - self._at > self.ttl_s
+        if stale and self._lock.acquire(blocking=False):
+            self._lock.release()
+            threading.Thread(target=self.get, args=(factory, settings), daemon=True).start()
+        return self._value
+
 
 def queue_retention(session: Session, dry_run: bool, user_id: int | None) -> Job:
     job = Job(kind=JobKind.RETENTION, status=JobStatus.QUEUED, params={"dry_run": dry_run},
