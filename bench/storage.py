@@ -241,7 +241,11 @@ def retention_under_load(url: str, config: ingest.RunConfig, workdir: Path, now:
     def retention(_server) -> dict:
         time.sleep(config.seconds * 0.1 + 8)  # into the measurement window (after warm-up)
         started = time.perf_counter()
-        timing["result"] = run_retention(factory, settings, now=now)
+        try:
+            timing["result"] = run_retention(factory, settings, now=now)
+        except Exception as error:
+            timing["error"] = f"{type(error).__name__}: {error}"[:500]
+            raise
         timing["seconds"] = round(time.perf_counter() - started, 1)
         return {}
 
@@ -294,7 +298,10 @@ def bench_database(kind: str, frames: int, args, workdir: Path) -> dict:
         retention_config = ingest.RunConfig(kind, args.robots, 10, 1, args.retention_window, 50, 20)
         retention = retention_under_load(url, retention_config, workdir, now)
     finally:
-        drop()
+        try:
+            drop()
+        except Exception as error:  # a session still open must not hide the real error
+            print(f"could not drop the bench database: {error}", flush=True)
     ratio = (with_history["ack_p99_ms"] or 0) / max(1e-9, empty["ack_p99_ms"] or 1e-9)
     return {
         "database": kind, "history": history, "disk_after_loading": loaded,

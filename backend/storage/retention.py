@@ -20,6 +20,7 @@ from dataclasses import dataclass, field
 from datetime import UTC, datetime
 
 from sqlalchemy import text
+from sqlalchemy.exc import OperationalError
 from sqlalchemy.orm import Session, sessionmaker
 
 from backend.db import transaction
@@ -31,6 +32,7 @@ log = logging.getLogger(__name__)
 
 Progress = Callable[[float, str], None]
 VACUUM_PAGES_PER_CHUNK = 512
+SWAP_ATTEMPTS = 5
 
 
 @dataclass
@@ -41,6 +43,16 @@ class Tally:
     by_day: dict[str, dict[str, int]] = field(default_factory=dict)
     partitions_dropped: list[str] = field(default_factory=list)
     disk_bytes_freed: int = 0
+
+    def merge(self, other: Tally) -> None:
+        self.dropped += other.dropped
+        self.dropped_bytes += other.dropped_bytes
+        self.kept.update(other.kept)
+        self.disk_bytes_freed += other.disk_bytes_freed
+        for day, entry in other.by_day.items():
+            mine = self.by_day.setdefault(day, {"dropped": 0, "dropped_bytes": 0, "kept": 0})
+            for key, value in entry.items():
+                mine[key] += value
 
     def add(self, ts: float, reason: str | None, nbytes: int) -> None:
         day = datetime.fromtimestamp(day_of(ts) * 86400, UTC).strftime("%Y-%m-%d")
@@ -192,24 +204,41 @@ def _partitioned(
     for i, day in enumerate(old):
         name = partitions.partition_name(day)
         progress(0.9 * i / max(1, len(old)), f"partition {name}: choosing the kept frames")
-        with transaction(factory) as session:
-            connection = session.connection()
-            connection.execute(text(f"LOCK TABLE {name} IN SHARE MODE"))
-            kept_ids = []
-            result = connection.execute(
-                text(
-                    f'SELECT id, video_id, robot_id, ts, "index", length(keypoints) '
-                    f"+ coalesce(length(depth), 0) + coalesce(length(floor), 0) "
-                    f"+ {queries.ROW_OVERHEAD_BYTES} FROM {name}"
-                ).execution_options(stream_results=True, yield_per=20000)
-            )
-            for frame_id, video_id, robot_id, ts, index, nbytes in result:
-                reason = facts.reason(video_id, robot_id, ts, index)
-                tally.add(ts, reason, nbytes or 0)
-                if reason is not None:
-                    kept_ids.append(frame_id)
-            tally.disk_bytes_freed += partitions.replace_day_keeping(connection, day, kept_ids)
+        for attempt in range(SWAP_ATTEMPTS):
+            try:
+                kept = _swap_day(factory, facts, day, name)
+                break
+            except OperationalError as error:  # lock_timeout: ingest held the parent; retry
+                if attempt == SWAP_ATTEMPTS - 1:
+                    raise
+                log.warning("retention: %s swap waited too long (%s); retrying", name, error)
+                time.sleep(1 + attempt)
+        tally.merge(kept)
         tally.partitions_dropped.append(name)
-        log.info("retention: %s replaced, %d frames kept", name, len(kept_ids))
     _chunked(factory, facts, settings, tally, progress, delete=True,
              table=partitions.DEFAULT_PARTITION, share=(0.9, 0.1))  # fmt: skip
+
+
+def _swap_day(factory: sessionmaker[Session], facts: PolicyFacts, day: int, name: str) -> Tally:
+    """One day partition replaced by its kept frames, in one transaction (the figures count
+    only when it commits)."""
+    tally = Tally()
+    with transaction(factory) as session:
+        connection = session.connection()
+        connection.execute(text(f"LOCK TABLE {name} IN SHARE MODE"))
+        kept_ids = []
+        result = connection.execute(
+            text(
+                f'SELECT id, video_id, robot_id, ts, "index", length(keypoints) '
+                f"+ coalesce(length(depth), 0) + coalesce(length(floor), 0) "
+                f"+ {queries.ROW_OVERHEAD_BYTES} FROM {name}"
+            ).execution_options(stream_results=True, yield_per=20000)
+        )
+        for frame_id, video_id, robot_id, ts, index, nbytes in result:
+            reason = facts.reason(video_id, robot_id, ts, index)
+            tally.add(ts, reason, nbytes or 0)
+            if reason is not None:
+                kept_ids.append(frame_id)
+        tally.disk_bytes_freed += partitions.replace_day_keeping(connection, day, kept_ids)
+    log.info("retention: %s replaced, %d frames kept", name, len(kept_ids))
+    return tally
