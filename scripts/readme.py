@@ -340,11 +340,27 @@ def _frame_storage() -> str | None:
         f"({args['retention_window']:g} s window). Sizes run: PostgreSQL "
         f"{args['pg_frames']:,}, SQLite {args['sqlite_frames']:,} frames (the issue's goal is 20 "
         "M and 5 M: parameters of the bench).\n\n"
-        + _table(["database", "history frames", "frames MB on disk", "ack p99 empty",
-                  "ack p99 history", "alarm p99 history", "replay p99 ms", "timeline p99 ms",
-                  "training export s", "retention dropped", "retention s",
-                  "ack p99 during retention", "frames lost", "old frames left = kept",
-                  "space actual/predicted", "load average"], rows)  # fmt: skip
+        + _table(
+            [
+                "database",
+                "history frames",
+                "frames MB on disk",
+                "ack p99 empty",
+                "ack p99 history",
+                "alarm p99 history",
+                "replay p99 ms",
+                "timeline p99 ms",
+                "training export s",
+                "retention dropped",
+                "retention s",
+                "ack p99 during retention",
+                "frames lost",
+                "old frames left = kept",
+                "space actual/predicted",
+                "load average",
+            ],
+            rows,
+        )  # fmt: skip
         + "\n\nThe latency goals (ack p99 ≤ 100 ms, replay/timeline p99 ≤ 200 ms) are **not met "
         "in this run**: the 2 cores were shared with other jobs (load average column); the "
         "empty-database ingest missed them by as much. Kept frames and space are exact."
