@@ -11,7 +11,8 @@ PYTEST_ARGS ?=
 .PHONY: run test test-python test-sqlite test-postgresql test-frontend test-browser setup \
 	frontend chromium lint format bench-detection bench-detection-splits bench-fall-onset \
 	bench-floor bench-ingest bench-robot bench-video bench-labelling bench-registry \
-	bench-alarm-latency bench-storage-stall bench-login-flood bench-nurse-soak readme screenshots \
+	bench-alarm-latency bench-storage-stall bench-storage bench-login-flood bench-nurse-soak readme \
+	screenshots \
 	clean
 
 setup: $(STAMP) frontend
@@ -99,6 +100,10 @@ bench-nurse-soak: $(STAMP) frontend chromium
 
 bench-storage-stall: $(STAMP)
 	$(PY) -m bench.storage_stall
+
+# Frames at hospital scale (issue 20); sizes: python -m bench.storage --help
+bench-storage: $(STAMP)
+	$(PY) -m bench.storage
 
 # The screenshots in docs/ come from the browser tests (a plain test run keeps them in /tmp).
 screenshots: $(STAMP) frontend chromium

@@ -29,6 +29,7 @@ from backend.api import (
     misc,
     registry,
     robots,
+    storage,
     users,
     videos,
 )
@@ -47,6 +48,7 @@ from backend.realtime.bus import AlarmBus
 from backend.realtime.hub import BrowserHub
 from backend.registry import push as model_push
 from backend.settings import Settings
+from backend.storage.service import SummaryCache
 from vigil.states import IllegalTransition
 
 log = logging.getLogger("vigil.backend")
@@ -62,6 +64,7 @@ ROUTERS = (
     videos.router,
     registry.router,
     jobs.router,
+    storage.router,
 )
 
 
@@ -130,6 +133,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.state.settings = settings
     app.add_middleware(BodySizeLimit, settings=settings)
     app.state.metrics = metrics = Metrics()
+    app.state.storage_summary = SummaryCache(settings.storage_summary_ttl_s)
     app.state.hub = BrowserHub()
     app.state.robots = RobotRegistry(on_change=metrics.connected_robots.set)
     app.state.login_throttle = LoginThrottle(
@@ -166,6 +170,9 @@ def create_app(settings: Settings | None = None) -> FastAPI:
             )
         for kind in AlarmKind:
             metrics.open_alarms.labels(kind.value).set(counts.get(kind, 0))
+        storage = app.state.storage_summary.latest(app.state.session_factory, settings)
+        if storage is not None:
+            metrics.set_storage(storage)
         return Response(generate_latest(metrics.registry), media_type=CONTENT_TYPE_LATEST)
 
     @app.exception_handler(IllegalTransition)

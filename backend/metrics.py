@@ -33,3 +33,46 @@ class Metrics:
         self.connected_robots = Gauge(
             "vigil_connected_robots", "Robots connected to this process", registry=self.registry
         )
+        # Frame storage (the admin's storage page; cached, see backend.storage.service).
+        gauge = lambda name, text, labels=(): Gauge(name, text, labels, registry=self.registry)  # noqa: E731
+        self.storage_frames = gauge("vigil_storage_frames", "Stored frames by robot "
+                                    "(robot='' for imported recordings)", ["robot"])  # fmt: skip
+        self.storage_bytes = gauge("vigil_storage_bytes", "Stored frame bytes by robot "
+                                   "(blobs plus a per-row estimate)", ["robot"])  # fmt: skip
+        self.storage_day_frames = gauge("vigil_storage_day_frames",
+                                        "Stored robot frames by UTC day", ["day"])  # fmt: skip
+        self.storage_day_bytes = gauge("vigil_storage_day_bytes",
+                                       "Stored robot frame bytes by UTC day", ["day"])  # fmt: skip
+        self.storage_database_bytes = gauge("vigil_storage_database_bytes",
+                                            "Size of the database on disk")  # fmt: skip
+        self.retention_older_frames = gauge(
+            "vigil_retention_next_older_frames",
+            "Robot frames older than the next retention run's cutoff (at most this many go)",
+        )
+        self.retention_preview_drop = gauge(
+            "vigil_retention_preview_drop_frames",
+            "Frames the latest dry run said the policy would drop",
+        )
+        self.retention_last_dropped = gauge(
+            "vigil_retention_last_dropped_frames", "Frames the latest retention run dropped"
+        )
+        self.storage_archives = gauge("vigil_storage_archives", "Parquet archives of videos")
+
+    def set_storage(self, summary) -> None:
+        """Fill the storage gauges from a backend.storage.schemas.StorageSummary."""
+        for gauge in (self.storage_frames, self.storage_bytes, self.storage_day_frames,
+                      self.storage_day_bytes):  # fmt: skip
+            gauge.clear()
+        for robot in summary.robots:
+            self.storage_frames.labels(robot.robot_id or "").set(robot.frames)
+            self.storage_bytes.labels(robot.robot_id or "").set(robot.bytes)
+        for day in summary.days:
+            self.storage_day_frames.labels(day.day).set(day.frames)
+            self.storage_day_bytes.labels(day.day).set(day.bytes)
+        self.storage_database_bytes.set(summary.database_bytes)
+        self.retention_older_frames.set(summary.next_run.older_frames)
+        preview = summary.next_run.preview
+        self.retention_preview_drop.set(preview.dropped_frames if preview else 0)
+        real = next((r for r in summary.runs if not r.dry_run and r.status == "done"), None)
+        self.retention_last_dropped.set(real.dropped_frames if real else 0)
+        self.storage_archives.set(summary.archives)

@@ -73,6 +73,12 @@ PERMISSIONS: dict[tuple[str, str], frozenset[Role]] = {
     ("GET", "/api/labelling/videos/{video_id}/probability"): LABELLERS,
     ("POST", "/api/labelling/videos/{video_id}/view3d"): LABELLERS,
     ("GET", "/metrics"): frozenset({ENGINEER, ADMIN}),
+    # Frame storage (issue 20): the admin's page; engineers choose archives as training data.
+    ("GET", "/api/storage/summary"): frozenset({ADMIN}),
+    ("POST", "/api/storage/retention"): frozenset({ADMIN}),
+    ("GET", "/api/storage/archives"): frozenset({ENGINEER, ADMIN}),
+    ("POST", "/api/storage/archives"): frozenset({ADMIN}),
+    ("POST", "/api/storage/archives/{archive_id}/import"): frozenset({ENGINEER, ADMIN}),
     # Model registry, promotion, fleet and jobs (issue 8).
     ("GET", "/api/models"): frozenset({ENGINEER, ADMIN}),
     ("GET", "/api/models/compare"): frozenset({ENGINEER, ADMIN}),

@@ -5,6 +5,7 @@ from alembic import context
 from backend import models  # noqa: F401  (registers every table on Base.metadata)
 from backend.db import Base, make_engine
 from backend.settings import Settings
+from backend.storage import partitions
 
 config = context.config
 if config.config_file_name is not None and config.attributes.get("configure_logger", True):
@@ -35,6 +36,10 @@ def run_migrations_online() -> None:
             connection=connection,
             target_metadata=target_metadata,
             render_as_batch=connection.dialect.name == "sqlite",
+            # frames is partitioned by day on PostgreSQL (migration 0011)
+            include_object=partitions.include_object
+            if connection.dialect.name == "postgresql"
+            else None,
         )
         with context.begin_transaction():
             context.run_migrations()

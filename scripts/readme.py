@@ -353,6 +353,63 @@ def _storage_stall() -> str | None:
     )
 
 
+def _frame_storage() -> str | None:
+    data = _load("storage.json")
+    if data is None:
+        return None
+    rows = []
+    for run in data["runs"]:
+        history, retention = run["history"], run["retention"]
+        reads = run["reads_with_history"]
+        during = retention["ingest_during"]
+        rows.append([
+            run["database"], f"{history['frames']:,}",
+            f"{run['disk_after_loading']['frames_bytes'] / 1e6:,.0f}",
+            run["ingest_empty"]["ack_p99_ms"], run["ingest_with_history"]["ack_p99_ms"],
+            run["ingest_with_history"]["alarm_p99_ms"], reads["alarm_replay"]["p99_ms"],
+            reads["labelling_timeline"]["p99_ms"], run["training_export"]["seconds"],
+            f"{retention['dropped_frames']:,}", retention["retention_seconds"],
+            during["ack_p99_ms"], during["frames_lost"],
+            "yes" if retention["old_frames_left_exactly_the_kept"] else "**no**",
+            retention["space"]["actual_over_predicted"],
+            run["ingest_with_history"]["load_average_1min"],
+        ])  # fmt: skip
+    args = data["arguments"]
+    return (
+        "**Frames at hospital scale** (`make bench-storage` → `bench/results/storage.json`): "
+        f"GENERATED history over {args['days']:g} days from {args['history_robots']} robots, "
+        f"{args['robots']} generated robots streaming at 10 Hz; training export of the real URFD "
+        f"recordings; retention with the default policy while the robots stream "
+        f"({args['retention_window']:g} s window). Sizes run: PostgreSQL "
+        f"{args['pg_frames']:,}, SQLite {args['sqlite_frames']:,} frames (the issue's goal is 20 "
+        "M and 5 M: parameters of the bench).\n\n"
+        + _table(
+            [
+                "database",
+                "history frames",
+                "frames MB on disk",
+                "ack p99 empty",
+                "ack p99 history",
+                "alarm p99 history",
+                "replay p99 ms",
+                "timeline p99 ms",
+                "training export s",
+                "retention dropped",
+                "retention s",
+                "ack p99 during retention",
+                "frames lost",
+                "old frames left = kept",
+                "space actual/predicted",
+                "load average",
+            ],
+            rows,
+        )  # fmt: skip
+        + "\n\nThe latency goals (ack p99 ≤ 100 ms, replay/timeline p99 ≤ 200 ms) are **not met "
+        "in this run**: the 2 cores were shared with other jobs (load average column); the "
+        "empty-database ingest missed them by as much. Kept frames and space are exact."
+    )
+
+
 def _login_flood() -> str | None:
     data = _load("login_flood.json")
     if data is None:
@@ -499,6 +556,7 @@ BENCH_SECTIONS = (
     _alarm_latency,
     _nurse_soak,
     _storage_stall,
+    _frame_storage,
     _login_flood,
     _labelling,
     _registry,

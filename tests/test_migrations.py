@@ -15,6 +15,7 @@ from sqlalchemy import inspect
 from backend import models  # noqa: F401  (registers every table)
 from backend.db import Base, make_engine
 from backend.migrate import downgrade, upgrade
+from backend.storage import partitions
 from tests.conftest import create_throwaway_database
 from tests.conftest import test_database_kind as database_kind
 
@@ -41,7 +42,10 @@ def schema_differences(url: str) -> list:
     engine = make_engine(url)
     try:
         with engine.connect() as connection:
-            context = MigrationContext.configure(connection, opts={"compare_type": False})
+            opts = {"compare_type": False}
+            if connection.dialect.name == "postgresql":
+                opts["include_object"] = partitions.include_object  # frames: day partitions
+            context = MigrationContext.configure(connection, opts=opts)
             return compare_metadata(context, Base.metadata)
     finally:
         engine.dispose()

@@ -20,7 +20,9 @@ from sqlalchemy.orm import Session, sessionmaker
 from backend.db import make_engine, make_session_factory
 from backend.jobs import queue
 from backend.models.jobs import JobStatus
-from backend.registry.sweeps import SWEEPS, Sweep
+from backend.registry.sweeps import SWEEPS as REGISTRY_SWEEPS
+from backend.registry.sweeps import Sweep
+from backend.storage.sweeps import SWEEPS as STORAGE_SWEEPS
 from worker.context import JobCancelled, JobContext
 from worker.jobs import HANDLERS
 from worker.settings import WorkerSettings
@@ -47,7 +49,7 @@ class Worker:
             factory = make_session_factory(self._engine)
         self.factory = factory
         self.handlers = handlers if handlers is not None else HANDLERS
-        self.sweeps = sweeps if sweeps is not None else SWEEPS
+        self.sweeps = sweeps if sweeps is not None else [*REGISTRY_SWEEPS, *STORAGE_SWEEPS]
         self._stop = threading.Event()
         self._last_sweep = 0.0
 

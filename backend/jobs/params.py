@@ -27,6 +27,10 @@ class RetrainParams(JobParams):
     n_inner: int = Field(default=4, ge=2, le=10)
     stride: int = Field(default=2, ge=1, le=30)
     version: str | None = Field(default=None, max_length=64, pattern=VERSION_PATTERN)
+    archive_ids: list[int] | None = Field(
+        default=None,
+        description="archived videos (frame_archives ids) imported again and trained on too",
+    )
 
 
 class RethresholdParams(JobParams):
@@ -55,6 +59,10 @@ class WhatIfParams(JobParams):
     video_ids: list[int] | None = None
 
 
+class RetentionParams(JobParams):
+    dry_run: bool = Field(default=False, description="record what would go, drop nothing")
+
+
 P = TypeVar("P", bound=JobParams)
 
 PARAMS: dict[JobKind, type[JobParams]] = {
@@ -63,6 +71,7 @@ PARAMS: dict[JobKind, type[JobParams]] = {
     JobKind.EVALUATE: EvaluateParams,
     JobKind.REGISTER: RegisterParams,
     JobKind.WHATIF: WhatIfParams,
+    JobKind.RETENTION: RetentionParams,
 }
 
 

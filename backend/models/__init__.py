@@ -19,14 +19,15 @@ from backend.models.registry import (
     ModelVersion,
 )
 from backend.models.robots import Robot, Transport
+from backend.models.storage import FrameArchive, RetentionRun
 from backend.models.taxonomy import TaxonomyLabel, TaxonomyVersion
 from backend.models.users import RevokedSession, Role, User
 from backend.models.videos import Frame, Split, Video
 
 __all__ = [
     "Alarm", "AlarmEvent", "AlarmKind", "AlarmPriority", "AlarmState", "AnnotationSegment",
-    "Deployment", "DeploymentScope", "DeploymentStatus", "FalseAlarmReason", "Frame", "Job",
-    "JobKind", "JobStatus", "ModelStatus", "ModelVersion", "RevokedSession", "Robot", "Role",
-    "SegmentEvent", "SegmentSource", "SegmentStatus", "Split", "TaxonomyLabel", "TaxonomyVersion",
-    "Transport", "User", "Verdict", "Video",
+    "Deployment", "DeploymentScope", "DeploymentStatus", "FalseAlarmReason", "Frame",
+    "FrameArchive", "Job", "JobKind", "JobStatus", "ModelStatus", "ModelVersion", "RetentionRun",
+    "RevokedSession", "Robot", "Role", "SegmentEvent", "SegmentSource", "SegmentStatus", "Split",
+    "TaxonomyLabel", "TaxonomyVersion", "Transport", "User", "Verdict", "Video",
 ]  # fmt: skip

@@ -14,6 +14,7 @@ class JobKind(StrEnum):
     EVALUATE = "evaluate"
     REGISTER = "register"
     WHATIF = "whatif"  # replay labelled recordings with another threshold and delay
+    RETENTION = "retention"  # frame retention policy run (backend/storage/retention.py)
 
 
 class JobStatus(StrEnum):

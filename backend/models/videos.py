@@ -1,7 +1,16 @@
 from datetime import datetime
 from enum import StrEnum
 
-from sqlalchemy import JSON, ForeignKey, Index, LargeBinary, String, UniqueConstraint
+from sqlalchemy import (
+    JSON,
+    BigInteger,
+    ForeignKey,
+    Index,
+    Integer,
+    LargeBinary,
+    String,
+    UniqueConstraint,
+)
 from sqlalchemy.orm import Mapped, mapped_column
 
 from backend.db import Base
@@ -50,16 +59,28 @@ class Video(Base):
 
 class Frame(Base):
     """One classified skeleton frame; keypoints, depth and floor measures as little-endian
-    float32 blobs."""
+    float32 blobs.
+
+    On PostgreSQL the table is partitioned by day of `ts` (migration 0011,
+    `backend/storage/partitions.py`): there the primary key is (id, ts) and both unique keys
+    carry ts too (a partition key must be part of every unique key); a resent frame carries
+    the same ts, so deduplication by robot + seq is unchanged. Indexes serve the real reads:
+    alarm replay (video_id, ts) or (robot_id, ts), labelling timeline, training export and
+    what-if (video_id, index), ingest deduplication (robot_id, seq) and retention (robot_id, ts).
+    """
 
     __tablename__ = "frames"
     __table_args__ = (
         UniqueConstraint("video_id", "index", name="uq_frames_video_index"),
         UniqueConstraint("robot_id", "seq", name="uq_frames_robot_seq"),
         Index("ix_frames_video_ts", "video_id", "ts"),
+        Index("ix_frames_robot_ts", "robot_id", "ts"),
     )
 
-    id: Mapped[int] = mapped_column(primary_key=True)
+    # BIGINT on PostgreSQL (a hospital passes 2**31 frames in a few years); SQLite's rowid.
+    id: Mapped[int] = mapped_column(
+        BigInteger().with_variant(Integer(), "sqlite"), primary_key=True
+    )
     video_id: Mapped[int] = mapped_column(ForeignKey("videos.id", ondelete="CASCADE"))
     index: Mapped[int] = mapped_column()
     ts: Mapped[float] = mapped_column()  # seconds (unix time for robot frames)

@@ -18,6 +18,7 @@ import { JobsPage } from "./pages/engineer/JobsPage";
 import { ModelPage } from "./pages/engineer/ModelPage";
 import { RegistryPage } from "./pages/engineer/RegistryPage";
 import { AdminPage } from "./pages/admin/AdminPage";
+import { StoragePage } from "./pages/admin/StoragePage";
 import { Layout } from "./pages/Layout";
 import { LoginPage } from "./pages/LoginPage";
 
@@ -37,6 +38,7 @@ export function App() {
         <Route path="/nurse/fatigue" element={<RequireRole section="nurse"><FatiguePage /></RequireRole>} />
         <Route path="/nurse/alarms/:alarmId" element={<RequireRole section="nurse"><AlarmDetailPage /></RequireRole>} />
         <Route path="/admin" element={<RequireRole section="admin"><AdminPage /></RequireRole>} />
+        <Route path="/admin/storage" element={<RequireRole section="admin"><StoragePage /></RequireRole>} />
         <Route path="/engineer" element={<RequireRole section="engineer"><EngineerLayout /></RequireRole>}>
           <Route index element={<RegistryPage />} />
           <Route path="models/:modelId" element={<ModelPage />} />

@@ -12,6 +12,8 @@ import numpy as np
 from backend.db import transaction
 from backend.jobs.params import RetrainParams, parse
 from backend.models.videos import Split
+from backend.storage.archive import import_archive
+from backend.storage.queries import archive_by_id
 from worker.context import JobContext
 from worker.db_data import frame_data, labelled_videos
 from worker.grid import GridBackend, grid_select
@@ -38,6 +40,20 @@ def spec_for(params: RetrainParams) -> ModelSpec:
     return spec
 
 
+def with_archived(session, videos: list, archive_ids: list[int], mode) -> list:
+    """The training videos plus the chosen archived ones (imported again if their frames were
+    dropped; those with accepted labels train)."""
+    restored = []
+    for archive_id in archive_ids:
+        found = archive_by_id(session, archive_id)
+        if found is None:
+            raise ValueError(f"invalid job parameter archive_ids: archive {archive_id} not found")
+        restored.append(import_archive(session, found).id)
+    known = {v.id for v in videos}
+    extra = [v for v in labelled_videos(session, mode, None, restored) if v.id not in known]
+    return videos + extra
+
+
 def run(context: JobContext) -> dict:
     params = parse(RetrainParams, context.params)
     spec = spec_for(params)
@@ -45,6 +61,8 @@ def run(context: JobContext) -> dict:
     with transaction(context.factory) as session:
         videos = labelled_videos(session, params.mode, None if params.video_ids else Split.TRAIN,
                                  params.video_ids)  # fmt: skip
+        if params.archive_ids:
+            videos = with_archived(session, videos, params.archive_ids, params.mode)
         data = frame_data(session, videos, params.mode)
         who = started_by(session, context)
     falls = int(data.is_positive_sequence.sum())

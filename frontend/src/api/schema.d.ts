@@ -875,6 +875,87 @@ export interface paths {
         patch?: never;
         trace?: never;
     };
+    "/api/storage/summary": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /**
+         * Storage Summary
+         * @description Cached for a minute (the figures scan every frame); ?fresh=true recomputes.
+         */
+        get: operations["storage_summary_api_storage_summary_get"];
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/storage/retention": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        get?: never;
+        put?: never;
+        /**
+         * Queue Retention
+         * @description Queue a retention run for the worker (a dry run records what would go).
+         */
+        post: operations["queue_retention_api_storage_retention_post"];
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/storage/archives": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /** List Archives */
+        get: operations["list_archives_api_storage_archives_get"];
+        put?: never;
+        /**
+         * Create Archives
+         * @description Export a video, or every video of a transport, to Parquet (one file per video).
+         */
+        post: operations["create_archives_api_storage_archives_post"];
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/storage/archives/{archive_id}/import": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        get?: never;
+        put?: never;
+        /**
+         * Import Archive
+         * @description Bring the archived frames (and labels) back for labelling or training; idempotent.
+         */
+        post: operations["import_archive_api_storage_archives__archive_id__import_post"];
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
     "/api/labelling/videos": {
         parameters: {
             query?: never;
@@ -1365,6 +1446,50 @@ export interface components {
             /** Annotators */
             annotators: string[];
         };
+        /** ArchiveIn */
+        ArchiveIn: {
+            /** Video Id */
+            video_id?: number | null;
+            /** Transport Id */
+            transport_id?: string | null;
+        };
+        /** ArchiveOut */
+        ArchiveOut: {
+            /** Id */
+            id: number;
+            /** Video Id */
+            video_id: number | null;
+            /** Video Name */
+            video_name: string;
+            /** Robot Id */
+            robot_id: string | null;
+            /** Transport Id */
+            transport_id: string | null;
+            /** Path */
+            path: string;
+            /** Sha256 */
+            sha256: string;
+            /** Frame Count */
+            frame_count: number;
+            /** Labelled Frames */
+            labelled_frames: number;
+            /** Bytes */
+            bytes: number;
+            /** First Ts */
+            first_ts: number | null;
+            /** Last Ts */
+            last_ts: number | null;
+            /**
+             * Created At
+             * Format: date-time
+             */
+            created_at: string;
+            /**
+             * Frames In Database
+             * @default 0
+             */
+            frames_in_database: number;
+        };
         /** Body_import_file_api_labelling_import_post */
         Body_import_file_api_labelling_import_post: {
             /** File */
@@ -1388,6 +1513,19 @@ export interface components {
             events: {
                 [key: string]: unknown;
             }[];
+        };
+        /** DayFigure */
+        DayFigure: {
+            /** Day */
+            day: string;
+            /** Frames */
+            frames: number;
+            /** Bytes */
+            bytes: number;
+            /** Cumulative Frames */
+            cumulative_frames: number;
+            /** Cumulative Bytes */
+            cumulative_bytes: number;
         };
         /**
          * Decision
@@ -1832,7 +1970,7 @@ export interface components {
          * JobKind
          * @enum {string}
          */
-        JobKind: "retrain" | "rethreshold" | "evaluate" | "register" | "whatif";
+        JobKind: "retrain" | "rethreshold" | "evaluate" | "register" | "whatif" | "retention";
         /** JobOut */
         JobOut: {
             /** Id */
@@ -2111,6 +2249,18 @@ export interface components {
              */
             keypoints_only: boolean;
         };
+        /** NextRun */
+        NextRun: {
+            /** Due At */
+            due_at: string | null;
+            /** Cutoff Ts */
+            cutoff_ts: number;
+            /** Older Frames */
+            older_frames: number;
+            /** Older Bytes */
+            older_bytes: number;
+            preview: components["schemas"]["RetentionRunOut"] | null;
+        };
         /** ProbabilityOut */
         ProbabilityOut: {
             /** Video Id */
@@ -2189,6 +2339,54 @@ export interface components {
             /** Comment */
             comment?: string | null;
         };
+        /** RetentionIn */
+        RetentionIn: {
+            /**
+             * Dry Run
+             * @default true
+             */
+            dry_run: boolean;
+        };
+        /** RetentionRunOut */
+        RetentionRunOut: {
+            /** Id */
+            id: number;
+            /** Dry Run */
+            dry_run: boolean;
+            /** Status */
+            status: string;
+            /** Job Id */
+            job_id: number | null;
+            /**
+             * Started At
+             * Format: date-time
+             */
+            started_at: string;
+            /** Finished At */
+            finished_at: string | null;
+            /** Cutoff Ts */
+            cutoff_ts: number;
+            /** Policy */
+            policy: {
+                [key: string]: unknown;
+            };
+            /** Dropped Frames */
+            dropped_frames: number;
+            /** Dropped Bytes */
+            dropped_bytes: number;
+            /** Kept */
+            kept: {
+                [key: string]: unknown;
+            };
+            /** By Day */
+            by_day: {
+                [key: string]: unknown;
+            };
+            /** Partitions Dropped */
+            partitions_dropped: unknown[];
+            /** Message */
+            message: string;
+        };
         /** ReviewIn */
         ReviewIn: {
             /**
@@ -2230,6 +2428,15 @@ export interface components {
              * Format: date-time
              */
             created_at: string;
+        };
+        /** RobotFigure */
+        RobotFigure: {
+            /** Robot Id */
+            robot_id: string | null;
+            /** Frames */
+            frames: number;
+            /** Bytes */
+            bytes: number;
         };
         /** RobotIn */
         RobotIn: {
@@ -2487,6 +2694,41 @@ export interface components {
             action: "submit" | "withdraw" | "reopen";
             /** Comment */
             comment?: string | null;
+        };
+        /** StorageSummary */
+        StorageSummary: {
+            /** Dialect */
+            dialect: string;
+            /**
+             * Computed At
+             * Format: date-time
+             */
+            computed_at: string;
+            /** Total Frames */
+            total_frames: number;
+            /** Payload Bytes */
+            payload_bytes: number;
+            /** Database Bytes */
+            database_bytes: number;
+            /** Frames Bytes */
+            frames_bytes: number | null;
+            /** Free Bytes */
+            free_bytes: number | null;
+            /** Partitions */
+            partitions: number | null;
+            /** Days */
+            days: components["schemas"]["DayFigure"][];
+            /** Robots */
+            robots: components["schemas"]["RobotFigure"][];
+            /** Policy */
+            policy: {
+                [key: string]: unknown;
+            };
+            next_run: components["schemas"]["NextRun"];
+            /** Runs */
+            runs: components["schemas"]["RetentionRunOut"][];
+            /** Archives */
+            archives: number;
         };
         /** SubmitAllOut */
         SubmitAllOut: {
@@ -4268,6 +4510,154 @@ export interface operations {
                 };
                 content: {
                     "application/json": components["schemas"]["JobOut"];
+                };
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+        };
+    };
+    storage_summary_api_storage_summary_get: {
+        parameters: {
+            query?: {
+                fresh?: boolean;
+            };
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["StorageSummary"];
+                };
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+        };
+    };
+    queue_retention_api_storage_retention_post: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        requestBody: {
+            content: {
+                "application/json": components["schemas"]["RetentionIn"];
+            };
+        };
+        responses: {
+            /** @description Successful Response */
+            201: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["JobOut"];
+                };
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+        };
+    };
+    list_archives_api_storage_archives_get: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ArchiveOut"][];
+                };
+            };
+        };
+    };
+    create_archives_api_storage_archives_post: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        requestBody: {
+            content: {
+                "application/json": components["schemas"]["ArchiveIn"];
+            };
+        };
+        responses: {
+            /** @description Successful Response */
+            201: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ArchiveOut"][];
+                };
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+        };
+    };
+    import_archive_api_storage_archives__archive_id__import_post: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path: {
+                archive_id: number;
+            };
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ArchiveOut"];
                 };
             };
             /** @description Validation Error */

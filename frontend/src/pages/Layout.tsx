@@ -21,7 +21,8 @@ export function Layout() {
             )}
             {mayOpen(user.role, "annotate") && <NavLink to="/annotate">Annotate</NavLink>}
             {mayOpen(user.role, "engineer") && <NavLink to="/engineer">Engineering</NavLink>}
-            {mayOpen(user.role, "admin") && <NavLink to="/admin">Users and robots</NavLink>}
+            {mayOpen(user.role, "admin") && <NavLink to="/admin" end>Users and robots</NavLink>}
+            {mayOpen(user.role, "admin") && <NavLink to="/admin/storage">Storage</NavLink>}
           </nav>
         )}
         {user && (

@@ -26,6 +26,8 @@ export function RegistryPage() {
   const [error, setError] = useState<string | null>(null);
   const [picked, setPicked] = useState<number[]>([]);
   const [spec, setSpec] = useState("rf-default");
+  const [archives, setArchives] = useState<{ id: number; video_name: string; labelled_frames: number }[]>([]);
+  const [archiveIds, setArchiveIds] = useState<number[]>([]);
   const [jobId, setJobId] = useState<number | null>(null);
   const job = useJob(jobId);
   const navigate = useNavigate();
@@ -49,11 +51,15 @@ export function RegistryPage() {
       if (data) { setModels(data); setError(null); } else setError(errorMessage(error, "Could not load models"));
     });
   useEffect(() => { void load(); }, []);
+  useEffect(() => {
+    void api.GET("/api/storage/archives").then(({ data }) => { if (data) setArchives(data.filter((a) => a.labelled_frames > 0)); });
+  }, []);
   useEffect(() => { if (job?.status === "succeeded") void load(); }, [job?.status]);
 
   async function retrain(event: FormEvent) {
     event.preventDefault();
-    const { data, error } = await api.POST("/api/jobs", { body: { kind: "retrain", params: { spec } } });
+    const params = archiveIds.length ? { spec, archive_ids: archiveIds } : { spec };
+    const { data, error } = await api.POST("/api/jobs", { body: { kind: "retrain", params } });
     if (data) setJobId(data.id); else setError(errorMessage(error, "Could not queue the retrain job"));
   }
   const toggle = (id: number) =>
@@ -68,6 +74,14 @@ export function RegistryPage() {
             {SPECS.map((s) => <option key={s}>{s}</option>)}
           </select>
         </label>
+        {archives.length > 0 && (
+          <label>Also train on archived videos
+            <select multiple name="archive_ids" value={archiveIds.map(String)}
+              onChange={(e) => setArchiveIds(Array.from(e.target.selectedOptions, (o) => Number(o.value)))}>
+              {archives.map((a) => <option key={a.id} value={a.id}>{a.video_name} ({a.labelled_frames} labelled frames)</option>)}
+            </select>
+          </label>
+        )}
         <button className="primary" type="submit">Retrain from accepted labels</button>
         {job && <JobProgress job={job} />}
       </form>

@@ -1,0 +1,147 @@
+"""The retention policy: which robot frames older than the cutoff are kept, and why.
+
+Kept forever:
+- every frame of a video with labels (a segment that is not deleted) or with a split,
+- every frame of a video a registered model's lineage names (`training_videos`),
+- every frame of the alarm's robot within [first frame - before_s, last frame + after_s] of
+  each alarm (an alarm without frame times uses its raise time),
+- frames that are not robot frames (imported datasets: their ts is not a wall-clock time).
+Kept for now: frames newer than the cutoff (now - retention_days), and, when a downsampled copy
+is on, every step-th frame of a video (step = video fps / downsample fps) for
+retention_downsample_days more days. Everything else older than the cutoff is dropped.
+
+`PolicyFacts` is loaded once per run (`backend.storage.queries.policy_facts`); `reason` is a pure
+function of one frame, so a dry run, the SQLite and PostgreSQL runs and the benchmark's row by
+row check all apply exactly the same rule.
+"""
+
+from __future__ import annotations
+
+import bisect
+from dataclasses import dataclass, field
+
+DAY_S = 86400.0
+
+RECENT = "recent"
+ALARM_WINDOW = "alarm_window"
+LABELLED = "labelled"
+SPLIT = "split"
+LINEAGE = "lineage"
+DOWNSAMPLED = "downsampled"
+NOT_ROBOT = "not_robot"
+KEPT_REASONS = (ALARM_WINDOW, LABELLED, SPLIT, LINEAGE, DOWNSAMPLED)
+
+
+@dataclass(frozen=True)
+class RetentionPolicy:
+    days: float = 30
+    alarm_before_s: float = 60
+    alarm_after_s: float = 30
+    downsample_fps: float = 0
+    downsample_days: float = 60
+
+    @classmethod
+    def from_settings(cls, settings) -> RetentionPolicy:
+        return cls(
+            days=settings.retention_days,
+            alarm_before_s=settings.retention_alarm_before_s,
+            alarm_after_s=settings.retention_alarm_after_s,
+            downsample_fps=settings.retention_downsample_fps,
+            downsample_days=settings.retention_downsample_days,
+        )
+
+    def cutoff(self, now: float) -> float:
+        return now - self.days * DAY_S
+
+    def downsample_until(self, now: float) -> float:
+        """Frames at or after this time may be kept as the downsampled copy."""
+        return self.cutoff(now) - self.downsample_days * DAY_S
+
+    def as_dict(self) -> dict:
+        return {"days": self.days, "alarm_before_s": self.alarm_before_s,
+                "alarm_after_s": self.alarm_after_s, "downsample_fps": self.downsample_fps,
+                "downsample_days": self.downsample_days}  # fmt: skip
+
+
+@dataclass
+class Windows:
+    """Merged, sorted [start, end] intervals of one robot."""
+
+    starts: list[float] = field(default_factory=list)
+    ends: list[float] = field(default_factory=list)
+
+    def covers(self, ts: float) -> bool:
+        i = bisect.bisect_right(self.starts, ts) - 1
+        return i >= 0 and ts <= self.ends[i]
+
+
+def merge_windows(intervals: list[tuple[float, float]]) -> Windows:
+    merged = Windows()
+    for start, end in sorted(intervals):
+        if merged.ends and start <= merged.ends[-1]:
+            merged.ends[-1] = max(merged.ends[-1], end)
+        else:
+            merged.starts.append(start)
+            merged.ends.append(end)
+    return merged
+
+
+@dataclass
+class PolicyFacts:
+    policy: RetentionPolicy
+    now: float
+    protected_videos: dict[int, str]  # video id -> labelled | split | lineage
+    windows: dict[str, Windows]  # robot id -> alarm windows
+    video_steps: dict[int, int]  # video id -> keep every step-th frame (downsampled copy)
+
+    @property
+    def cutoff(self) -> float:
+        """Frames go by whole UTC days: a day goes once all of it is older than the policy's
+        cutoff (a PostgreSQL day partition is replaced as a whole; SQLite follows the same rule
+        so both keep the same frames)."""
+        return day_of(self.policy.cutoff(self.now)) * DAY_S
+
+    def reason(self, video_id: int, robot_id: str | None, ts: float, index: int) -> str | None:
+        """Why the frame stays, or None when the policy drops it."""
+        if robot_id is None:
+            return NOT_ROBOT
+        if ts >= self.cutoff:
+            return RECENT
+        protected = self.protected_videos.get(video_id)
+        if protected is not None:
+            return protected
+        windows = self.windows.get(robot_id)
+        if windows is not None and windows.covers(ts):
+            return ALARM_WINDOW
+        if (
+            self.policy.downsample_fps > 0
+            and ts >= self.policy.downsample_until(self.now)
+            and index % self.video_steps.get(video_id, 1) == 0
+        ):
+            return DOWNSAMPLED
+        return None
+
+
+def downsample_step(video_fps: float, downsample_fps: float) -> int:
+    if downsample_fps <= 0 or video_fps <= downsample_fps:
+        return 1
+    return max(1, round(video_fps / downsample_fps))
+
+
+def alarm_intervals(
+    rows: list[tuple[str, float | None, float | None, float]], policy: RetentionPolicy
+) -> dict[str, Windows]:
+    """rows: (robot id, first frame ts, last frame ts, raised at as unix time)."""
+    by_robot: dict[str, list[tuple[float, float]]] = {}
+    for robot_id, first, last, raised in rows:
+        start = first if first is not None else raised
+        end = last if last is not None else start
+        by_robot.setdefault(robot_id, []).append(
+            (start - policy.alarm_before_s, end + policy.alarm_after_s)
+        )
+    return {robot: merge_windows(intervals) for robot, intervals in by_robot.items()}
+
+
+def day_of(ts: float) -> int:
+    """UTC day number (days since 1970-01-01); a frame at midnight belongs to the new day."""
+    return int(ts // DAY_S)
