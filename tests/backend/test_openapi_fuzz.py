@@ -21,7 +21,8 @@ from backend.db import transaction
 from backend.models import Role, User
 from backend.process import BackendProcess, free_port
 from backend.security import create_access_token, hash_password
-from tests.backend.test_reliability import SECRET, backend_env  # noqa: F401  (fixture)
+from tests.backend.conftest import SUBPROCESS_SECRET
+from tests.backend.test_reliability import backend_env  # noqa: F401  (fixture)
 from vigil.skeleton import N_FLOOR, N_KEYPOINTS
 
 EXAMPLES_PER_OPERATION = int(os.environ.get("VIGIL_FUZZ_EXAMPLES", "3"))  # per role
@@ -172,7 +173,7 @@ def test_generated_requests_never_get_a_server_error(
                         role=role, ward="ward-a" if role == Role.NURSE else None)  # fmt: skip
             session.add(user)
             session.flush()
-            tokens[role] = create_access_token(SECRET, user.id, 60)
+            tokens[role] = create_access_token(SUBPROCESS_SECRET, user.id, 60)
     headers_of = {role: {"Authorization": f"Bearer {token}"} for role, token in tokens.items()}
 
     env = backend_env | {
