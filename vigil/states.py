@@ -11,8 +11,9 @@ message a person can read; the backend answers it with HTTP 409 and that message
 exception handler (`backend.main`).
 
 Machines: alarm (`backend.alarms.state`), label segment (`backend.labelling.status`), job
-(`worker.queue`), model version and rollout (`backend.registry.rollout`), patient tracker
-(`vigil.tracking`), the robot's local alarm (`robot_agent.alarm`).
+(`backend.jobs.queue`), model version and rollout (`backend.registry.rollout`), retention run
+(`backend.storage.retention`), patient tracker (`vigil.tracking`), the robot's local alarm
+(`robot_agent.alarm`).
 """
 
 from __future__ import annotations

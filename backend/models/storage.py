@@ -2,6 +2,7 @@
 and Parquet archives of videos (one file per video, sha256 in the manifest)."""
 
 from datetime import datetime
+from enum import StrEnum
 
 from sqlalchemy import JSON, BigInteger, ForeignKey, String, Text
 from sqlalchemy.orm import Mapped, mapped_column
@@ -10,12 +11,18 @@ from backend.db import Base
 from backend.models._types import UTCDateTime, utcnow
 
 
+class RetentionRunStatus(StrEnum):
+    RUNNING = "running"
+    DONE = "done"
+    FAILED = "failed"
+
+
 class RetentionRun(Base):
     __tablename__ = "retention_runs"
 
     id: Mapped[int] = mapped_column(primary_key=True)
     dry_run: Mapped[bool] = mapped_column(default=False)
-    status: Mapped[str] = mapped_column(String(16), default="running")  # running, done, failed
+    status: Mapped[str] = mapped_column(String(16), default=RetentionRunStatus.RUNNING.value)
     job_id: Mapped[int | None] = mapped_column(ForeignKey("jobs.id", ondelete="SET NULL"))
     started_at: Mapped[datetime] = mapped_column(UTCDateTime, default=utcnow)
     finished_at: Mapped[datetime | None] = mapped_column(UTCDateTime)

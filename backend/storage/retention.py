@@ -24,15 +24,27 @@ from sqlalchemy.exc import OperationalError
 from sqlalchemy.orm import Session, sessionmaker
 
 from backend.db import transaction
-from backend.models.storage import RetentionRun
+from backend.models.storage import RetentionRun, RetentionRunStatus
 from backend.storage import partitions, queries
 from backend.storage.policy import PolicyFacts, RetentionPolicy, day_of
+from vigil.states import StateMachine
 
 log = logging.getLogger(__name__)
 
 Progress = Callable[[float, str], None]
 VACUUM_PAGES_PER_CHUNK = 512
 SWAP_ATTEMPTS = 5
+
+RETENTION_RUN = StateMachine(
+    RetentionRunStatus,
+    edges={
+        RetentionRunStatus.RUNNING: {RetentionRunStatus.DONE, RetentionRunStatus.FAILED},
+        RetentionRunStatus.DONE: set(),
+        RetentionRunStatus.FAILED: set(),
+    },
+    initial=RetentionRunStatus.RUNNING,
+    subject="retention run",
+)
 
 
 @dataclass
@@ -91,7 +103,7 @@ def run_retention(
         if partitioned:
             partitions.ensure_ahead(session.connection(), settings.partitions_ahead_days, now)
         record = RetentionRun(dry_run=dry_run, job_id=job_id, cutoff_ts=facts.cutoff,
-                              policy=policy.as_dict(), status="running")  # fmt: skip
+                              policy=policy.as_dict(), status=RETENTION_RUN.initial)  # fmt: skip
         session.add(record)
         session.flush()
         run_id = record.id
@@ -107,7 +119,8 @@ def run_retention(
     except BaseException as error:
         with transaction(factory) as session:
             record = session.get(RetentionRun, run_id)
-            record.status, record.finished_at = "failed", datetime.now(UTC)
+            RETENTION_RUN.move(record, RetentionRunStatus.FAILED)
+            record.finished_at = datetime.now(UTC)
             record.message = f"{type(error).__name__}: {error}"[:2000]
             _fill(record, tally)
         raise
@@ -121,7 +134,8 @@ def run_retention(
                     f"{tally.disk_bytes_freed / 1e6:.1f} MB freed on disk")  # fmt: skip
     with transaction(factory) as session:
         record = session.get(RetentionRun, run_id)
-        record.status, record.finished_at, record.message = "done", datetime.now(UTC), message
+        RETENTION_RUN.move(record, RetentionRunStatus.DONE)
+        record.finished_at, record.message = datetime.now(UTC), message
         _fill(record, tally)
     progress(1.0, message)
     return {"summary": message, "run_id": run_id, "dry_run": dry_run, "cutoff_ts": facts.cutoff,
