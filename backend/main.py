@@ -64,6 +64,19 @@ ROUTERS = (
 )
 
 
+class AppEffects:
+    """What a committed unit of work's effects reach: the alarm bus and the robots."""
+
+    def __init__(self, app: FastAPI) -> None:
+        self._app = app
+
+    async def publish_alarm(self, alarm: dict) -> None:
+        await self._app.state.bus.publish(alarm)
+
+    async def push_assignments(self, robot_ids: list[str]) -> None:
+        await model_push.push_to_robots(self._app, robot_ids)
+
+
 def create_app(settings: Settings | None = None) -> FastAPI:
     settings = settings or Settings()
 
@@ -83,10 +96,11 @@ def create_app(settings: Settings | None = None) -> FastAPI:
                       engine.url.render_as_string(hide_password=True), database)  # fmt: skip
         app.state.bus = bus = AlarmBus(app.state.hub, settings.redis_url, settings.redis_channel)
         await bus.start()
+        app.state.effects = effects = AppEffects(app)
         app.state.writer = writer = FrameWriter(
             factory,
             metrics,
-            bus.publish,
+            effects,
             flush_ms=settings.ingest_flush_ms,
             flush_frames=settings.ingest_flush_frames,
             unstored_alarm_ms=settings.unstored_alarm_ms,
@@ -103,7 +117,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         app.state.monitor = monitor = AlarmMonitor(
             factory,
             settings,
-            bus.publish,
+            effects,
             waiting_robots=writer.waiting_robots,
             viewers=app.state.hub.viewers,
         )

@@ -11,6 +11,7 @@ from backend.db import transaction
 from backend.deps import SESSION_COOKIE, CurrentUser, SessionDep
 from backend.models.users import Role, User
 from backend.security import create_access_token, needs_rehash
+from backend.unit_of_work import after_commit
 from vigil.protocol import CLOSE_UNAUTHORIZED
 
 router = APIRouter(prefix="/api/auth", tags=["auth"])
@@ -103,15 +104,13 @@ async def login(body: LoginIn, request: Request, response: Response) -> TokenOut
 
 
 @router.post("/logout", status_code=status.HTTP_204_NO_CONTENT)
-async def logout(
-    user: CurrentUser, session: SessionDep, request: Request, response: Response
-) -> None:
+def logout(user: CurrentUser, session: SessionDep, request: Request, response: Response) -> None:
     """End this session on the server: its token is refused from now on (other sessions of
     the user stay), and the browser sockets opened with it are closed (4401)."""
     claims = request.state.session_claims
     service.revoke_session(session, claims)
-    session.commit()  # before the sockets close: a reconnect must already be refused
-    await request.app.state.hub.close_session(claims.jti, CLOSE_UNAUTHORIZED, "signed out")
+    hub = request.app.state.hub  # once committed: a reconnect must already be refused
+    after_commit(session, lambda: hub.close_session(claims.jti, CLOSE_UNAUTHORIZED, "signed out"))
     response.delete_cookie(SESSION_COOKIE)
 
 

@@ -9,10 +9,8 @@ from typing import Annotated, Any
 
 from fastapi import APIRouter, Header, HTTPException, Query, Request, status
 from fastapi.responses import FileResponse
-from starlette.concurrency import run_in_threadpool
 
 from backend import wards
-from backend.db import transaction
 from backend.deps import MAX_DB_INT, CurrentUser, SessionDep, SettingsDep
 from backend.models.registry import Deployment, ModelVersion
 from backend.models.robots import Robot
@@ -20,7 +18,6 @@ from backend.models.users import User
 from backend.registry import queries, rollout
 from backend.registry.capability import fallback_for
 from backend.registry.gate import gate_report
-from backend.registry.push import push_to_robots
 from backend.registry.schemas import (
     Comparison,
     DeploymentOut,
@@ -32,6 +29,7 @@ from backend.registry.schemas import (
     ShadowIn,
 )
 from backend.security import robot_token_matches
+from backend.unit_of_work import push_assignments
 from vigil.model_file import MANIFEST_NAME
 
 router = APIRouter(prefix="/api", tags=["registry"])
@@ -51,22 +49,17 @@ def _deployment(session, deployment_id: int) -> Deployment:
     return deployment
 
 
-async def _change(request: Request, change: Callable[[Any], tuple[Any, list[str]]]):
-    """Run a rollout change in its own transaction; once committed, notify the robots."""
-
-    def _run():
-        with transaction(request.app.state.session_factory) as session:
-            try:
-                result, robots = change(session)
-            except rollout.RolloutError as error:
-                raise HTTPException(status.HTTP_409_CONFLICT, str(error)) from None
-            except ValueError as error:
-                raise HTTPException(status.HTTP_422_UNPROCESSABLE_CONTENT, str(error)) from None
-            session.flush()
-            return result, robots
-
-    result, robots = await run_in_threadpool(_run)
-    await push_to_robots(request.app, robots)
+def _change(session: SessionDep, change: Callable[[Any], tuple[Any, list[str]]]):
+    """Run a rollout change in the request's unit of work; once it is committed, the robots
+    it names get their assignments."""
+    try:
+        result, robots = change(session)
+    except rollout.RolloutError as error:
+        raise HTTPException(status.HTTP_409_CONFLICT, str(error)) from None
+    except ValueError as error:
+        raise HTTPException(status.HTTP_422_UNPROCESSABLE_CONTENT, str(error)) from None
+    session.flush()
+    push_assignments(session, robots)
     return result
 
 
@@ -114,8 +107,8 @@ def _report(model: ModelVersion, request: Request) -> dict:
 
 
 @router.post("/models/{model_id}/promote", status_code=status.HTTP_201_CREATED)
-async def promote(
-    model_id: int, body: PromoteIn, request: Request, user: CurrentUser
+def promote(
+    model_id: int, body: PromoteIn, request: Request, user: CurrentUser, session: SessionDep
 ) -> DeploymentOut:
     """Engineer sign-off: passes the gate, then rolls out (canary first for several robots)."""
     user_id = user.id
@@ -130,12 +123,12 @@ async def promote(
         )  # fmt: skip
         return queries.deployment_out(session, deployment), robots
 
-    return await _change(request, change)
+    return _change(session, change)
 
 
 @router.post("/models/{model_id}/shadow", status_code=status.HTTP_201_CREATED)
-async def start_shadow(
-    model_id: int, body: ShadowIn, request: Request, user: CurrentUser
+def start_shadow(
+    model_id: int, body: ShadowIn, request: Request, user: CurrentUser, session: SessionDep
 ) -> DeploymentOut:
     """Run a candidate beside production on robots: decisions stored, never alarmed."""
     user_id = user.id
@@ -148,7 +141,7 @@ async def start_shadow(
         )  # fmt: skip
         return queries.deployment_out(session, deployment), robots
 
-    return await _change(request, change)
+    return _change(session, change)
 
 
 @router.get("/deployments")
@@ -157,8 +150,8 @@ def list_deployments(session: SessionDep, user: CurrentUser) -> list[DeploymentO
 
 
 @router.post("/deployments/{deployment_id}/approve")
-async def approve_deployment(
-    deployment_id: int, request: Request, user: CurrentUser
+def approve_deployment(
+    deployment_id: int, request: Request, user: CurrentUser, session: SessionDep
 ) -> DeploymentOut:
     user_id = user.id
 
@@ -167,12 +160,12 @@ async def approve_deployment(
         robots = rollout.approve(session, deployment, session.get(User, user_id))
         return queries.deployment_out(session, deployment), robots
 
-    return await _change(request, change)
+    return _change(session, change)
 
 
 @router.post("/deployments/{deployment_id}/advance")
-async def advance_deployment(
-    deployment_id: int, request: Request, user: CurrentUser
+def advance_deployment(
+    deployment_id: int, request: Request, user: CurrentUser, session: SessionDep
 ) -> DeploymentOut:
     """Canary is healthy: roll out to the remaining robots of the scope."""
 
@@ -181,12 +174,12 @@ async def advance_deployment(
         robots = rollout.advance(session, deployment)
         return queries.deployment_out(session, deployment), robots
 
-    return await _change(request, change)
+    return _change(session, change)
 
 
 @router.post("/deployments/{deployment_id}/rollback")
-async def rollback_deployment(
-    deployment_id: int, body: RollbackIn, request: Request, user: CurrentUser
+def rollback_deployment(
+    deployment_id: int, body: RollbackIn, request: Request, user: CurrentUser, session: SessionDep
 ) -> DeploymentOut:
     """One click: every robot of the deployment gets back the model it had before."""
     username = user.username
@@ -196,7 +189,7 @@ async def rollback_deployment(
         robots = rollout.rollback(session, deployment, f"{body.reason} ({username})")
         return queries.deployment_out(session, deployment), robots
 
-    return await _change(request, change)
+    return _change(session, change)
 
 
 @router.get("/fleet")

@@ -8,6 +8,7 @@ from backend.deps import CurrentUser, SessionDep
 from backend.models._types import utcnow
 from backend.models.robots import Robot
 from backend.security import hash_robot_token, new_robot_token
+from backend.unit_of_work import after_commit
 from vigil.classes import TransportMode
 from vigil.inputs import InputName
 from vigil.protocol import CLOSE_UNAUTHORIZED
@@ -108,16 +109,22 @@ def get_robot(robot_id: str, session: SessionDep, user: CurrentUser, request: Re
     return _robot_out(request, robot)
 
 
-async def _close_live_connection(request: Request, robot_id: str, reason: str) -> None:
-    """Close the robot's live connection to this replica (4401): it authenticated with a token
-    that is no longer valid, and must connect again with the current one."""
-    connection = request.app.state.robots.socket(robot_id)
-    if connection is not None:
-        await connection.close(CLOSE_UNAUTHORIZED, reason)
+def _close_live_connection(session: SessionDep, request: Request, robot_id: str, reason: str):
+    """Once committed (a reconnect must already be refused), close the robot's live connection
+    to this replica (4401): it authenticated with a token that is no longer valid, and must
+    connect again with the current one."""
+    registry = request.app.state.robots
+
+    async def close() -> None:
+        connection = registry.socket(robot_id)
+        if connection is not None:
+            await connection.close(CLOSE_UNAUTHORIZED, reason)
+
+    after_commit(session, close)
 
 
 @router.post("/robots/{robot_id}/token")
-async def rotate_token(
+def rotate_token(
     robot_id: str, session: SessionDep, user: CurrentUser, request: Request
 ) -> RobotTokenOut:
     """A new token (shown once); the old one stops working and the robot's live connection to
@@ -126,19 +133,15 @@ async def rotate_token(
     token = new_robot_token()
     robot.token_hash = hash_robot_token(token)
     robot.token_created_at = utcnow()
-    session.commit()
-    await _close_live_connection(request, robot_id, "robot token rotated")
+    _close_live_connection(session, request, robot_id, "robot token rotated")
     return RobotTokenOut(robot_id=robot_id, token=token)
 
 
 @router.delete("/robots/{robot_id}/token", status_code=status.HTTP_204_NO_CONTENT)
-async def revoke_token(
-    robot_id: str, session: SessionDep, user: CurrentUser, request: Request
-) -> None:
+def revoke_token(robot_id: str, session: SessionDep, user: CurrentUser, request: Request) -> None:
     """Revoke the robot's token and close its live connection to this replica."""
     _robot(session, robot_id).token_hash = None
-    session.commit()
-    await _close_live_connection(request, robot_id, "robot token revoked")
+    _close_live_connection(session, request, robot_id, "robot token revoked")
 
 
 @router.get("/transports")

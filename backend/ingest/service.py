@@ -385,7 +385,7 @@ def store_frames(
             )
             alarm = alarms.get((key, kind)) or context.open_alarms.get((robot.id, key or "", kind))
             if alarm is not None and alarm.state != AlarmState.RESOLVED:
-                fold_evidence(alarm, evidence, now)
+                fold_evidence(session, alarm, evidence, now)
             else:
                 # Pending row updates cannot change which alarm is unresolved: no autoflush.
                 with session.no_autoflush:

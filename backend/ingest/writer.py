@@ -2,7 +2,8 @@
 them together, every `ingest_flush_ms` or as soon as `ingest_flush_frames` are waiting.
 
 Only after the commit are the robots acknowledged (their highest committed sequence number)
-and the alarms their decisions raised pushed. If a shared transaction fails, each robot's work
+and the alarms their decisions raised pushed (the effects the alarm service registered on the
+flush's unit of work, `backend.unit_of_work`). If a shared transaction fails, each robot's work
 is retried in its own transaction so one misbehaving robot cannot hold back the others.
 
 While a commit is blocked (storage stalled) a watch task fails open (`backend.ingest.failopen`):
@@ -16,19 +17,17 @@ import asyncio
 import contextlib
 import logging
 import time
-from collections.abc import Awaitable, Callable
 from dataclasses import dataclass, field
 from typing import Protocol
 
 from sqlalchemy.exc import DataError
 from sqlalchemy.orm import Session, sessionmaker
 
-from backend.alarms.schemas import AlarmOut
-from backend.db import transaction
 from backend.ingest import service
 from backend.ingest.failopen import FailOpen
 from backend.ingest.received import ReceivedFrame, ReceivedFrames
 from backend.metrics import Metrics
+from backend.unit_of_work import Effects, UnitOfWork, unit_of_work
 from vigil import protocol
 from vigil.protocol import DetectionStatus, Heartbeat, TransportEnd, TransportStart
 
@@ -72,7 +71,7 @@ class Job:
 class Outcome:
     acks: dict[int, int] = field(default_factory=dict)  # id(link) -> highest committed seq
     stored: int = 0
-    alarms: list[dict] = field(default_factory=list)
+    units: list[UnitOfWork] = field(default_factory=list)  # committed: their effects to run
     rejected: dict[int, RejectedMessage] = field(default_factory=dict)  # id(job) -> error
 
 
@@ -81,7 +80,7 @@ class FrameWriter:
         self,
         session_factory: sessionmaker[Session],
         metrics: Metrics,
-        publish_alarm: Callable[[dict], Awaitable[None]],
+        effects: Effects,
         flush_ms: float = 50,
         flush_frames: int = 500,
         max_pending_frames: int = 20_000,
@@ -90,7 +89,7 @@ class FrameWriter:
     ) -> None:
         self._session_factory = session_factory
         self._metrics = metrics
-        self._publish_alarm = publish_alarm
+        self._effects = effects  # where alarms go: committed ones and those failing open
         self._flush_s = flush_ms / 1000
         self._flush_frames = flush_frames
         self._pending: list[Job] = []
@@ -170,7 +169,7 @@ class FrameWriter:
                 waiting = {job.link.robot_id: getattr(job.link, "ward", None)
                            for job in (*self._inflight, *self._pending)}  # fmt: skip
                 for alarm in self.fail_open.due(time.perf_counter(), waiting):
-                    await self._publish_alarm(alarm)
+                    await self._effects.publish_alarm(alarm)
             except Exception:  # never let the watch die
                 log.exception("storage watch failed")
 
@@ -210,8 +209,8 @@ class FrameWriter:
         self._metrics.flush_frames.observe(outcome.stored)
         # Committed: now tell the nurses (the stored alarms replace any pushed unstored), then
         # the robots.
-        for alarm in outcome.alarms:
-            await self._publish_alarm(alarm)
+        for unit in outcome.units:
+            await unit.run_after_commit(self._effects)
         self._metrics.frames_ingested.inc(outcome.stored)
         acked: dict[int, RobotLink] = {}
         now = time.perf_counter()
@@ -227,15 +226,18 @@ class FrameWriter:
             await link.send_ack(outcome.acks[key])
         if cleared:  # storage recovered: keep the outage in the audit trail, clear the cards
             try:
-                cleared = await asyncio.to_thread(self._record_stall, cleared, blocked)
+                unit = await asyncio.to_thread(self._record_stall, cleared, blocked)
             except Exception:
                 log.exception("storage_stalled alarms not stored; pushed as resolved only")
-            for alarm in cleared:
-                await self._publish_alarm(alarm)
+                for alarm in cleared:
+                    await self._effects.publish_alarm(alarm)
+            else:
+                await unit.run_after_commit(self._effects)
 
-    def _record_stall(self, cleared: list[dict], blocked_s: float) -> list[dict]:
-        with transaction(self._session_factory) as session:
-            return self.fail_open.record(session, cleared, blocked_s)
+    def _record_stall(self, cleared: list[dict], blocked_s: float) -> UnitOfWork:
+        with unit_of_work(self._session_factory) as unit:
+            self.fail_open.record(unit.session, cleared, blocked_s)
+        return unit
 
     # -- in a worker thread ----------------------------------------------------------------
     def _cached_context(self) -> service.IngestContext:
@@ -250,8 +252,9 @@ class FrameWriter:
     def _commit(self, jobs: list[Job]) -> Outcome:
         try:
             context = self._cached_context()
-            with transaction(self._session_factory) as session:
-                outcome = self._apply(session, jobs, context)
+            with unit_of_work(self._session_factory) as unit:
+                outcome = self._apply(unit.session, jobs, context)
+            outcome.units.append(unit)
             self._cache = context.detach()
             return outcome
         except RejectedMessage:
@@ -265,8 +268,8 @@ class FrameWriter:
             by_link.setdefault(id(job.link), []).append(job)
         for link_jobs in by_link.values():
             try:
-                with transaction(self._session_factory) as session:
-                    single = self._apply(session, link_jobs, service.IngestContext())
+                with unit_of_work(self._session_factory) as unit:
+                    single = self._apply(unit.session, link_jobs, service.IngestContext())
             except RejectedMessage as error:
                 for job in link_jobs:
                     outcome.rejected[id(job)] = error
@@ -286,7 +289,7 @@ class FrameWriter:
                 continue
             outcome.acks.update(single.acks)
             outcome.stored += single.stored
-            outcome.alarms.extend(single.alarms)
+            outcome.units.append(unit)
         return outcome
 
     def _apply(self, session: Session, jobs: list[Job], context: service.IngestContext) -> Outcome:
@@ -305,7 +308,6 @@ class FrameWriter:
                 if isinstance(job.message, DetectionStatus) and job.message.transport_id:
                     streams.add((robot_id, job.message.transport_id))
         context.preload(session, streams, alarming)
-        touched = {}
         # Consecutive frame batches of one connection become one store_frames call.
         run: list[ReceivedFrame] = []
         run_link: RobotLink | None = None
@@ -322,8 +324,6 @@ class FrameWriter:
             if result.highest_seq is not None:
                 key = id(run_link)
                 outcome.acks[key] = max(outcome.acks.get(key, -1), result.highest_seq)
-            for alarm in result.alarms:
-                touched[alarm.id] = alarm
             run, run_link = [], None
 
         for job in sorted(jobs, key=lambda j: id(j.link)):  # stable: keeps each robot's order
@@ -359,8 +359,6 @@ class FrameWriter:
                     changed = service.apply_detection_status(session, robot, message, context)
                 except ValueError as error:
                     raise _refused(error) from None
-                for alarm in changed:
-                    touched[alarm.id] = alarm
                 if changed:
                     log.warning("robot %s: detection %s: %s", robot.id,
                                 "degraded" if message.degraded else "recovered",
@@ -369,10 +367,7 @@ class FrameWriter:
         outcome.stored = context.flush_rows(session)
         context.write_back(session)
         session.flush()
-        outcome.alarms = [
-            AlarmOut.model_validate(a).model_dump(mode="json") for a in touched.values()
-        ]
-        return outcome
+        return outcome  # the alarms changed are pushed after the commit (alarms.service)
 
     @staticmethod
     def _robot(context: service.IngestContext, robot_id: str):
