@@ -20,14 +20,14 @@ SESSION_COOKIE = "vigil_session"
 
 
 def get_settings(request: Request) -> Settings:
-    return request.app.state.settings
+    return request.app.state.services.settings
 
 
 async def get_unit(request: Request) -> AsyncIterator[UnitOfWork]:
     """The request's unit of work: committed when the endpoint returns without error, then its
     after-commit effects run (alarms pushed, assignments sent, sockets closed)."""
-    state = request.app.state
-    async with unit_of_work.in_event_loop(state.session_factory, state.effects) as unit:
+    services = request.app.state.services  # backend.services.Services
+    async with unit_of_work.in_event_loop(services.session_factory, services.effects) as unit:
         yield unit
 
 

@@ -4,7 +4,6 @@ RGB frames and the model lane. Thin: the work is in backend.labelling."""
 from __future__ import annotations
 
 import json
-from contextlib import asynccontextmanager
 from typing import Annotated, Literal
 from urllib.parse import quote
 
@@ -19,7 +18,7 @@ from backend.deps import MAX_DB_INT, CurrentUser, DbId, SessionDep
 from backend.labelling import exchange, export, segments
 from backend.labelling.agreement import agreement
 from backend.labelling.errors import Forbidden, LabellingError, NotFound
-from backend.labelling.probability import SUGGESTED_LABEL, LaneComputer
+from backend.labelling.probability import SUGGESTED_LABEL
 from backend.labelling.queries import (
     agreement_annotators,
     agreement_spans,
@@ -31,7 +30,7 @@ from backend.labelling.queries import (
     videos_matching,
 )
 from backend.labelling.review import review_queue
-from backend.labelling.rgb import FrameCache, JpegCache, blur_head, crop, encode_jpeg
+from backend.labelling.rgb import blur_head, crop, encode_jpeg
 from backend.labelling.schemas import (
     AgreementOut,
     AnnotatorsOut,
@@ -55,11 +54,10 @@ from backend.labelling.schemas import (
 )
 from backend.labelling.status import IN_REVIEW
 from backend.labelling.taxonomy import load_taxonomy
-from backend.labelling.viewer3d import Viewer3D
 from backend.models.annotations import AnnotationSegment, SegmentSource, SegmentStatus
 from backend.models.users import Role
 from backend.models.videos import Frame, Split, Video
-from backend.settings import Settings
+from backend.services import ServicesDep
 from vigil.classes import Decision, TransportMode
 from vigil.skeleton import decode_keypoints
 
@@ -70,22 +68,9 @@ ExportFormat = Literal["csv", "json", "coco"]
 EXPORT_SUFFIX: dict[str, str] = {"csv": "csv", "json": "json", "coco": "coco.json"}
 
 
-def install(app: FastAPI, settings: Settings) -> None:
-    """Start-up wiring: frame cache, model lane, and 4xx for labelling errors."""
-    app.state.rgb_frames = FrameCache(settings.rgb_cache_frames)
-    app.state.rgb_jpegs = JpegCache()
-    app.state.model_lane = LaneComputer(settings.labelling_model_dir)
-    app.state.viewer3d = viewer = Viewer3D(settings.viser_host, settings.viser_port)
-    startup_shutdown = app.router.lifespan_context
-
-    @asynccontextmanager
-    async def lifespan(app_: FastAPI):
-        async with startup_shutdown(app_) as state:
-            yield state
-        viewer.stop()
-        app_.state.rgb_frames.close()
-
-    app.router.lifespan_context = lifespan
+def install(app: FastAPI) -> None:
+    """Start-up wiring: the routes, and 4xx for labelling errors (the frame cache, model lane
+    and 3D viewer are services: backend.services.Labelling)."""
 
     @app.exception_handler(LabellingError)
     def labelling_error(request: Request, error: LabellingError) -> JSONResponse:
@@ -459,7 +444,7 @@ def vars_(obj) -> dict:
 def rgb_frame(
     video_id: DbId,
     frame: Annotated[int, FastPath(ge=0, le=MAX_DB_INT)],
-    request: Request,
+    services: ServicesDep,
     session: SessionDep,
     user: CurrentUser,
     blur: bool = Query(default=True, description="blur the head; only annotators may turn off"),
@@ -474,11 +459,11 @@ def rgb_frame(
     if not blur and user.role != Role.ANNOTATOR:
         raise Forbidden("blur: only annotators may see unblurred faces")
     headers = {"Cache-Control": "private, max-age=3600"}
-    cached = request.app.state.rgb_jpegs.get((video.id, frame, blur))
+    cached = services.labelling.rgb_jpegs.get((video.id, frame, blur))
     if cached is not None:
         return Response(cached, media_type="image/jpeg", headers=headers)
     number = max(frame + video.rgb_frame_offset, 0)
-    picture = crop(request.app.state.rgb_frames.get(video.rgb_path, number), video.rgb_crop)
+    picture = crop(services.labelling.rgb_frames.get(video.rgb_path, number), video.rgb_crop)
     if blur:
         blob = session.scalar(
             select(Frame.keypoints).where(Frame.video_id == video.id, Frame.index == frame)
@@ -491,16 +476,16 @@ def rgb_frame(
         )
         picture = blur_head(picture, keypoints, scale)
     data = encode_jpeg(picture)
-    request.app.state.rgb_jpegs.put((video.id, frame, blur), data)
+    services.labelling.rgb_jpegs.put((video.id, frame, blur), data)
     return Response(data, media_type="image/jpeg", headers=headers)
 
 
 @router.get("/videos/{video_id}/probability")
 def probability_lane(
-    video_id: DbId, request: Request, session: SessionDep, user: CurrentUser
+    video_id: DbId, services: ServicesDep, session: SessionDep, user: CurrentUser
 ) -> ProbabilityOut:
     video = segments.get_video(session, video_id)
-    lane = request.app.state.model_lane.lane(session, video)
+    lane = services.labelling.model_lane.lane(session, video)
     return ProbabilityOut(
         video_id=video.id,
         source=lane.source,
@@ -518,7 +503,7 @@ def probability_lane(
 @router.post("/videos/{video_id}/view3d")
 def view_3d(
     video_id: DbId,
-    request: Request,
+    services: ServicesDep,
     session: SessionDep,
     user: CurrentUser,
     frame: int = Query(
@@ -530,7 +515,7 @@ def view_3d(
     if frame >= video.frame_count:
         raise LabellingError(f"frame: {frame} is outside 0..{video.frame_count - 1}")
     indices, keypoints, depth, _ = video_frames(session, video)
-    result = request.app.state.viewer3d.show(
+    result = services.labelling.viewer3d.show(
         video.name, indices, keypoints, depth, video.intrinsics, frame
     )
     return View3DOut(

@@ -7,7 +7,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Annotated, Any
 
-from fastapi import APIRouter, Header, HTTPException, Query, Request, status
+from fastapi import APIRouter, Header, HTTPException, Query, status
 from fastapi.responses import FileResponse
 
 from backend import wards
@@ -29,6 +29,8 @@ from backend.registry.schemas import (
     ShadowIn,
 )
 from backend.security import robot_token_matches
+from backend.services import ServicesDep
+from backend.settings import Settings
 from backend.unit_of_work import push_assignments
 from vigil.model_file import MANIFEST_NAME
 
@@ -101,14 +103,13 @@ def get_gate(model_id: int, session: SessionDep, settings: SettingsDep, user: Cu
     return gate_report(model, settings.gate_false_alarm_budget, settings.gate_latency_ms)
 
 
-def _report(model: ModelVersion, request: Request) -> dict:
-    settings = request.app.state.settings
+def _report(model: ModelVersion, settings: Settings) -> dict:
     return gate_report(model, settings.gate_false_alarm_budget, settings.gate_latency_ms)
 
 
 @router.post("/models/{model_id}/promote", status_code=status.HTTP_201_CREATED)
 def promote(
-    model_id: int, body: PromoteIn, request: Request, user: CurrentUser, session: SessionDep
+    model_id: int, body: PromoteIn, settings: SettingsDep, user: CurrentUser, session: SessionDep
 ) -> DeploymentOut:
     """Engineer sign-off: passes the gate, then rolls out (canary first for several robots)."""
     user_id = user.id
@@ -116,9 +117,9 @@ def promote(
     def change(session):
         model, signer = _model(session, model_id), session.get(User, user_id)
         deployment, robots = rollout.promote(
-            session, model, signer, body.scope, body.target, _report(model, request),
+            session, model, signer, body.scope, body.target, _report(model, settings),
             canary_robot_id=body.canary_robot_id, comment=body.comment,
-            require_second_approver=request.app.state.settings.require_second_approver,
+            require_second_approver=settings.require_second_approver,
             only_capable=body.only_capable,
         )  # fmt: skip
         return queries.deployment_out(session, deployment), robots
@@ -128,7 +129,7 @@ def promote(
 
 @router.post("/models/{model_id}/shadow", status_code=status.HTTP_201_CREATED)
 def start_shadow(
-    model_id: int, body: ShadowIn, request: Request, user: CurrentUser, session: SessionDep
+    model_id: int, body: ShadowIn, settings: SettingsDep, user: CurrentUser, session: SessionDep
 ) -> DeploymentOut:
     """Run a candidate beside production on robots: decisions stored, never alarmed."""
     user_id = user.id
@@ -136,7 +137,7 @@ def start_shadow(
     def change(session):
         model, signer = _model(session, model_id), session.get(User, user_id)
         deployment, robots = rollout.promote(
-            session, model, signer, body.scope, body.target, _report(model, request),
+            session, model, signer, body.scope, body.target, _report(model, settings),
             comment=body.comment, shadow=True, only_capable=body.only_capable,
         )  # fmt: skip
         return queries.deployment_out(session, deployment), robots
@@ -151,7 +152,7 @@ def list_deployments(session: SessionDep, user: CurrentUser) -> list[DeploymentO
 
 @router.post("/deployments/{deployment_id}/approve")
 def approve_deployment(
-    deployment_id: int, request: Request, user: CurrentUser, session: SessionDep
+    deployment_id: int, settings: SettingsDep, user: CurrentUser, session: SessionDep
 ) -> DeploymentOut:
     user_id = user.id
 
@@ -165,7 +166,7 @@ def approve_deployment(
 
 @router.post("/deployments/{deployment_id}/advance")
 def advance_deployment(
-    deployment_id: int, request: Request, user: CurrentUser, session: SessionDep
+    deployment_id: int, settings: SettingsDep, user: CurrentUser, session: SessionDep
 ) -> DeploymentOut:
     """Canary is healthy: roll out to the remaining robots of the scope."""
 
@@ -179,7 +180,11 @@ def advance_deployment(
 
 @router.post("/deployments/{deployment_id}/rollback")
 def rollback_deployment(
-    deployment_id: int, body: RollbackIn, request: Request, user: CurrentUser, session: SessionDep
+    deployment_id: int,
+    body: RollbackIn,
+    settings: SettingsDep,
+    user: CurrentUser,
+    session: SessionDep,
 ) -> DeploymentOut:
     """One click: every robot of the deployment gets back the model it had before."""
     username = user.username
@@ -196,7 +201,7 @@ def rollback_deployment(
 def fleet(
     session: SessionDep,
     user: CurrentUser,
-    request: Request,
+    services: ServicesDep,
     model_id: Annotated[
         int | None,
         Query(ge=1, le=MAX_DB_INT, description="also say whether each robot can feed this model"),
@@ -204,7 +209,7 @@ def fleet(
 ) -> list[FleetRobot]:
     """Target vs running version per robot, what it feeds, its fallback; with model_id, which
     robots qualify for that model (a promotion to the others is refused)."""
-    registry = request.app.state.robots
+    registry = services.robots
     connected = {r.id for r in session.query(Robot.id) if registry.socket(r.id) is not None}
     model = _model(session, model_id) if model_id is not None else None
     return queries.fleet(session, connected, model, scope=wards.robots_visible(user))

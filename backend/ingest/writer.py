@@ -46,8 +46,8 @@ class RejectedMessage(Exception):
         self.reason = reason
 
 
-class RobotLink(Protocol):
-    """What the writer needs of a robot connection."""
+class Acknowledged(Protocol):
+    """What the writer needs of a robot's link (backend.ingest.link.RobotLink)."""
 
     robot_id: str
 
@@ -58,7 +58,7 @@ class RobotLink(Protocol):
 
 @dataclass(slots=True)
 class Job:
-    link: RobotLink
+    link: Acknowledged
     message: RobotWork
     received: float  # time.perf_counter() when the message arrived
 
@@ -107,7 +107,7 @@ class FrameWriter:
         self._watch: asyncio.Task | None = None
 
     # -- called by robot connections -------------------------------------------------------
-    async def submit(self, link: RobotLink, message: RobotWork, received: float) -> Job:
+    async def submit(self, link: Acknowledged, message: RobotWork, received: float) -> Job:
         """Queue a message for the next commit; waits only when the writer is far behind."""
         job = Job(link, message, received)
         # Before any wait: an Emergency must reach the board even if the writer is stuck.
@@ -212,7 +212,7 @@ class FrameWriter:
         for unit in outcome.units:
             await unit.run_after_commit(self._effects)
         self._metrics.frames_ingested.inc(outcome.stored)
-        acked: dict[int, RobotLink] = {}
+        acked: dict[int, Acknowledged] = {}
         now = time.perf_counter()
         for job in jobs:
             error = outcome.rejected.get(id(job))
@@ -310,7 +310,7 @@ class FrameWriter:
         context.preload(session, streams, alarming)
         # Consecutive frame batches of one connection become one store_frames call.
         run: list[ReceivedFrame] = []
-        run_link: RobotLink | None = None
+        run_link: Acknowledged | None = None
 
         def store_run() -> None:
             nonlocal run, run_link
