@@ -12,12 +12,12 @@ from fastapi import FastAPI, HTTPException, Request, Response, status
 from fastapi.responses import FileResponse, JSONResponse
 from fastapi.staticfiles import StaticFiles
 from prometheus_client import CONTENT_TYPE_LATEST, generate_latest
-from sqlalchemy import func, select
 from sqlalchemy.exc import DataError
 
 from backend import health
 from backend.accounts.gate import HashingGate
 from backend.accounts.throttle import LoginThrottle, Policy
+from backend.alarms import queries as alarm_queries
 from backend.alarms.monitor import AlarmMonitor
 from backend.api import (
     alarm_review,
@@ -41,7 +41,7 @@ from backend.ingest import robot_ws
 from backend.ingest.registry import RobotRegistry
 from backend.ingest.writer import FrameWriter
 from backend.metrics import Metrics
-from backend.models.alarms import Alarm, AlarmKind, AlarmState
+from backend.models.alarms import AlarmKind
 from backend.realtime import browser_ws
 from backend.realtime.bus import AlarmBus
 from backend.realtime.hub import BrowserHub
@@ -104,13 +104,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     def prometheus_metrics(user: CurrentUser, services: ServicesDep) -> Response:
         metrics = services.metrics
         with services.session_factory() as session:
-            counts = dict(
-                session.execute(
-                    select(Alarm.kind, func.count())
-                    .where(Alarm.state != AlarmState.RESOLVED)
-                    .group_by(Alarm.kind)
-                ).all()
-            )
+            counts = alarm_queries.unresolved_counts(session)
         for kind in AlarmKind:
             metrics.open_alarms.labels(kind.value).set(counts.get(kind, 0))
         return Response(generate_latest(metrics.registry), media_type=CONTENT_TYPE_LATEST)

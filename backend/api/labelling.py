@@ -10,7 +10,6 @@ from urllib.parse import quote
 from fastapi import APIRouter, FastAPI, Query, Request, Response, UploadFile, status
 from fastapi import Path as FastPath
 from fastapi.responses import JSONResponse
-from sqlalchemy import select
 
 from backend import wards
 from backend.alarm_review.feedback import placeholder_name
@@ -22,10 +21,13 @@ from backend.labelling.probability import SUGGESTED_LABEL
 from backend.labelling.queries import (
     agreement_annotators,
     agreement_spans,
+    facet_values,
+    frame_keypoints,
     progress_by_video,
     user_by_name,
     usernames,
     video_frames,
+    video_modes,
     video_segments,
     videos_matching,
 )
@@ -56,7 +58,7 @@ from backend.labelling.status import IN_REVIEW
 from backend.labelling.taxonomy import load_taxonomy
 from backend.models.annotations import AnnotationSegment, SegmentSource, SegmentStatus
 from backend.models.users import Role
-from backend.models.videos import Frame, Split, Video
+from backend.models.videos import Split, Video
 from backend.services import ServicesDep
 from vigil.classes import Decision, TransportMode
 from vigil.skeleton import decode_keypoints
@@ -141,7 +143,7 @@ def list_videos(
 @router.get("/facets")
 def facets(session: SessionDep, user: CurrentUser) -> Facets:
     def values(column) -> list[str]:
-        return sorted(v for v in session.scalars(select(column).distinct()) if v)
+        return facet_values(session, column)
 
     return Facets(
         persons=values(Video.person),
@@ -176,11 +178,7 @@ def patch_video(
 def _segment_outs(session, items: list[AnnotationSegment]) -> list[SegmentOut]:
     taxonomy = load_taxonomy(session)
     names = usernames(session, [s.annotator_id for s in items] + [s.reviewer_id for s in items])
-    modes = dict(
-        session.execute(
-            select(Video.id, Video.mode).where(Video.id.in_({s.video_id for s in items}))
-        ).all()
-    )
+    modes = video_modes(session, {s.video_id for s in items})
     out = []
     for s in items:
         label = taxonomy.labels.get(s.label_key)
@@ -465,9 +463,7 @@ def rgb_frame(
     number = max(frame + video.rgb_frame_offset, 0)
     picture = crop(services.labelling.rgb_frames.get(video.rgb_path, number), video.rgb_crop)
     if blur:
-        blob = session.scalar(
-            select(Frame.keypoints).where(Frame.video_id == video.id, Frame.index == frame)
-        )
+        blob = frame_keypoints(session, video.id, frame)
         keypoints = decode_keypoints(blob) if blob is not None else None
         height, width = picture.shape[:2]
         scale = (

@@ -3,11 +3,10 @@ from typing import Literal
 from fastapi import APIRouter, HTTPException, Query, status
 from fastapi.responses import JSONResponse
 from pydantic import BaseModel, ConfigDict, Field
-from sqlalchemy import func, select
 
 from backend import health as health_checks
 from backend.deps import MAX_DB_INT, CurrentUser, SessionDep
-from backend.models.taxonomy import TaxonomyLabel
+from backend.labelling.queries import taxonomy_labels
 from backend.services import Services, ServicesDep
 from vigil.classes import Decision
 
@@ -87,13 +86,7 @@ def taxonomy(
     user: CurrentUser,
     version: int | None = Query(default=None, ge=1, le=MAX_DB_INT),
 ) -> TaxonomyOut:
-    if version is None:
-        version = session.scalar(select(func.max(TaxonomyLabel.version)))
-    labels = session.scalars(
-        select(TaxonomyLabel)
-        .where(TaxonomyLabel.version == version)
-        .order_by(TaxonomyLabel.position)
-    ).all()
+    version, labels = taxonomy_labels(session, version)
     if not labels:
         raise HTTPException(status.HTTP_404_NOT_FOUND, f"taxonomy version {version} not found")
     return TaxonomyOut(version=version, labels=[TaxonomyLabelOut.model_validate(x) for x in labels])

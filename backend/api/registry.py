@@ -210,7 +210,7 @@ def fleet(
     """Target vs running version per robot, what it feeds, its fallback; with model_id, which
     robots qualify for that model (a promotion to the others is refused)."""
     registry = services.robots
-    connected = {r.id for r in session.query(Robot.id) if registry.socket(r.id) is not None}
+    connected = {r for r in queries.robot_ids(session) if registry.socket(r) is not None}
     model = _model(session, model_id) if model_id is not None else None
     return queries.fleet(session, connected, model, scope=wards.robots_visible(user))
 
