@@ -8,7 +8,7 @@ import ast
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[2]
-ROUTERS = sorted((ROOT / "backend" / "api").glob("*.py")) + [ROOT / "backend" / "main.py"]
+ROUTERS = sorted((ROOT / "backend" / "api").rglob("*.py")) + [ROOT / "backend" / "main.py"]
 SQL_CALLS = {"select", "insert", "update", "delete", "text", "query", "execute", "scalar",
              "scalars"}  # fmt: skip
 
