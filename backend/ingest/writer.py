@@ -24,6 +24,7 @@ from sqlalchemy.exc import DataError
 from sqlalchemy.orm import Session, sessionmaker
 
 from backend.ingest import service
+from backend.ingest.context import IngestContext
 from backend.ingest.failopen import FailOpen
 from backend.ingest.received import ReceivedFrame, ReceivedFrames
 from backend.metrics import Metrics
@@ -100,7 +101,7 @@ class FrameWriter:
         self._room.set()
         self._max_pending_frames = max_pending_frames
         self._task: asyncio.Task | None = None
-        self._cache: service.IngestContext | None = None
+        self._cache: IngestContext | None = None
         self._cache_born = 0.0
         self.fail_open = FailOpen(unstored_alarm_ms / 1000, storage_stall_s)
         self._inflight: list[Job] = []
@@ -240,13 +241,13 @@ class FrameWriter:
         return unit
 
     # -- in a worker thread ----------------------------------------------------------------
-    def _cached_context(self) -> service.IngestContext:
+    def _cached_context(self) -> IngestContext:
         """Robot, transport and video rows are kept between flushes (this writer is what
         changes them), dropped every CACHE_SECONDS to see changes made elsewhere (another
         replica, a revoked token) and after any failed flush."""
         now = time.monotonic()
         if self._cache is None or now - self._cache_born > CACHE_SECONDS:
-            self._cache, self._cache_born = service.IngestContext(), now
+            self._cache, self._cache_born = IngestContext(), now
         return self._cache
 
     def _commit(self, jobs: list[Job]) -> Outcome:
@@ -269,7 +270,7 @@ class FrameWriter:
         for link_jobs in by_link.values():
             try:
                 with unit_of_work(self._session_factory) as unit:
-                    single = self._apply(unit.session, link_jobs, service.IngestContext())
+                    single = self._apply(unit.session, link_jobs, IngestContext())
             except RejectedMessage as error:
                 for job in link_jobs:
                     outcome.rejected[id(job)] = error
@@ -292,7 +293,7 @@ class FrameWriter:
             outcome.units.append(unit)
         return outcome
 
-    def _apply(self, session: Session, jobs: list[Job], context: service.IngestContext) -> Outcome:
+    def _apply(self, session: Session, jobs: list[Job], context: IngestContext) -> Outcome:
         outcome = Outcome()
         streams: set[tuple[str, str | None]] = set()
         alarming: set[str] = set()
@@ -370,7 +371,7 @@ class FrameWriter:
         return outcome  # the alarms changed are pushed after the commit (alarms.service)
 
     @staticmethod
-    def _robot(context: service.IngestContext, robot_id: str):
+    def _robot(context: IngestContext, robot_id: str):
         robot = context.robots.get(robot_id)
         if robot is None or robot.token_hash is None:
             raise RejectedMessage(protocol.CLOSE_UNAUTHORIZED, "robot token revoked")
