@@ -9,7 +9,6 @@ from datetime import UTC, datetime
 
 import numpy as np
 
-from backend.db import transaction
 from backend.models.videos import Split
 from worker.db_data import frame_data, labelled_videos
 from worker.grid import GridBackend, grid_select
@@ -42,7 +41,7 @@ def run(context: JobContext) -> dict:
     params = parse(RetrainParams, context.params)
     spec = spec_for(params)
     context.progress(0.02, "loading labelled training recordings")
-    with transaction(context.factory) as session:
+    with context.read() as session:
         videos = labelled_videos(session, params.mode, None if params.video_ids else Split.TRAIN,
                                  params.video_ids)  # fmt: skip
         data = frame_data(session, videos, params.mode)
@@ -79,7 +78,7 @@ def run(context: JobContext) -> dict:
                 metrics={"dataset": "database", "videos": len(data.names)})  # fmt: skip
         classifier = reload(directory)
         context.progress(0.8, "evaluating on the gold set")
-        with transaction(context.factory) as session:
+        with context.read() as session:
             metrics = gold_evaluation(
                 session, classifier, directory, params.mode, selected.delay_sweep
             )
@@ -91,7 +90,7 @@ def run(context: JobContext) -> dict:
             "seconds": selected.seconds,
         }
         context.progress(0.95, "registering")
-        with transaction(context.factory) as session:
+        with context.result() as session:
             model = register(
                 session, directory, context.settings.model_store_dir,
                 lineage={
