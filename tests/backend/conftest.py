@@ -10,11 +10,13 @@ from backend.db import make_engine, make_session_factory, transaction
 from backend.main import create_app
 from backend.models.robots import Robot
 from backend.models.users import Role, User
-from backend.security import hash_password, hash_robot_token
+from backend.security import create_access_token, hash_password, hash_robot_token
 from backend.settings import Settings
 
 PASSWORD = "correct horse battery"
 ROBOT_TOKEN = "robot-secret-token-for-tests"
+# The secret of backends started as subprocesses (uvicorn), so tests can mint tokens for them.
+SUBPROCESS_SECRET = "subprocess-backend-secret"
 
 
 @pytest.fixture
@@ -76,3 +78,15 @@ def robot(session_factory) -> str:
         session.add(Robot(id="robot-a", name="A", ward="ward-a",
                           token_hash=hash_robot_token(ROBOT_TOKEN)))  # fmt: skip
     return "robot-a"
+
+
+@pytest.fixture
+def nurse_token(session_factory) -> str:
+    """A ward-a nurse's access token, valid on a subprocess backend (`SUBPROCESS_SECRET`)."""
+    with transaction(session_factory) as session:
+        user = User(username="nurse", password_hash=hash_password("nurse-password"),
+                    role=Role.NURSE, ward="ward-a")  # fmt: skip
+        session.add(user)
+        session.flush()
+        user_id = user.id
+    return create_access_token(SUBPROCESS_SECRET, user_id, 60)

@@ -14,19 +14,15 @@ import time
 import pytest
 from fastapi.testclient import TestClient
 
-from backend.db import transaction
 from backend.ingest.failopen import Unstored, provisional_alarm
 from backend.main import create_app
-from backend.models import Role, User
+from backend.models import Role
 from backend.models.alarms import AlarmKind
 from backend.process import BackendProcess
-from backend.security import create_access_token, hash_password
 from backend.settings import Settings
 from bench.storage_stall import stall_scenario
 from tests import conftest as shared
-from tests.backend.conftest import ROBOT_TOKEN
-
-SECRET = "fail-open-secret"
+from tests.backend.conftest import ROBOT_TOKEN, SUBPROCESS_SECRET
 
 
 def test_liveness_and_readiness_answer_when_the_database_does(client: TestClient):
@@ -69,24 +65,13 @@ def test_readiness_checks_redis_when_it_is_configured(settings: Settings):
     assert "redis:" in response.json()["detail"]
 
 
-@pytest.fixture
-def nurse_token(session_factory) -> str:
-    with transaction(session_factory) as session:
-        user = User(username="nurse", password_hash=hash_password("nurse-password"),
-                    role=Role.NURSE, ward="ward-a")  # fmt: skip
-        session.add(user)
-        session.flush()
-        user_id = user.id
-    return create_access_token(SECRET, user_id, 60)
-
-
 @pytest.mark.timeout(120)
 def test_emergency_reaches_the_board_unstored_while_the_write_lock_is_held(
     database_url, robot, nurse_token, tmp_path
 ):
     env = {
         "VIGIL_DATABASE_URL": database_url,
-        "VIGIL_SECRET_KEY": SECRET,
+        "VIGIL_SECRET_KEY": SUBPROCESS_SECRET,
         "VIGIL_FRONTEND_DIR": str(tmp_path / "no-frontend"),
         # Shorter than the lock: a robot whose frames wait on storage is not offline.
         "VIGIL_STREAM_STALL_SECONDS": "1.5",

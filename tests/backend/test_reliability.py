@@ -16,15 +16,13 @@ from websockets.asyncio.client import connect
 from websockets.exceptions import ConnectionClosed
 
 from backend.db import transaction
-from backend.models import Frame, Role, User
+from backend.models import Frame
 from backend.process import BackendProcess
-from backend.security import create_access_token, hash_password
-from tests.backend.conftest import ROBOT_TOKEN
+from tests.backend.conftest import ROBOT_TOKEN, SUBPROCESS_SECRET
 from tests.backend.test_first_alarm import frame
 from vigil import protocol
 from vigil.protocol import FrameBatch, Hello, TransportStart
 
-SECRET = "reliability-secret"
 REDIS_URL = os.environ.get("VIGIL_TEST_REDIS_URL", "redis://127.0.0.1:6379/0")
 
 
@@ -32,22 +30,11 @@ REDIS_URL = os.environ.get("VIGIL_TEST_REDIS_URL", "redis://127.0.0.1:6379/0")
 def backend_env(database_url, tmp_path) -> dict[str, str]:
     return {
         "VIGIL_DATABASE_URL": database_url,
-        "VIGIL_SECRET_KEY": SECRET,
+        "VIGIL_SECRET_KEY": SUBPROCESS_SECRET,
         "VIGIL_FRONTEND_DIR": str(tmp_path / "no-frontend"),
         "VIGIL_STREAM_STALL_SECONDS": "120",
         "VIGIL_ROBOT_OFFLINE_SECONDS": "120",
     }
-
-
-@pytest.fixture
-def nurse_token(session_factory) -> str:
-    with transaction(session_factory) as session:
-        user = User(username="nurse", password_hash=hash_password("nurse-password"),
-                    role=Role.NURSE, ward="ward-a")  # fmt: skip
-        session.add(user)
-        session.flush()
-        user_id = user.id
-    return create_access_token(SECRET, user_id, 60)
 
 
 def bearer(token: str) -> dict[str, str]:
