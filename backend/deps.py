@@ -2,29 +2,37 @@
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+from collections.abc import AsyncIterator
 from typing import Annotated
 
 from fastapi import Depends, HTTPException, Path, Request, status
 from sqlalchemy.orm import Session
 
+from backend import unit_of_work
 from backend.accounts import queries as account_queries
 from backend.models.users import User
 from backend.permissions import PERMISSIONS
 from backend.security import SessionClaims, read_access_claims
 from backend.settings import Settings
+from backend.unit_of_work import UnitOfWork
 
 SESSION_COOKIE = "vigil_session"
 
 
 def get_settings(request: Request) -> Settings:
-    return request.app.state.settings
+    return request.app.state.services.settings
 
 
-def get_session(request: Request) -> Iterator[Session]:
-    """The request's unit of work: committed when the endpoint returns without error."""
-    with request.app.state.session_factory() as session, session.begin():
-        yield session
+async def get_unit(request: Request) -> AsyncIterator[UnitOfWork]:
+    """The request's unit of work: committed when the endpoint returns without error, then its
+    after-commit effects run (alarms pushed, assignments sent, sockets closed)."""
+    services = request.app.state.services  # backend.services.Services
+    async with unit_of_work.in_event_loop(services.session_factory, services.effects) as unit:
+        yield unit
+
+
+async def get_session(unit: UnitDep) -> Session:
+    return unit.session
 
 
 #: Integer ids and counters fit PostgreSQL INTEGER columns; larger values get a 422, not a 500.
@@ -34,6 +42,7 @@ DbId = Annotated[int, Path(ge=1, le=MAX_DB_INT)]
 SettingsDep = Annotated[Settings, Depends(get_settings)]
 # scope="function": the commit happens when the endpoint returns, BEFORE the response is sent
 # (with the default request scope a client could get 201 for a row that then fails to commit).
+UnitDep = Annotated[UnitOfWork, Depends(get_unit, scope="function")]
 SessionDep = Annotated[Session, Depends(get_session, scope="function")]
 
 

@@ -12,12 +12,12 @@ from fastapi import FastAPI, HTTPException, Request, Response, status
 from fastapi.responses import FileResponse, JSONResponse
 from fastapi.staticfiles import StaticFiles
 from prometheus_client import CONTENT_TYPE_LATEST, generate_latest
-from sqlalchemy import func, select
 from sqlalchemy.exc import DataError
 
 from backend import health
 from backend.accounts.gate import HashingGate
 from backend.accounts.throttle import LoginThrottle, Policy
+from backend.alarms import queries as alarm_queries
 from backend.alarms.monitor import AlarmMonitor
 from backend.api import (
     alarm_review,
@@ -42,11 +42,12 @@ from backend.ingest import robot_ws
 from backend.ingest.registry import RobotRegistry
 from backend.ingest.writer import FrameWriter
 from backend.metrics import Metrics
-from backend.models.alarms import Alarm, AlarmKind, AlarmState
+from backend.models.alarms import AlarmKind
 from backend.realtime import browser_ws
 from backend.realtime.bus import AlarmBus
 from backend.realtime.hub import BrowserHub
-from backend.registry import push as model_push
+from backend.registry.push import AssignmentPusher
+from backend.services import Fanout, Labelling, Services, ServicesDep
 from backend.settings import Settings
 from backend.storage.service import SummaryCache
 from vigil.states import IllegalTransition
@@ -77,52 +78,15 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         # must win the GIL back from the event loop. A shorter switch interval (default 5 ms)
         # keeps those hand-overs from dominating commit latency.
         sys.setswitchinterval(settings.gil_switch_interval_s)
-        engine = make_engine(settings.database_url)
-        app.state.engine = engine
-        app.state.session_factory = factory = make_session_factory(engine)
-        log.info("database %s", engine.url.render_as_string(hide_password=True))
-        database = await health.check_database(engine, settings.health_timeout_s)
-        if database != "ok":  # serve anyway (liveness), but say so: readiness answers 503
-            log.error("database %s: not ready (%s)",
-                      engine.url.render_as_string(hide_password=True), database)  # fmt: skip
-        app.state.bus = bus = AlarmBus(app.state.hub, settings.redis_url, settings.redis_channel)
-        await bus.start()
-        app.state.writer = writer = FrameWriter(
-            factory,
-            metrics,
-            bus.publish,
-            flush_ms=settings.ingest_flush_ms,
-            flush_frames=settings.ingest_flush_frames,
-            unstored_alarm_ms=settings.unstored_alarm_ms,
-            storage_stall_s=settings.storage_stall_seconds,
-        )
-        writer.start()
-        # Bound to this event loop, hence made here rather than in create_app.
-        app.state.login_gate = login_gate = HashingGate(
-            settings.login_hash_concurrency,
-            settings.login_queue_wait_s,
-            settings.login_queue_max,
-            settings.login_hash_nice,
-        )
-        app.state.monitor = monitor = AlarmMonitor(
-            factory,
-            settings,
-            bus.publish,
-            waiting_robots=writer.waiting_robots,
-            viewers=app.state.hub.viewers,
-        )
-        monitor.start()
-        reconcile = asyncio.create_task(model_push.reconcile_forever(app))
+        services = await start_services(settings)
+        app.state.services = services
+        reconcile = asyncio.create_task(services.assignments.reconcile_forever())
         try:
             with collector_tuned_for_ingest():
                 yield
         finally:
             reconcile.cancel()
-            await monitor.stop()
-            await writer.stop()
-            await bus.stop()
-            login_gate.close()
-            engine.dispose()
+            await stop_services(services)
 
     app = FastAPI(
         title="Vigil",
@@ -130,47 +94,24 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         description="Emergency detection for autonomous hospital patient transports.",
         lifespan=lifespan,
     )
-    app.state.settings = settings
     app.add_middleware(BodySizeLimit, settings=settings)
-    app.state.metrics = metrics = Metrics()
-    app.state.storage_summary = SummaryCache(settings.storage_summary_ttl_s)
-    app.state.hub = BrowserHub()
-    app.state.robots = RobotRegistry(on_change=metrics.connected_robots.set)
-    app.state.login_throttle = LoginThrottle(
-        user_policy=Policy(
-            settings.login_user_free_failures,
-            settings.login_lockout_base_s,
-            settings.login_lockout_max_s,
-        ),
-        client_policy=Policy(
-            settings.login_client_free_failures,
-            settings.login_lockout_base_s,
-            settings.login_lockout_max_s,
-        ),
-        memory_s=settings.login_failure_memory_s,
-    )
     app.add_middleware(
         SecurityMiddleware, cookie_name=SESSION_COOKIE, trusted_origins=settings.trusted_origins
     )
     for router in ROUTERS:
         app.include_router(router)
-    labelling.install(app, settings)
+    labelling.install(app)
     app.include_router(robot_ws.router)
     app.include_router(browser_ws.router)
 
     @app.get("/metrics", tags=["system"], response_class=Response)
-    def prometheus_metrics(user: CurrentUser) -> Response:
-        with app.state.session_factory() as session:
-            counts = dict(
-                session.execute(
-                    select(Alarm.kind, func.count())
-                    .where(Alarm.state != AlarmState.RESOLVED)
-                    .group_by(Alarm.kind)
-                ).all()
-            )
+    def prometheus_metrics(user: CurrentUser, services: ServicesDep) -> Response:
+        metrics = services.metrics
+        with services.session_factory() as session:
+            counts = alarm_queries.unresolved_counts(session)
         for kind in AlarmKind:
             metrics.open_alarms.labels(kind.value).set(counts.get(kind, 0))
-        storage = app.state.storage_summary.latest(app.state.session_factory, settings)
+        storage = services.storage_summary.latest(services.session_factory, settings)
         if storage is not None:
             metrics.set_storage(storage)
         return Response(generate_latest(metrics.registry), media_type=CONTENT_TYPE_LATEST)
@@ -193,6 +134,81 @@ def create_app(settings: Settings | None = None) -> FastAPI:
 
     _mount_frontend(app, settings.frontend_dir)
     return app
+
+
+async def start_services(settings: Settings) -> Services:
+    """Build every service of the process (in the lifespan: some are bound to its event loop)."""
+    engine = make_engine(settings.database_url)
+    factory = make_session_factory(engine)
+    log.info("database %s", engine.url.render_as_string(hide_password=True))
+    database = await health.check_database(engine, settings.health_timeout_s)
+    if database != "ok":  # serve anyway (liveness), but say so: readiness answers 503
+        log.error("database %s: not ready (%s)",
+                  engine.url.render_as_string(hide_password=True), database)  # fmt: skip
+    metrics = Metrics()
+    hub = BrowserHub()
+    bus = AlarmBus(hub, settings.redis_url, settings.redis_channel)
+    await bus.start()
+    robots = RobotRegistry(on_change=metrics.connected_robots.set)
+    assignments = AssignmentPusher(factory, robots, settings.assignment_resend_s)
+    effects = Fanout(bus, assignments)
+    writer = FrameWriter(
+        factory,
+        metrics,
+        effects,
+        flush_ms=settings.ingest_flush_ms,
+        flush_frames=settings.ingest_flush_frames,
+        unstored_alarm_ms=settings.unstored_alarm_ms,
+        storage_stall_s=settings.storage_stall_seconds,
+    )
+    writer.start()
+    monitor = AlarmMonitor(
+        factory, settings, effects, waiting_robots=writer.waiting_robots, viewers=hub.viewers
+    )
+    monitor.start()
+    return Services(
+        settings=settings,
+        engine=engine,
+        session_factory=factory,
+        metrics=metrics,
+        hub=hub,
+        bus=bus,
+        robots=robots,
+        assignments=assignments,
+        effects=effects,
+        writer=writer,
+        monitor=monitor,
+        login_gate=HashingGate(
+            settings.login_hash_concurrency,
+            settings.login_queue_wait_s,
+            settings.login_queue_max,
+            settings.login_hash_nice,
+        ),
+        login_throttle=LoginThrottle(
+            user_policy=Policy(
+                settings.login_user_free_failures,
+                settings.login_lockout_base_s,
+                settings.login_lockout_max_s,
+            ),
+            client_policy=Policy(
+                settings.login_client_free_failures,
+                settings.login_lockout_base_s,
+                settings.login_lockout_max_s,
+            ),
+            memory_s=settings.login_failure_memory_s,
+        ),
+        labelling=Labelling.build(settings),
+        storage_summary=SummaryCache(settings.storage_summary_ttl_s),
+    )
+
+
+async def stop_services(services: Services) -> None:
+    await services.monitor.stop()
+    await services.writer.stop()
+    await services.bus.stop()
+    services.login_gate.close()
+    services.labelling.close()
+    services.engine.dispose()
 
 
 def _mount_frontend(app: FastAPI, frontend_dir: Path) -> None:

@@ -64,9 +64,10 @@ def main() -> int:
 
             cold, warm, following = [], [], []
             for frame in (10, 60, 110, 150):
-                client.app.state.rgb_frames.close()  # readers closed: decode from the start
-                client.app.state.rgb_frames._frames.clear()
-                client.app.state.rgb_jpegs._items.clear()
+                tools = client.app.state.services.labelling
+                tools.rgb_frames.close()  # readers closed: decode from the start
+                tools.rgb_frames._frames.clear()
+                tools.rgb_jpegs._items.clear()
                 start = time.perf_counter()
                 assert client.get(f"{API}/videos/{fall}/rgb/{frame}", headers=headers).is_success
                 cold.append(_ms(start))

@@ -10,6 +10,7 @@ from dataclasses import dataclass, field
 
 from sqlalchemy.orm import Session, sessionmaker
 
+from backend.db import transaction
 from backend.jobs import queue
 from worker.settings import WorkerSettings
 
@@ -34,6 +35,15 @@ class JobContext:
     _lock: threading.Lock = field(default_factory=threading.Lock)
     _cancelled: bool = False
     _lost: bool = False
+
+    def read(self) -> Session:
+        """A session that only reads (loading data, evaluating): it commits nothing."""
+        return self.factory()
+
+    def result(self):
+        """The job's unit of work that stores its result: a job commits once (its progress goes
+        in the queue's own short transactions, `flush`)."""
+        return transaction(self.factory)
 
     def progress(self, fraction: float, message: str | None = None) -> None:
         """Report progress (0..1); raises JobCancelled when an engineer cancelled the job."""

@@ -15,18 +15,17 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import logging
-from collections.abc import Awaitable, Callable, Collection
+from collections.abc import Callable, Collection
 from datetime import datetime, timedelta
 
 from sqlalchemy.orm import Session, sessionmaker
 
 from backend.alarms import queries, service
-from backend.alarms.schemas import AlarmOut
-from backend.db import transaction
 from backend.models._types import utcnow
 from backend.models.alarms import Alarm, AlarmKind, AlarmState
 from backend.realtime.hub import Viewer
 from backend.settings import Settings
+from backend.unit_of_work import Effects, UnitOfWork, unit_of_work
 
 log = logging.getLogger(__name__)
 
@@ -36,13 +35,13 @@ class AlarmMonitor:
         self,
         session_factory: sessionmaker[Session],
         settings: Settings,
-        publish_alarm: Callable[[dict], Awaitable[None]],
+        effects: Effects,
         waiting_robots: Callable[[], Collection[str]] = frozenset,
         viewers: Callable[[], list[Viewer]] = list,
     ) -> None:
         self._session_factory = session_factory
         self._settings = settings
-        self._publish_alarm = publish_alarm
+        self._effects = effects
         # Robots whose messages arrived but are not stored yet: their stored last_seen_at and
         # last_frame_at are stale because storage is, not because the robot fell silent.
         self._waiting_robots = waiting_robots
@@ -68,23 +67,22 @@ class AlarmMonitor:
                 log.exception("alarm monitor pass failed")
 
     async def tick(self, now: datetime | None = None) -> list[dict]:
-        changed = await asyncio.to_thread(self.check, now or utcnow(), self._viewers())
-        for alarm in changed:
-            await self._publish_alarm(alarm)
-        return changed
+        unit = await asyncio.to_thread(self._check, now or utcnow(), self._viewers())
+        await unit.run_after_commit(self._effects)
+        return unit.published_alarms
 
     def check(self, now: datetime, viewers: list[Viewer] | None = None) -> list[dict]:
         """One pass in one transaction; returns the changed alarms as pushed to browsers."""
-        with transaction(self._session_factory) as session:
-            changed: dict[int, Alarm] = {}
-            for alarm in self._technical(session, now):
-                changed[alarm.id] = alarm
-            for alarm in self._escalations(session, now, viewers or []):
-                changed[alarm.id] = alarm
-            for alarm in self._realarms(session, now):
-                changed[alarm.id] = alarm
-            session.flush()
-            return [AlarmOut.model_validate(a).model_dump(mode="json") for a in changed.values()]
+        return self._check(now, viewers).published_alarms
+
+    def _check(self, now: datetime, viewers: list[Viewer] | None = None) -> UnitOfWork:
+        """One pass in one unit of work; the alarm service registers each change on it."""
+        with unit_of_work(self._session_factory) as unit:
+            session = unit.session
+            self._technical(session, now)
+            self._escalations(session, now, viewers or [])
+            self._realarms(session, now)
+        return unit
 
     def _technical(self, session: Session, now: datetime) -> list[Alarm]:
         settings = self._settings

@@ -5,7 +5,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from datetime import datetime
 
-from sqlalchemy import select
+from sqlalchemy import func, select
 from sqlalchemy.orm import Session
 
 from backend import wards
@@ -144,3 +144,14 @@ def viewer_names(session: Session, user_ids: Sequence[int]) -> dict[int, str]:
         select(User.id, User.username, User.role).where(User.id.in_(set(user_ids)))
     )
     return {uid: f"{name} ({role})" for uid, name, role in rows}
+
+
+def unresolved_counts(session: Session) -> dict[AlarmKind, int]:
+    """Unresolved alarms per kind (the /metrics gauge)."""
+    return dict(
+        session.execute(
+            select(Alarm.kind, func.count())
+            .where(Alarm.state != AlarmState.RESOLVED)
+            .group_by(Alarm.kind)
+        ).all()
+    )

@@ -1,4 +1,5 @@
-"""Alarm lifecycle. Functions change rows and write the audit trail; the caller commits."""
+"""Alarm lifecycle. Functions change rows and write the audit trail; the caller's unit of work
+commits, then pushes every alarm changed here to the boards (`unit_of_work.publish_alarm`)."""
 
 from __future__ import annotations
 
@@ -22,6 +23,7 @@ from backend.models.alarms import (
 )
 from backend.models.robots import Robot, Transport
 from backend.models.users import User
+from backend.unit_of_work import publish_alarm
 
 
 @dataclass(slots=True)
@@ -57,6 +59,7 @@ def _record(
             comment=comment,
         )
     )
+    publish_alarm(session, alarm)
 
 
 def find_unresolved(
@@ -72,8 +75,11 @@ def find_unresolved(
     ).first()
 
 
-def fold_evidence(alarm: Alarm, evidence: DecisionEvidence, now: datetime) -> Alarm:
+def fold_evidence(
+    session: Session, alarm: Alarm, evidence: DecisionEvidence, now: datetime
+) -> Alarm:
     """A repeated decision updates the unresolved alarm instead of opening another."""
+    publish_alarm(session, alarm)
     ALARM.target(alarm.state, AlarmAction.UPDATE)
     alarm.updated_at = now
     alarm.decision_count += 1
@@ -98,7 +104,7 @@ def raise_or_update(
     transport_id = transport.id if transport else None
     alarm = find_unresolved(session, robot.id, transport_id, kind)
     if alarm is not None:
-        return fold_evidence(alarm, evidence, now), False
+        return fold_evidence(session, alarm, evidence, now), False
     alarm = Alarm(
         kind=kind,
         priority=PRIORITY_OF_KIND[kind],

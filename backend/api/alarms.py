@@ -1,6 +1,6 @@
 from datetime import datetime
 
-from fastapi import APIRouter, BackgroundTasks, HTTPException, Request, status
+from fastapi import APIRouter, HTTPException, status
 
 from backend.alarm_review import feedback
 from backend.alarms import queries, service
@@ -44,28 +44,17 @@ def alarm_events(alarm_id: DbId, session: SessionDep, user: CurrentUser) -> list
     return [AlarmEventOut.model_validate(e) for e in queries.events_of(session, alarm_id)]
 
 
-def _commit_and_publish(
-    session: SessionDep, request: Request, tasks: BackgroundTasks, alarm: Alarm
-) -> AlarmOut:
-    """The change is committed before any browser hears of it."""
-    out = AlarmOut.model_validate(alarm)
-    session.commit()
-    tasks.add_task(request.app.state.bus.publish, out.model_dump(mode="json"))
-    return out
-
-
 @router.post("/{alarm_id}/acknowledge")
 def acknowledge(
     alarm_id: DbId,
     session: SessionDep,
     user: CurrentUser,
-    request: Request,
-    tasks: BackgroundTasks,
     body: AcknowledgeIn | None = None,
 ) -> AlarmOut:
     alarm = _get(session, user, alarm_id)
     service.acknowledge(session, alarm, user, body.comment if body else None)
-    return _commit_and_publish(session, request, tasks, alarm)
+    session.flush()  # the unit of work commits, then pushes the alarm (alarms.service)
+    return AlarmOut.model_validate(alarm)
 
 
 @router.post("/{alarm_id}/resolve")
@@ -74,10 +63,9 @@ def resolve(
     body: ResolveIn,
     session: SessionDep,
     user: CurrentUser,
-    request: Request,
-    tasks: BackgroundTasks,
 ) -> AlarmOut:
     alarm = _get(session, user, alarm_id)
     service.resolve(session, alarm, user, body.verdict, body.reason, body.comment)
     feedback.propose_label_from_verdict(session, alarm, user.id)
-    return _commit_and_publish(session, request, tasks, alarm)
+    session.flush()  # the unit of work commits, then pushes the alarm (alarms.service)
+    return AlarmOut.model_validate(alarm)

@@ -11,6 +11,8 @@ from backend.db import transaction
 from backend.deps import SESSION_COOKIE, CurrentUser, SessionDep
 from backend.models.users import Role, User
 from backend.security import create_access_token, needs_rehash
+from backend.services import ServicesDep
+from backend.unit_of_work import after_commit
 from vigil.protocol import CLOSE_UNAUTHORIZED
 
 router = APIRouter(prefix="/api/auth", tags=["auth"])
@@ -65,8 +67,9 @@ def _authenticate(
         503: {"model": ErrorOut, "description": "too many sign-ins at once (Retry-After)"},
     },
 )
-async def login(body: LoginIn, request: Request, response: Response) -> TokenOut:
-    state = request.app.state
+async def login(
+    body: LoginIn, request: Request, response: Response, state: ServicesDep
+) -> TokenOut:
     settings = state.settings
     client = request.client.host if request.client else "unknown"
     wait = state.login_throttle.retry_after(body.username, client)
@@ -103,15 +106,19 @@ async def login(body: LoginIn, request: Request, response: Response) -> TokenOut
 
 
 @router.post("/logout", status_code=status.HTTP_204_NO_CONTENT)
-async def logout(
-    user: CurrentUser, session: SessionDep, request: Request, response: Response
+def logout(
+    user: CurrentUser,
+    session: SessionDep,
+    request: Request,
+    response: Response,
+    services: ServicesDep,
 ) -> None:
     """End this session on the server: its token is refused from now on (other sessions of
     the user stay), and the browser sockets opened with it are closed (4401)."""
     claims = request.state.session_claims
     service.revoke_session(session, claims)
-    session.commit()  # before the sockets close: a reconnect must already be refused
-    await request.app.state.hub.close_session(claims.jti, CLOSE_UNAUTHORIZED, "signed out")
+    hub = services.hub  # once committed: a reconnect must already be refused
+    after_commit(session, lambda: hub.close_session(claims.jti, CLOSE_UNAUTHORIZED, "signed out"))
     response.delete_cookie(SESSION_COOKIE)
 
 

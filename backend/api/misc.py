@@ -1,6 +1,6 @@
 from typing import Literal
 
-from fastapi import APIRouter, HTTPException, Query, Request, status
+from fastapi import APIRouter, HTTPException, Query, status
 from fastapi.responses import JSONResponse
 from pydantic import BaseModel, ConfigDict, Field
 
@@ -8,6 +8,7 @@ from backend import health as health_checks
 from backend.deps import MAX_DB_INT, CurrentUser, SessionDep
 from backend.labelling.errors import LabellingError
 from backend.labelling.taxonomy import load_taxonomy
+from backend.services import Services, ServicesDep
 from vigil.classes import Decision
 
 router = APIRouter(prefix="/api", tags=["system"])
@@ -36,12 +37,9 @@ def live() -> LiveOut:
     return LiveOut()
 
 
-async def _ready(request: Request) -> JSONResponse:
-    state = request.app.state
-    result = await health_checks.readiness(
-        state.engine, getattr(state, "bus", None), state.settings.health_timeout_s
-    )
-    writer = getattr(state, "writer", None)
+async def _ready(state: Services) -> JSONResponse:
+    result = await health_checks.readiness(state.engine, state.bus, state.settings.health_timeout_s)
+    writer = state.writer
     body = HealthOut(
         status="ok" if result.ready else "unavailable",
         checks=result.checks,
@@ -56,16 +54,16 @@ READY_RESPONSES = {200: {"model": HealthOut}, 503: {"model": HealthOut, "descrip
 
 
 @router.get("/health/ready", response_model=HealthOut, responses=READY_RESPONSES)
-async def ready(request: Request) -> JSONResponse:
+async def ready(services: ServicesDep) -> JSONResponse:
     """Readiness: 200 when the database (and Redis when configured) answers within
     health_timeout_s, else 503 with the reason."""
-    return await _ready(request)
+    return await _ready(services)
 
 
 @router.get("/health", response_model=HealthOut, responses=READY_RESPONSES)
-async def health(request: Request) -> JSONResponse:
+async def health(services: ServicesDep) -> JSONResponse:
     """Same as /api/health/ready (readiness); /api/health/live is liveness."""
-    return await _ready(request)
+    return await _ready(services)
 
 
 class TaxonomyLabelOut(BaseModel):

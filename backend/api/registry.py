@@ -7,12 +7,10 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Annotated, Any
 
-from fastapi import APIRouter, Header, HTTPException, Query, Request, status
+from fastapi import APIRouter, Header, HTTPException, Query, status
 from fastapi.responses import FileResponse
-from starlette.concurrency import run_in_threadpool
 
 from backend import wards
-from backend.db import transaction
 from backend.deps import MAX_DB_INT, CurrentUser, SessionDep, SettingsDep
 from backend.models.registry import Deployment, ModelVersion
 from backend.models.robots import Robot
@@ -20,7 +18,6 @@ from backend.models.users import User
 from backend.registry import queries, rollout
 from backend.registry.capability import fallback_for
 from backend.registry.gate import gate_report
-from backend.registry.push import push_to_robots
 from backend.registry.schemas import (
     Comparison,
     DeploymentOut,
@@ -32,6 +29,9 @@ from backend.registry.schemas import (
     ShadowIn,
 )
 from backend.security import robot_token_matches
+from backend.services import ServicesDep
+from backend.settings import Settings
+from backend.unit_of_work import push_assignments
 from vigil.model_file import MANIFEST_NAME
 
 router = APIRouter(prefix="/api", tags=["registry"])
@@ -51,22 +51,17 @@ def _deployment(session, deployment_id: int) -> Deployment:
     return deployment
 
 
-async def _change(request: Request, change: Callable[[Any], tuple[Any, list[str]]]):
-    """Run a rollout change in its own transaction; once committed, notify the robots."""
-
-    def _run():
-        with transaction(request.app.state.session_factory) as session:
-            try:
-                result, robots = change(session)
-            except rollout.RolloutError as error:
-                raise HTTPException(status.HTTP_409_CONFLICT, str(error)) from None
-            except ValueError as error:
-                raise HTTPException(status.HTTP_422_UNPROCESSABLE_CONTENT, str(error)) from None
-            session.flush()
-            return result, robots
-
-    result, robots = await run_in_threadpool(_run)
-    await push_to_robots(request.app, robots)
+def _change(session: SessionDep, change: Callable[[Any], tuple[Any, list[str]]]):
+    """Run a rollout change in the request's unit of work; once it is committed, the robots
+    it names get their assignments."""
+    try:
+        result, robots = change(session)
+    except rollout.RolloutError as error:
+        raise HTTPException(status.HTTP_409_CONFLICT, str(error)) from None
+    except ValueError as error:
+        raise HTTPException(status.HTTP_422_UNPROCESSABLE_CONTENT, str(error)) from None
+    session.flush()
+    push_assignments(session, robots)
     return result
 
 
@@ -108,14 +103,13 @@ def get_gate(model_id: int, session: SessionDep, settings: SettingsDep, user: Cu
     return gate_report(model, settings.gate_false_alarm_budget, settings.gate_latency_ms)
 
 
-def _report(model: ModelVersion, request: Request) -> dict:
-    settings = request.app.state.settings
+def _report(model: ModelVersion, settings: Settings) -> dict:
     return gate_report(model, settings.gate_false_alarm_budget, settings.gate_latency_ms)
 
 
 @router.post("/models/{model_id}/promote", status_code=status.HTTP_201_CREATED)
-async def promote(
-    model_id: int, body: PromoteIn, request: Request, user: CurrentUser
+def promote(
+    model_id: int, body: PromoteIn, settings: SettingsDep, user: CurrentUser, session: SessionDep
 ) -> DeploymentOut:
     """Engineer sign-off: passes the gate, then rolls out (canary first for several robots)."""
     user_id = user.id
@@ -123,19 +117,19 @@ async def promote(
     def change(session):
         model, signer = _model(session, model_id), session.get(User, user_id)
         deployment, robots = rollout.promote(
-            session, model, signer, body.scope, body.target, _report(model, request),
+            session, model, signer, body.scope, body.target, _report(model, settings),
             canary_robot_id=body.canary_robot_id, comment=body.comment,
-            require_second_approver=request.app.state.settings.require_second_approver,
+            require_second_approver=settings.require_second_approver,
             only_capable=body.only_capable,
         )  # fmt: skip
         return queries.deployment_out(session, deployment), robots
 
-    return await _change(request, change)
+    return _change(session, change)
 
 
 @router.post("/models/{model_id}/shadow", status_code=status.HTTP_201_CREATED)
-async def start_shadow(
-    model_id: int, body: ShadowIn, request: Request, user: CurrentUser
+def start_shadow(
+    model_id: int, body: ShadowIn, settings: SettingsDep, user: CurrentUser, session: SessionDep
 ) -> DeploymentOut:
     """Run a candidate beside production on robots: decisions stored, never alarmed."""
     user_id = user.id
@@ -143,12 +137,12 @@ async def start_shadow(
     def change(session):
         model, signer = _model(session, model_id), session.get(User, user_id)
         deployment, robots = rollout.promote(
-            session, model, signer, body.scope, body.target, _report(model, request),
+            session, model, signer, body.scope, body.target, _report(model, settings),
             comment=body.comment, shadow=True, only_capable=body.only_capable,
         )  # fmt: skip
         return queries.deployment_out(session, deployment), robots
 
-    return await _change(request, change)
+    return _change(session, change)
 
 
 @router.get("/deployments")
@@ -157,8 +151,8 @@ def list_deployments(session: SessionDep, user: CurrentUser) -> list[DeploymentO
 
 
 @router.post("/deployments/{deployment_id}/approve")
-async def approve_deployment(
-    deployment_id: int, request: Request, user: CurrentUser
+def approve_deployment(
+    deployment_id: int, settings: SettingsDep, user: CurrentUser, session: SessionDep
 ) -> DeploymentOut:
     user_id = user.id
 
@@ -167,12 +161,12 @@ async def approve_deployment(
         robots = rollout.approve(session, deployment, session.get(User, user_id))
         return queries.deployment_out(session, deployment), robots
 
-    return await _change(request, change)
+    return _change(session, change)
 
 
 @router.post("/deployments/{deployment_id}/advance")
-async def advance_deployment(
-    deployment_id: int, request: Request, user: CurrentUser
+def advance_deployment(
+    deployment_id: int, settings: SettingsDep, user: CurrentUser, session: SessionDep
 ) -> DeploymentOut:
     """Canary is healthy: roll out to the remaining robots of the scope."""
 
@@ -181,12 +175,16 @@ async def advance_deployment(
         robots = rollout.advance(session, deployment)
         return queries.deployment_out(session, deployment), robots
 
-    return await _change(request, change)
+    return _change(session, change)
 
 
 @router.post("/deployments/{deployment_id}/rollback")
-async def rollback_deployment(
-    deployment_id: int, body: RollbackIn, request: Request, user: CurrentUser
+def rollback_deployment(
+    deployment_id: int,
+    body: RollbackIn,
+    settings: SettingsDep,
+    user: CurrentUser,
+    session: SessionDep,
 ) -> DeploymentOut:
     """One click: every robot of the deployment gets back the model it had before."""
     username = user.username
@@ -196,14 +194,14 @@ async def rollback_deployment(
         robots = rollout.rollback(session, deployment, f"{body.reason} ({username})")
         return queries.deployment_out(session, deployment), robots
 
-    return await _change(request, change)
+    return _change(session, change)
 
 
 @router.get("/fleet")
 def fleet(
     session: SessionDep,
     user: CurrentUser,
-    request: Request,
+    services: ServicesDep,
     model_id: Annotated[
         int | None,
         Query(ge=1, le=MAX_DB_INT, description="also say whether each robot can feed this model"),
@@ -211,8 +209,8 @@ def fleet(
 ) -> list[FleetRobot]:
     """Target vs running version per robot, what it feeds, its fallback; with model_id, which
     robots qualify for that model (a promotion to the others is refused)."""
-    registry = request.app.state.robots
-    connected = {r.id for r in session.query(Robot.id) if registry.socket(r.id) is not None}
+    registry = services.robots
+    connected = {r for r in queries.robot_ids(session) if registry.socket(r) is not None}
     model = _model(session, model_id) if model_id is not None else None
     return queries.fleet(session, connected, model, scope=wards.robots_visible(user))
 

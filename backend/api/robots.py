@@ -1,6 +1,6 @@
 from datetime import datetime
 
-from fastapi import APIRouter, HTTPException, Query, Request, status
+from fastapi import APIRouter, HTTPException, Query, status
 from pydantic import BaseModel, ConfigDict, Field
 
 from backend import wards
@@ -8,6 +8,8 @@ from backend.deps import CurrentUser, SessionDep
 from backend.models._types import utcnow
 from backend.models.robots import Robot
 from backend.security import hash_robot_token, new_robot_token
+from backend.services import ServicesDep
+from backend.unit_of_work import after_commit
 from vigil.classes import TransportMode
 from vigil.inputs import InputName
 from vigil.protocol import CLOSE_UNAUTHORIZED
@@ -61,19 +63,19 @@ class TransportOut(BaseModel):
     fps: float | None = Field(default=None, description="the source's frame rate, if it said")
 
 
-def _robot_out(request: Request, robot: Robot) -> RobotOut:
+def _robot_out(services: ServicesDep, robot: Robot) -> RobotOut:
     out = RobotOut.model_validate({
         **robot.__dict__, "has_token": robot.token_hash is not None, "inputs": robot.feeds,
         "inputs_reported": robot.inputs is not None,
     })  # fmt: skip
-    out.connected = request.app.state.robots.socket(robot.id) is not None
+    out.connected = services.robots.socket(robot.id) is not None
     return out
 
 
 @router.get("/robots")
-def list_robots(session: SessionDep, user: CurrentUser, request: Request) -> list[RobotOut]:
+def list_robots(session: SessionDep, user: CurrentUser, services: ServicesDep) -> list[RobotOut]:
     """The robots of the wards the caller sees (backend.wards)."""
-    return [_robot_out(request, r) for r in wards.list_robots(session, user)]
+    return [_robot_out(services, r) for r in wards.list_robots(session, user)]
 
 
 @router.post("/robots", status_code=status.HTTP_201_CREATED)
@@ -101,24 +103,32 @@ def _robot(session: SessionDep, robot_id: str) -> Robot:
 
 
 @router.get("/robots/{robot_id}")
-def get_robot(robot_id: str, session: SessionDep, user: CurrentUser, request: Request) -> RobotOut:
+def get_robot(
+    robot_id: str, session: SessionDep, user: CurrentUser, services: ServicesDep
+) -> RobotOut:
     robot = wards.visible_robot(session, user, robot_id)
     if robot is None:  # another ward's robot: as if it did not exist
         raise HTTPException(status.HTTP_404_NOT_FOUND, f"robot {robot_id} not found")
-    return _robot_out(request, robot)
+    return _robot_out(services, robot)
 
 
-async def _close_live_connection(request: Request, robot_id: str, reason: str) -> None:
-    """Close the robot's live connection to this replica (4401): it authenticated with a token
-    that is no longer valid, and must connect again with the current one."""
-    connection = request.app.state.robots.socket(robot_id)
-    if connection is not None:
-        await connection.close(CLOSE_UNAUTHORIZED, reason)
+def _close_live_connection(session: SessionDep, services: ServicesDep, robot_id: str, reason: str):
+    """Once committed (a reconnect must already be refused), close the robot's live connection
+    to this replica (4401): it authenticated with a token that is no longer valid, and must
+    connect again with the current one."""
+    registry = services.robots
+
+    async def close() -> None:
+        connection = registry.socket(robot_id)
+        if connection is not None:
+            await connection.close(CLOSE_UNAUTHORIZED, reason)
+
+    after_commit(session, close)
 
 
 @router.post("/robots/{robot_id}/token")
-async def rotate_token(
-    robot_id: str, session: SessionDep, user: CurrentUser, request: Request
+def rotate_token(
+    robot_id: str, session: SessionDep, user: CurrentUser, services: ServicesDep
 ) -> RobotTokenOut:
     """A new token (shown once); the old one stops working and the robot's live connection to
     this replica is closed, as on revocation."""
@@ -126,19 +136,17 @@ async def rotate_token(
     token = new_robot_token()
     robot.token_hash = hash_robot_token(token)
     robot.token_created_at = utcnow()
-    session.commit()
-    await _close_live_connection(request, robot_id, "robot token rotated")
+    _close_live_connection(session, services, robot_id, "robot token rotated")
     return RobotTokenOut(robot_id=robot_id, token=token)
 
 
 @router.delete("/robots/{robot_id}/token", status_code=status.HTTP_204_NO_CONTENT)
-async def revoke_token(
-    robot_id: str, session: SessionDep, user: CurrentUser, request: Request
+def revoke_token(
+    robot_id: str, session: SessionDep, user: CurrentUser, services: ServicesDep
 ) -> None:
     """Revoke the robot's token and close its live connection to this replica."""
     _robot(session, robot_id).token_hash = None
-    session.commit()
-    await _close_live_connection(request, robot_id, "robot token revoked")
+    _close_live_connection(session, services, robot_id, "robot token revoked")
 
 
 @router.get("/transports")

@@ -1,10 +1,11 @@
 """Storage (admin): frames and bytes per day and per robot, the next retention run, runs,
 archives (Parquet) and importing an archive again; queuing a retention run (dry or real)."""
 
-from fastapi import APIRouter, HTTPException, Request, status
+from fastapi import APIRouter, HTTPException, status
 
 from backend.deps import CurrentUser, DbId, SessionDep, SettingsDep
 from backend.registry.schemas import JobOut
+from backend.services import ServicesDep
 from backend.storage import archive, queries, service
 from backend.storage.schemas import ArchiveIn, ArchiveOut, RetentionIn, StorageSummary
 
@@ -12,10 +13,11 @@ router = APIRouter(prefix="/api/storage", tags=["storage"])
 
 
 @router.get("/summary")
-def storage_summary(request: Request, user: CurrentUser, fresh: bool = False) -> StorageSummary:
+def storage_summary(
+    services: ServicesDep, user: CurrentUser, fresh: bool = False
+) -> StorageSummary:
     """Cached for a minute (the figures scan every frame); ?fresh=true recomputes."""
-    app = request.app
-    return app.state.storage_summary.get(app.state.session_factory, app.state.settings, fresh)
+    return services.storage_summary.get(services.session_factory, services.settings, fresh)
 
 
 @router.post("/retention", status_code=status.HTTP_201_CREATED)

@@ -1,4 +1,4 @@
-from fastapi import APIRouter, HTTPException, Request, status
+from fastapi import APIRouter, HTTPException, status
 from pydantic import BaseModel, Field
 
 from backend.accounts import queries, service
@@ -6,6 +6,8 @@ from backend.api.auth import UserOut
 from backend.deps import CurrentUser, DbId, SessionDep
 from backend.models.users import Role, User
 from backend.security import hash_password
+from backend.services import ServicesDep
+from backend.unit_of_work import after_commit
 from vigil.protocol import CLOSE_UNAUTHORIZED
 
 router = APIRouter(prefix="/api", tags=["system"])
@@ -40,31 +42,32 @@ def create_user(body: UserIn, session: SessionDep, user: CurrentUser) -> UserOut
     return UserOut.model_validate(new)
 
 
-async def _set_active(
-    request: Request, session: SessionDep, actor: User, user_id: int, active: bool
+def _set_active(
+    services: ServicesDep, session: SessionDep, actor: User, user_id: int, active: bool
 ) -> UserOut:
     try:
         target = service.set_active(session, actor, user_id, active)
     except service.AccountError as error:
         raise HTTPException(error.status_code, str(error)) from None
-    out = UserOut.model_validate(target)
-    session.commit()  # before the sockets close: a reconnect must already be refused
-    if not active:
-        await request.app.state.hub.close_user(user_id, CLOSE_UNAUTHORIZED, "account deactivated")
-    return out
+    if not active:  # once committed: a reconnect must already be refused
+        hub = services.hub
+        after_commit(
+            session, lambda: hub.close_user(user_id, CLOSE_UNAUTHORIZED, "account deactivated")
+        )
+    return UserOut.model_validate(target)
 
 
 @router.post("/users/{user_id}/deactivate")
-async def deactivate_user(
-    user_id: DbId, session: SessionDep, user: CurrentUser, request: Request
+def deactivate_user(
+    user_id: DbId, session: SessionDep, user: CurrentUser, services: ServicesDep
 ) -> UserOut:
     """Every session of the user stops working at once, open browser sockets included (4401).
     The user's data stays; reactivating lets them sign in again."""
-    return await _set_active(request, session, user, user_id, False)
+    return _set_active(services, session, user, user_id, False)
 
 
 @router.post("/users/{user_id}/reactivate")
-async def reactivate_user(
-    user_id: DbId, session: SessionDep, user: CurrentUser, request: Request
+def reactivate_user(
+    user_id: DbId, session: SessionDep, user: CurrentUser, services: ServicesDep
 ) -> UserOut:
-    return await _set_active(request, session, user, user_id, True)
+    return _set_active(services, session, user, user_id, True)

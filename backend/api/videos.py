@@ -2,11 +2,10 @@ from datetime import datetime
 
 from fastapi import APIRouter, HTTPException, Query, status
 from pydantic import BaseModel, ConfigDict
-from sqlalchemy import select
 
 from backend import wards
 from backend.deps import MAX_DB_INT, CurrentUser, DbId, SessionDep
-from backend.labelling.queries import videos_matching
+from backend.labelling.queries import frames_between, videos_matching
 from backend.models.videos import Frame, Split, Video
 from vigil.classes import Decision, TransportMode
 from vigil.skeleton import decode_keypoints, depth_to_json, floor_to_json
@@ -121,9 +120,5 @@ def get_frames(
             status.HTTP_422_UNPROCESSABLE_ENTITY,
             f"at most {MAX_FRAMES_PER_REQUEST} frames per request",
         )
-    frames = session.scalars(
-        select(Frame)
-        .where(Frame.video_id == video_id, Frame.index >= start, Frame.index <= last)
-        .order_by(Frame.index)
-    )
+    frames = frames_between(session, video_id, start, last)
     return [_frame_out(f) for f in frames]

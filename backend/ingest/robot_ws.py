@@ -22,15 +22,13 @@ from starlette.concurrency import run_in_threadpool
 
 from backend.db import transaction
 from backend.ingest import received, service
-from backend.registry import push as model_push
+from backend.ingest.link import MAX_REASON_BYTES, RobotLink
+from backend.services import socket_services
 from vigil import protocol
 from vigil.protocol import Hello, Welcome
 
 log = logging.getLogger(__name__)
 router = APIRouter()
-
-# Close reasons are limited to 123 bytes by the websocket protocol.
-MAX_REASON_BYTES = 123
 
 
 class CloseConnection(Exception):
@@ -89,40 +87,8 @@ async def receive_message(websocket: WebSocket) -> protocol.RobotMessage:
     return parse(event.get("text"), event.get("bytes"))
 
 
-class RobotConnection:
-    """One robot's websocket as the FrameWriter sees it."""
-
-    def __init__(self, websocket: WebSocket, robot_id: str, ward: str | None = None) -> None:
-        self.websocket = websocket
-        self.robot_id = robot_id
-        self.ward = ward  # where an alarm pushed before it is stored goes
-        self.closed = False
-        #: Transport ids this connection has checked: this robot's, or none's (yet).
-        self.checked_transports: set[str] = set()
-
-    async def send_ack(self, seq: int) -> None:
-        if self.closed:
-            return
-        try:
-            await self.websocket.send_text(f'{{"type":"ack","seq":{seq}}}')  # = Ack(seq=seq)
-        except Exception:  # the robot went away; it will resend what it did not see acked
-            self.closed = True
-
-    async def reject(self, code: int, reason: str) -> None:
-        await self.close(code, reason)
-
-    async def close(self, code: int, reason: str) -> None:
-        if self.closed:
-            return
-        self.closed = True
-        with contextlib.suppress(Exception):
-            await self.websocket.close(
-                code, reason.encode()[:MAX_REASON_BYTES].decode("ascii", "ignore")
-            )
-
-
 async def _hello(websocket: WebSocket) -> Hello:
-    state = websocket.app.state
+    state = socket_services(websocket)
     try:
         hello = await asyncio.wait_for(
             receive_message(websocket), state.settings.robot_hello_timeout_s
@@ -147,7 +113,7 @@ def _transport_ids(message: protocol.RobotMessage) -> set[str]:
 
 
 async def check_transports(
-    websocket: WebSocket, connection: RobotConnection, message: protocol.RobotMessage
+    websocket: WebSocket, connection: RobotLink, message: protocol.RobotMessage
 ) -> None:
     """Refuse a message naming another robot's transport (CloseConnection 4403)."""
     unchecked = _transport_ids(message) - connection.checked_transports
@@ -155,7 +121,7 @@ async def check_transports(
         return
 
     def _owners() -> dict[str, str]:
-        with websocket.app.state.session_factory() as session:
+        with socket_services(websocket).session_factory() as session:
             return service.transport_owners(session, unchecked)
 
     try:
@@ -174,9 +140,9 @@ async def check_transports(
 
 @router.websocket("/ws/robot")
 async def robot_socket(websocket: WebSocket) -> None:
-    state = websocket.app.state
+    state = socket_services(websocket)
     await websocket.accept()
-    connection: RobotConnection | None = None
+    connection: RobotLink | None = None
     try:
         hello = await _hello(websocket)
 
@@ -191,7 +157,7 @@ async def robot_socket(websocket: WebSocket) -> None:
             raise CloseConnection(
                 protocol.CLOSE_UNAUTHORIZED, "unknown robot or wrong or revoked token"
             ) from None
-        connection = RobotConnection(websocket, hello.robot_id, ward)
+        connection = RobotLink(websocket, hello.robot_id, ward)
         previous = state.robots.connect(hello.robot_id, connection)
         if previous is not None:
             log.info("robot %s reconnected: closing its older connection", hello.robot_id)
@@ -206,13 +172,11 @@ async def robot_socket(websocket: WebSocket) -> None:
         # later finds it and closes it).
         if not await run_in_threadpool(_token_still_valid):
             raise CloseConnection(protocol.CLOSE_UNAUTHORIZED, "robot token rotated or revoked")
-        await websocket.send_text(
-            Welcome(
-                robot_id=hello.robot_id, last_seq=last_seq, model_sha256=model_sha256
-            ).model_dump_json()
+        await connection.send(
+            Welcome(robot_id=hello.robot_id, last_seq=last_seq, model_sha256=model_sha256)
         )
         log.info("robot %s connected (agent %s)", hello.robot_id, hello.agent_version)
-        await model_push.on_robot_connected(websocket, hello.robot_id)
+        await state.assignments.on_robot_connected(hello.robot_id)
         writer = state.writer
         while True:
             message = await receive_message(websocket)

@@ -12,8 +12,14 @@ from sqlalchemy.orm import Session
 
 from backend.alarms import service as alarms
 from backend.alarms.service import DecisionEvidence, fold_evidence, raise_or_update
-from backend.ingest.bulk import insert_frame_rows
-from backend.ingest.bulk_update import update_rows
+from backend.ingest.context import (
+    ALARM_KIND_OF_DECISION,
+    IngestContext,
+    RobotState,
+    TransportState,
+    VideoState,
+    video_name,
+)
 from backend.ingest.received import ROW_TAIL_START, ReceivedFrame
 from backend.models._types import utcnow
 from backend.models.alarms import Alarm, AlarmKind, AlarmState
@@ -21,10 +27,10 @@ from backend.models.robots import Robot, Transport
 from backend.models.videos import Frame, Video
 from backend.registry import queries as registry_queries
 from backend.security import robot_token_matches
-from vigil.classes import Decision, TransportMode
+from backend.unit_of_work import publish_alarm
+from vigil.classes import TransportMode
 from vigil.protocol import DetectionStatus, Hello, TransportEnd, TransportStart
 
-ALARM_KIND_OF_DECISION = {Decision.EMERGENCY: AlarmKind.EMERGENCY, Decision.PAUSE: AlarmKind.PAUSE}
 DEFAULT_FPS = 30.0  # a robot transport whose transport_start gave no frame rate
 
 
@@ -75,10 +81,6 @@ def transport_owners(session: Session, transport_ids: Iterable[str]) -> dict[str
     return {row.id: row.robot_id for row in rows}
 
 
-def _video_name(robot_id: str, transport_id: str | None) -> str:
-    return f"robot/{robot_id}/{transport_id or 'untracked'}"
-
-
 def start_transport(session: Session, robot: Robot, message: TransportStart) -> Transport:
     transport = session.get(Transport, message.transport_id)
     if transport is None:
@@ -103,7 +105,7 @@ def start_transport(session: Session, robot: Robot, message: TransportStart) -> 
         # Sent again (a reconnect) with the real frame rate: the recording follows.
         transport.fps = message.fps
         video = session.scalars(
-            select(Video).where(Video.name == _video_name(robot.id, transport.id))
+            select(Video).where(Video.name == video_name(robot.id, transport.id))
         ).first()
         if video is not None:
             video.fps = message.fps
@@ -111,178 +113,22 @@ def start_transport(session: Session, robot: Robot, message: TransportStart) -> 
 
 
 def end_transport(session: Session, robot: Robot, message: TransportEnd) -> list[Alarm]:
-    """Mark the transport ended; returns its unresolved alarms, which stay latched but are
-    pushed again so the board can say "transport ended N min ago"."""
+    """Mark the transport ended; its unresolved alarms stay latched but are pushed again (after
+    the commit) so the board can say "transport ended N min ago". Returns them."""
     transport = session.get(Transport, message.transport_id)
-    if transport is not None and transport.robot_id == robot.id and transport.ended_at is None:
-        transport.ended_at = datetime.fromtimestamp(message.ts, UTC)
-        return list(
-            session.scalars(
-                select(Alarm).where(
-                    Alarm.transport_id == transport.id, Alarm.state != AlarmState.RESOLVED
-                )
-            ).unique()
-        )
-    return []
-
-
-@dataclass(slots=True)
-class RobotState:
-    """The robot columns the ingest path reads and writes, loaded without the ORM."""
-
-    id: str
-    ward: str
-    token_hash: str | None
-    last_seq: int | None
-    last_seen_at: datetime | None = None
-    running_model_version: str | None = None
-    running_model_sha256: str | None = None
-    running_model_changed: bool = False
-
-
-@dataclass(slots=True)
-class TransportState:
-    id: str
-    robot_id: str
-    mode: TransportMode
-    patient: str | None
-    location: str | None
-    fps: float | None = None
-    last_frame_at: datetime | None = None
-
-
-@dataclass(slots=True)
-class VideoState:
-    id: int
-    name: str
-    frame_count: int
-    initial_count: int = 0
-
-
-@dataclass
-class IngestContext:
-    """Rows and lookups shared by every robot's work in one writer transaction.
-
-    Frame rows are gathered here and inserted with one bulk statement by `flush_rows`; robots,
-    transports and videos are loaded once per transaction as plain rows (no ORM identity map)
-    and their changed columns written back with one executemany per table.
-    """
-
-    robots: dict[str, RobotState | None] = field(default_factory=dict)
-    transports: dict[str, TransportState | Transport | None] = field(default_factory=dict)
-    videos: dict[str, VideoState | Video] = field(default_factory=dict)
-    rows: list[tuple] = field(default_factory=list)  # laid out as bulk.FRAME_COLUMNS
-    pending_seqs: dict[str, set[int]] = field(default_factory=dict)
-    open_alarms: dict[tuple[str, str, AlarmKind], Alarm] = field(default_factory=dict)
-
-    def preload(
-        self,
-        session: Session,
-        streams: set[tuple[str, str | None]],
-        alarming_robots: set[str] | None = None,
-    ) -> IngestContext:
-        """Load, in a few queries, what the (robot id, transport id) streams of a flush touch;
-        unresolved alarms only for `alarming_robots` (those with an Emergency or Pause frame
-        in the flush; default: every robot)."""
-        robot_ids = {robot_id for robot_id, _ in streams}
-        transport_ids = {tid for _, tid in streams if tid is not None}
-        missing = robot_ids - self.robots.keys()
-        if missing:
-            self.robots.update(dict.fromkeys(missing))
-            for row in session.execute(
-                select(Robot.id, Robot.ward, Robot.token_hash, Robot.last_seq).where(
-                    Robot.id.in_(missing)
-                )
-            ):
-                self.robots[row.id] = RobotState(row.id, row.ward, row.token_hash, row.last_seq)
-        missing = transport_ids - self.transports.keys()
-        if missing:
-            self.transports.update(dict.fromkeys(missing))
-            for row in session.execute(
-                select(
-                    Transport.id, Transport.robot_id, Transport.mode, Transport.patient,
-                    Transport.location, Transport.fps,
-                ).where(Transport.id.in_(missing))
-            ):  # fmt: skip
-                self.transports[row.id] = TransportState(*row)
-        names = {_video_name(robot_id, tid) for robot_id, tid in streams} - self.videos.keys()
-        if names:
-            for row in session.execute(
-                select(Video.id, Video.name, Video.frame_count).where(Video.name.in_(names))
-            ):
-                self.videos[row.name] = VideoState(row.id, row.name, row.frame_count,
-                                                   row.frame_count)  # fmt: skip
-        alarming = robot_ids if alarming_robots is None else alarming_robots & robot_ids
-        if alarming:
-            for alarm in session.scalars(
-                select(Alarm).where(
-                    Alarm.robot_id.in_(alarming),
-                    Alarm.state != AlarmState.RESOLVED,
-                    Alarm.kind.in_(ALARM_KIND_OF_DECISION.values()),
-                )
-            ).unique():
-                self.open_alarms[(alarm.robot_id, alarm.transport_key, alarm.kind)] = alarm
-        return self
-
-    def write_back(self, session: Session) -> None:
-        """One bulk update per table for the columns the flush changed."""
-        robots = [r for r in self.robots.values() if r is not None and r.last_seen_at]
-        robot_table = Robot.__table__
-        update_rows(session, robot_table, ("id", "last_seq", "last_seen_at"),
-                    [(r.id, r.last_seq, r.last_seen_at) for r in robots])  # fmt: skip
-        update_rows(session, robot_table, ("id", "running_model_version", "running_model_sha256"),
-                    [(r.id, r.running_model_version, r.running_model_sha256) for r in robots
-                     if r.running_model_changed])  # fmt: skip
-        videos = [
-            v for v in self.videos.values()
-            if isinstance(v, VideoState) and v.frame_count != v.initial_count
-        ]  # fmt: skip
-        update_rows(session, Video.__table__, ("id", "frame_count"),
-                    [(v.id, v.frame_count) for v in videos])  # fmt: skip
-        for video in videos:
-            video.initial_count = video.frame_count
-        transports = [
-            t for t in self.transports.values()
-            if isinstance(t, TransportState) and t.last_frame_at is not None
-        ]  # fmt: skip
-        update_rows(session, Transport.__table__, ("id", "last_frame_at"),
-                    [(t.id, t.last_frame_at) for t in transports])  # fmt: skip
-        for robot in robots:
-            robot.last_seen_at = None
-            robot.running_model_changed = False
-        for transport in transports:
-            transport.last_frame_at = None
-
-    def detach(self) -> IngestContext:
-        """After the commit: a context for the next flush that keeps the robot, transport and
-        video rows (as plain states, ORM objects converted) and nothing else."""
-        transports = {
-            key: TransportState(t.id, t.robot_id, t.mode, t.patient, t.location, t.fps)
-            if isinstance(t, Transport) else t
-            for key, t in self.transports.items()
-        }  # fmt: skip
-        videos = {
-            key: VideoState(v.id, v.name, v.frame_count, v.frame_count)
-            if isinstance(v, Video) else v
-            for key, v in self.videos.items()
-        }  # fmt: skip
-        return IngestContext(robots=self.robots, transports=transports, videos=videos)
-
-    def transport(
-        self, session: Session, transport_id: str | None
-    ) -> TransportState | Transport | None:
-        if transport_id is None:
-            return None
-        if transport_id not in self.transports:
-            self.transports[transport_id] = session.get(Transport, transport_id)
-        return self.transports[transport_id]
-
-    def flush_rows(self, session: Session) -> int:
-        stored = len(self.rows)
-        insert_frame_rows(session, self.rows)
-        self.rows = []
-        self.pending_seqs = {}
-        return stored
+    if transport is None or transport.robot_id != robot.id or transport.ended_at is not None:
+        return []
+    transport.ended_at = datetime.fromtimestamp(message.ts, UTC)
+    alarms = list(
+        session.scalars(
+            select(Alarm).where(
+                Alarm.transport_id == transport.id, Alarm.state != AlarmState.RESOLVED
+            )
+        ).unique()
+    )
+    for alarm in alarms:
+        publish_alarm(session, alarm)
+    return alarms
 
 
 def _video_for(
@@ -291,7 +137,7 @@ def _video_for(
     transport: Transport | TransportState | None,
     context: IngestContext,
 ) -> Video | VideoState:
-    name = _video_name(robot.id, transport.id if transport else None)
+    name = video_name(robot.id, transport.id if transport else None)
     video = context.videos.get(name)
     if video is None:
         video = session.scalars(select(Video).where(Video.name == name)).first()
@@ -395,7 +241,7 @@ def store_frames(
             )
             alarm = alarms.get((key, kind)) or context.open_alarms.get((robot.id, key or "", kind))
             if alarm is not None and alarm.state != AlarmState.RESOLVED:
-                fold_evidence(alarm, evidence, now)
+                fold_evidence(session, alarm, evidence, now)
             else:
                 # Pending row updates cannot change which alarm is unresolved: no autoflush.
                 with session.no_autoflush:
@@ -487,7 +333,7 @@ def apply_detection_status(
     transport = context.transport(session, message.transport_id)
     if transport is not None and transport.robot_id != robot.id:
         raise TransportNotOwned(message.transport_id)
-    video = context.videos.get(_video_name(robot.id, transport.id if transport else None))
+    video = context.videos.get(video_name(robot.id, transport.id if transport else None))
     evidence = DecisionEvidence(
         seq=robot.last_seq,  # the status follows this frame in the robot's stream
         ts=message.ts,

@@ -2,7 +2,8 @@
 them together, every `ingest_flush_ms` or as soon as `ingest_flush_frames` are waiting.
 
 Only after the commit are the robots acknowledged (their highest committed sequence number)
-and the alarms their decisions raised pushed. If a shared transaction fails, each robot's work
+and the alarms their decisions raised pushed (the effects the alarm service registered on the
+flush's unit of work, `backend.unit_of_work`). If a shared transaction fails, each robot's work
 is retried in its own transaction so one misbehaving robot cannot hold back the others.
 
 While a commit is blocked (storage stalled) a watch task fails open (`backend.ingest.failopen`):
@@ -16,19 +17,18 @@ import asyncio
 import contextlib
 import logging
 import time
-from collections.abc import Awaitable, Callable
 from dataclasses import dataclass, field
 from typing import Protocol
 
 from sqlalchemy.exc import DataError
 from sqlalchemy.orm import Session, sessionmaker
 
-from backend.alarms.schemas import AlarmOut
-from backend.db import transaction
 from backend.ingest import service
+from backend.ingest.context import IngestContext
 from backend.ingest.failopen import FailOpen
 from backend.ingest.received import ReceivedFrame, ReceivedFrames
 from backend.metrics import Metrics
+from backend.unit_of_work import Effects, UnitOfWork, unit_of_work
 from vigil import protocol
 from vigil.protocol import DetectionStatus, Heartbeat, TransportEnd, TransportStart
 
@@ -47,8 +47,8 @@ class RejectedMessage(Exception):
         self.reason = reason
 
 
-class RobotLink(Protocol):
-    """What the writer needs of a robot connection."""
+class Acknowledged(Protocol):
+    """What the writer needs of a robot's link (backend.ingest.link.RobotLink)."""
 
     robot_id: str
 
@@ -59,7 +59,7 @@ class RobotLink(Protocol):
 
 @dataclass(slots=True)
 class Job:
-    link: RobotLink
+    link: Acknowledged
     message: RobotWork
     received: float  # time.perf_counter() when the message arrived
 
@@ -72,7 +72,7 @@ class Job:
 class Outcome:
     acks: dict[int, int] = field(default_factory=dict)  # id(link) -> highest committed seq
     stored: int = 0
-    alarms: list[dict] = field(default_factory=list)
+    units: list[UnitOfWork] = field(default_factory=list)  # committed: their effects to run
     rejected: dict[int, RejectedMessage] = field(default_factory=dict)  # id(job) -> error
 
 
@@ -81,7 +81,7 @@ class FrameWriter:
         self,
         session_factory: sessionmaker[Session],
         metrics: Metrics,
-        publish_alarm: Callable[[dict], Awaitable[None]],
+        effects: Effects,
         flush_ms: float = 50,
         flush_frames: int = 500,
         max_pending_frames: int = 20_000,
@@ -90,7 +90,7 @@ class FrameWriter:
     ) -> None:
         self._session_factory = session_factory
         self._metrics = metrics
-        self._publish_alarm = publish_alarm
+        self._effects = effects  # where alarms go: committed ones and those failing open
         self._flush_s = flush_ms / 1000
         self._flush_frames = flush_frames
         self._pending: list[Job] = []
@@ -101,14 +101,14 @@ class FrameWriter:
         self._room.set()
         self._max_pending_frames = max_pending_frames
         self._task: asyncio.Task | None = None
-        self._cache: service.IngestContext | None = None
+        self._cache: IngestContext | None = None
         self._cache_born = 0.0
         self.fail_open = FailOpen(unstored_alarm_ms / 1000, storage_stall_s)
         self._inflight: list[Job] = []
         self._watch: asyncio.Task | None = None
 
     # -- called by robot connections -------------------------------------------------------
-    async def submit(self, link: RobotLink, message: RobotWork, received: float) -> Job:
+    async def submit(self, link: Acknowledged, message: RobotWork, received: float) -> Job:
         """Queue a message for the next commit; waits only when the writer is far behind."""
         job = Job(link, message, received)
         # Before any wait: an Emergency must reach the board even if the writer is stuck.
@@ -170,7 +170,7 @@ class FrameWriter:
                 waiting = {job.link.robot_id: getattr(job.link, "ward", None)
                            for job in (*self._inflight, *self._pending)}  # fmt: skip
                 for alarm in self.fail_open.due(time.perf_counter(), waiting):
-                    await self._publish_alarm(alarm)
+                    await self._effects.publish_alarm(alarm)
             except Exception:  # never let the watch die
                 log.exception("storage watch failed")
 
@@ -210,10 +210,10 @@ class FrameWriter:
         self._metrics.flush_frames.observe(outcome.stored)
         # Committed: now tell the nurses (the stored alarms replace any pushed unstored), then
         # the robots.
-        for alarm in outcome.alarms:
-            await self._publish_alarm(alarm)
+        for unit in outcome.units:
+            await unit.run_after_commit(self._effects)
         self._metrics.frames_ingested.inc(outcome.stored)
-        acked: dict[int, RobotLink] = {}
+        acked: dict[int, Acknowledged] = {}
         now = time.perf_counter()
         for job in jobs:
             error = outcome.rejected.get(id(job))
@@ -227,31 +227,35 @@ class FrameWriter:
             await link.send_ack(outcome.acks[key])
         if cleared:  # storage recovered: keep the outage in the audit trail, clear the cards
             try:
-                cleared = await asyncio.to_thread(self._record_stall, cleared, blocked)
+                unit = await asyncio.to_thread(self._record_stall, cleared, blocked)
             except Exception:
                 log.exception("storage_stalled alarms not stored; pushed as resolved only")
-            for alarm in cleared:
-                await self._publish_alarm(alarm)
+                for alarm in cleared:
+                    await self._effects.publish_alarm(alarm)
+            else:
+                await unit.run_after_commit(self._effects)
 
-    def _record_stall(self, cleared: list[dict], blocked_s: float) -> list[dict]:
-        with transaction(self._session_factory) as session:
-            return self.fail_open.record(session, cleared, blocked_s)
+    def _record_stall(self, cleared: list[dict], blocked_s: float) -> UnitOfWork:
+        with unit_of_work(self._session_factory) as unit:
+            self.fail_open.record(unit.session, cleared, blocked_s)
+        return unit
 
     # -- in a worker thread ----------------------------------------------------------------
-    def _cached_context(self) -> service.IngestContext:
+    def _cached_context(self) -> IngestContext:
         """Robot, transport and video rows are kept between flushes (this writer is what
         changes them), dropped every CACHE_SECONDS to see changes made elsewhere (another
         replica, a revoked token) and after any failed flush."""
         now = time.monotonic()
         if self._cache is None or now - self._cache_born > CACHE_SECONDS:
-            self._cache, self._cache_born = service.IngestContext(), now
+            self._cache, self._cache_born = IngestContext(), now
         return self._cache
 
     def _commit(self, jobs: list[Job]) -> Outcome:
         try:
             context = self._cached_context()
-            with transaction(self._session_factory) as session:
-                outcome = self._apply(session, jobs, context)
+            with unit_of_work(self._session_factory) as unit:
+                outcome = self._apply(unit.session, jobs, context)
+            outcome.units.append(unit)
             self._cache = context.detach()
             return outcome
         except RejectedMessage:
@@ -265,8 +269,8 @@ class FrameWriter:
             by_link.setdefault(id(job.link), []).append(job)
         for link_jobs in by_link.values():
             try:
-                with transaction(self._session_factory) as session:
-                    single = self._apply(session, link_jobs, service.IngestContext())
+                with unit_of_work(self._session_factory) as unit:
+                    single = self._apply(unit.session, link_jobs, IngestContext())
             except RejectedMessage as error:
                 for job in link_jobs:
                     outcome.rejected[id(job)] = error
@@ -286,10 +290,10 @@ class FrameWriter:
                 continue
             outcome.acks.update(single.acks)
             outcome.stored += single.stored
-            outcome.alarms.extend(single.alarms)
+            outcome.units.append(unit)
         return outcome
 
-    def _apply(self, session: Session, jobs: list[Job], context: service.IngestContext) -> Outcome:
+    def _apply(self, session: Session, jobs: list[Job], context: IngestContext) -> Outcome:
         outcome = Outcome()
         streams: set[tuple[str, str | None]] = set()
         alarming: set[str] = set()
@@ -305,10 +309,9 @@ class FrameWriter:
                 if isinstance(job.message, DetectionStatus) and job.message.transport_id:
                     streams.add((robot_id, job.message.transport_id))
         context.preload(session, streams, alarming)
-        touched = {}
         # Consecutive frame batches of one connection become one store_frames call.
         run: list[ReceivedFrame] = []
-        run_link: RobotLink | None = None
+        run_link: Acknowledged | None = None
 
         def store_run() -> None:
             nonlocal run, run_link
@@ -322,8 +325,6 @@ class FrameWriter:
             if result.highest_seq is not None:
                 key = id(run_link)
                 outcome.acks[key] = max(outcome.acks.get(key, -1), result.highest_seq)
-            for alarm in result.alarms:
-                touched[alarm.id] = alarm
             run, run_link = [], None
 
         for job in sorted(jobs, key=lambda j: id(j.link)):  # stable: keeps each robot's order
@@ -343,8 +344,7 @@ class FrameWriter:
                     raise _refused(error) from None
                 context.transports[transport.id] = transport
             elif isinstance(message, TransportEnd):
-                for alarm in service.end_transport(session, robot, message):
-                    touched[alarm.id] = alarm
+                service.end_transport(session, robot, message)
             elif isinstance(message, Heartbeat):
                 robot.last_seen_at = service.utcnow()
                 if message.running_model is not None:
@@ -360,8 +360,6 @@ class FrameWriter:
                     changed = service.apply_detection_status(session, robot, message, context)
                 except ValueError as error:
                     raise _refused(error) from None
-                for alarm in changed:
-                    touched[alarm.id] = alarm
                 if changed:
                     log.warning("robot %s: detection %s: %s", robot.id,
                                 "degraded" if message.degraded else "recovered",
@@ -370,13 +368,10 @@ class FrameWriter:
         outcome.stored = context.flush_rows(session)
         context.write_back(session)
         session.flush()
-        outcome.alarms = [
-            AlarmOut.model_validate(a).model_dump(mode="json") for a in touched.values()
-        ]
-        return outcome
+        return outcome  # the alarms changed are pushed after the commit (alarms.service)
 
     @staticmethod
-    def _robot(context: service.IngestContext, robot_id: str):
+    def _robot(context: IngestContext, robot_id: str):
         robot = context.robots.get(robot_id)
         if robot is None or robot.token_hash is None:
             raise RejectedMessage(protocol.CLOSE_UNAUTHORIZED, "robot token revoked")

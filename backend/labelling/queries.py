@@ -5,10 +5,11 @@ from __future__ import annotations
 from collections.abc import Iterable
 
 import numpy as np
-from sqlalchemy import ColumnElement, select
+from sqlalchemy import ColumnElement, func, select
 from sqlalchemy.orm import Session
 
 from backend.models.annotations import AnnotationSegment, SegmentSource, SegmentStatus
+from backend.models.taxonomy import TaxonomyLabel
 from backend.models.users import User
 from backend.models.videos import Frame, Split, Video
 from vigil.classes import TransportMode
@@ -142,3 +143,45 @@ def agreement_spans(session: Session, video_id: int, who: str) -> list[tuple[int
             s for s in live if s.annotator_id == owner.id and s.source != SegmentSource.IMPORT
         ]
     return [(s.first_frame, s.last_frame, s.label_key) for s in chosen]
+
+
+def facet_values(session: Session, column) -> list[str]:
+    """The distinct non-empty values of a video column, sorted (the list filters)."""
+    return sorted(v for v in session.scalars(select(column).distinct()) if v)
+
+
+def video_modes(session: Session, video_ids: Iterable[int]) -> dict[int, TransportMode]:
+    return dict(
+        session.execute(select(Video.id, Video.mode).where(Video.id.in_(set(video_ids)))).all()
+    )
+
+
+def frame_keypoints(session: Session, video_id: int, index: int) -> bytes | None:
+    return session.scalar(
+        select(Frame.keypoints).where(Frame.video_id == video_id, Frame.index == index)
+    )
+
+
+def frames_between(session: Session, video_id: int, first: int, last: int) -> list[Frame]:
+    """The video's frames first..last (inclusive), in order."""
+    return list(
+        session.scalars(
+            select(Frame)
+            .where(Frame.video_id == video_id, Frame.index >= first, Frame.index <= last)
+            .order_by(Frame.index)
+        )
+    )
+
+
+def taxonomy_labels(
+    session: Session, version: int | None
+) -> tuple[int | None, list[TaxonomyLabel]]:
+    """(version, its labels in order); the latest version when `version` is None."""
+    if version is None:
+        version = session.scalar(select(func.max(TaxonomyLabel.version)))
+    labels = session.scalars(
+        select(TaxonomyLabel)
+        .where(TaxonomyLabel.version == version)
+        .order_by(TaxonomyLabel.position)
+    ).all()
+    return version, list(labels)

@@ -18,6 +18,7 @@ from backend.alarms import queries
 from backend.alarms.schemas import AlarmOut
 from backend.deps import SESSION_COOKIE, session_from_token
 from backend.realtime.hub import ALARM_VIEWERS, BrowserConnection
+from backend.services import Services, socket_services
 
 router = APIRouter()
 
@@ -62,14 +63,14 @@ async def _first_message_token(websocket: WebSocket, timeout_s: float) -> str | 
     return token if isinstance(token, str) else CLOSE_BAD_MESSAGE
 
 
-def _session_still_valid(state, token: str) -> bool:
+def _session_still_valid(state: Services, token: str) -> bool:
     with state.session_factory() as session:
         return session_from_token(session, state.settings, token) is not None
 
 
 @router.websocket("/ws/browser")
 async def browser_socket(websocket: WebSocket) -> None:
-    state = websocket.app.state
+    state = socket_services(websocket)
     await websocket.accept()
     if not _origin_allowed(websocket, state.settings.trusted_origins):
         await websocket.close(CLOSE_FORBIDDEN, "socket opened from another site")
@@ -111,9 +112,7 @@ async def browser_socket(websocket: WebSocket) -> None:
             for a in queries.unresolved_for(session, user)
         ]
     # Fail open: alarms pushed before they could be stored (storage stalled) are on the board too.
-    writer = getattr(state, "writer", None)
-    if writer is not None:
-        alarms += [a for a in writer.unstored_alarms() if connection.can_see(a["ward"])]
+    alarms += [a for a in state.writer.unstored_alarms() if connection.can_see(a["ward"])]
     try:
         await state.hub.send(connection, {"type": "snapshot", "alarms": alarms})
         while True:

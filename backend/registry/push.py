@@ -15,11 +15,14 @@ from __future__ import annotations
 import asyncio
 import logging
 import time
+from dataclasses import dataclass, field
 
-from fastapi import FastAPI, WebSocket
 from sqlalchemy import select
+from sqlalchemy.orm import Session, sessionmaker
 from starlette.concurrency import run_in_threadpool
 
+from backend.ingest.link import RobotLink
+from backend.ingest.registry import RobotRegistry
 from backend.models.registry import ModelVersion
 from backend.models.robots import Robot
 from backend.registry.capability import fallback_for
@@ -27,12 +30,6 @@ from vigil.protocol import ModelAssignment
 
 log = logging.getLogger(__name__)
 DOWNLOAD_PATH = "/api/robot/models/{version}/file"
-
-
-def http_base(websocket: WebSocket) -> str:
-    url = websocket.base_url
-    scheme = {"ws": "http", "wss": "https"}.get(url.scheme, url.scheme)
-    return str(url.replace(scheme=scheme)).rstrip("/")
 
 
 def assignment_for(
@@ -56,130 +53,125 @@ def runs_assigned(assigned: ModelVersion, running: str | None, running_sha256: s
     return running_sha256 is None or running_sha256 == assigned.sha256
 
 
-def _wanted(
-    app: FastAPI, robot_id: str
-) -> tuple[ModelVersion | None, ModelVersion | None, ModelVersion | None, str | None, str | None]:
-    """(assigned, shadow, fallback, running version, running sha256) of a robot."""
-    with app.state.session_factory() as session:
-        robot = session.get(Robot, robot_id)
-        if robot is None:
-            return None, None, None, None, None
-        assigned = (
-            session.get(ModelVersion, robot.assigned_model_id) if robot.assigned_model_id else None
-        )
-        shadow = session.get(ModelVersion, robot.shadow_model_id) if robot.shadow_model_id else None
-        fallback = fallback_for(session, assigned)
-        session.expunge_all()
-        return assigned, shadow, fallback, robot.running_model_version, robot.running_model_sha256
+@dataclass
+class Sent:
+    """What this process sent to each robot."""
+
+    #: robot id -> (assigned version, monotonic time) of the last push
+    assignments: dict[str, tuple[str | None, float]] = field(default_factory=dict)
+    #: robot id -> shadow version sent on its current connection (an agent drops its shadow
+    #: model when it reconnects, so this is what each connected robot runs beside production)
+    shadows: dict[str, str] = field(default_factory=dict)
+    #: robot id -> fallback version sent on its current connection
+    fallbacks: dict[str, str] = field(default_factory=dict)
 
 
-def _sent(app: FastAPI) -> dict:
-    if not hasattr(app.state, "assignments_sent"):
-        app.state.assignments_sent = {}
-    return app.state.assignments_sent
+class AssignmentPusher:
+    """Sends `assign_model` messages through each connected robot's `RobotLink`."""
 
+    def __init__(
+        self,
+        session_factory: sessionmaker[Session],
+        robots: RobotRegistry,
+        resend_after_s: float,
+    ) -> None:
+        self._session_factory = session_factory
+        self._robots = robots
+        self.resend_after_s = resend_after_s
+        self.sent = Sent()
 
-def _shadows_sent(app: FastAPI) -> dict[str, str]:
-    """robot id -> shadow version sent on its current connection (an agent drops its shadow
-    model when it reconnects, so this is what each connected robot runs beside production)."""
-    if not hasattr(app.state, "shadows_sent"):
-        app.state.shadows_sent = {}
-    return app.state.shadows_sent
+    def _wanted(
+        self, robot_id: str
+    ) -> tuple[
+        ModelVersion | None, ModelVersion | None, ModelVersion | None, str | None, str | None
+    ]:
+        """(assigned, shadow, fallback, running version, running sha256) of a robot."""
+        with self._session_factory() as session:
+            robot = session.get(Robot, robot_id)
+            if robot is None:
+                return None, None, None, None, None
+            assigned = (
+                session.get(ModelVersion, robot.assigned_model_id)
+                if robot.assigned_model_id
+                else None
+            )
+            shadow = (
+                session.get(ModelVersion, robot.shadow_model_id) if robot.shadow_model_id else None
+            )
+            fallback = fallback_for(session, assigned)
+            session.expunge_all()
+            return (assigned, shadow, fallback, robot.running_model_version,
+                    robot.running_model_sha256)  # fmt: skip
 
+    def _link(self, robot_id: str) -> RobotLink | None:
+        link = self._robots.socket(robot_id)
+        return None if link is None or link.closed else link
 
-def _fallbacks_sent(app: FastAPI) -> dict[str, str]:
-    """robot id -> fallback version sent on its current connection."""
-    if not hasattr(app.state, "fallbacks_sent"):
-        app.state.fallbacks_sent = {}
-    return app.state.fallbacks_sent
-
-
-def _socket(app: FastAPI, robot_id: str) -> WebSocket | None:
-    connection = app.state.robots.socket(robot_id)  # a RobotConnection (or a bare socket)
-    if connection is None or getattr(connection, "closed", False):
-        return None
-    return getattr(connection, "websocket", connection)
-
-
-async def push_to_robot(app: FastAPI, robot_id: str, force: bool = True) -> bool:
-    """Send the robot its assignment(s) if it is connected here; True if anything was sent."""
-    websocket = _socket(app, robot_id)
-    if websocket is None:
-        return False
-    assigned, shadow, fallback, running, running_sha256 = await run_in_threadpool(
-        _wanted, app, robot_id
-    )
-    sent = _sent(app)
-    shadows = _shadows_sent(app)
-    fallbacks = _fallbacks_sent(app)
-    # A withdrawn shadow deployment: the production assignment also stops the shadow model
-    # (protocol 1 extension). Without a production assignment the robot drops it on reconnect.
-    stop_shadow = force and shadow is None and robot_id in shadows
-    messages = []
-    if assigned is not None and (force or not runs_assigned(assigned, running, running_sha256)):
-        production = assignment_for(assigned, http_base(websocket), shadow=False)
-        if stop_shadow:
-            production = production.model_copy(update={"stop_shadow": True})
-        messages.append(production)
-    if shadow is not None and force:
-        messages.append(assignment_for(shadow, http_base(websocket), shadow=True))
-    if fallback is None:
-        fallbacks.pop(robot_id, None)  # nothing to withdraw: the robot keeps it unused
-    elif force or fallbacks.get(robot_id) != fallback.version:
-        messages.append(assignment_for(fallback, http_base(websocket), shadow=False, fallback=True))
-    for message in messages:
-        try:
-            await websocket.send_text(message.model_dump_json())
-        except Exception:  # the robot went away; it gets the assignment when it is back
-            log.info("robot %s disconnected before its assignment was sent", robot_id)
+    async def push_to_robot(self, robot_id: str, force: bool = True) -> bool:
+        """Send the robot its assignment(s) if it is connected here; True if anything was sent."""
+        link = self._link(robot_id)
+        if link is None:
             return False
-        log.info("assigned %s%s to robot %s", message.version,
-                 " (shadow)" if message.shadow else " (shadow stopped)" if message.stop_shadow
-                 else " (fallback)" if message.fallback else "", robot_id)  # fmt: skip
-        if message.fallback:
-            fallbacks[robot_id] = message.version
-        elif message.shadow:
-            shadows[robot_id] = message.version
-        elif message.stop_shadow:
-            shadows.pop(robot_id, None)
-    sent[robot_id] = (assigned.version if assigned else None, time.monotonic())
-    return bool(messages)
+        assigned, shadow, fallback, running, running_sha256 = await run_in_threadpool(
+            self._wanted, robot_id
+        )
+        shadows, fallbacks = self.sent.shadows, self.sent.fallbacks
+        # A withdrawn shadow deployment: the production assignment also stops the shadow model
+        # (protocol 1 extension). Without a production assignment the robot drops it on
+        # reconnect.
+        stop_shadow = force and shadow is None and robot_id in shadows
+        messages = []
+        if assigned is not None and (force or not runs_assigned(assigned, running, running_sha256)):
+            production = assignment_for(assigned, link.base_url, shadow=False)
+            if stop_shadow:
+                production = production.model_copy(update={"stop_shadow": True})
+            messages.append(production)
+        if shadow is not None and force:
+            messages.append(assignment_for(shadow, link.base_url, shadow=True))
+        if fallback is None:
+            fallbacks.pop(robot_id, None)  # nothing to withdraw: the robot keeps it unused
+        elif force or fallbacks.get(robot_id) != fallback.version:
+            messages.append(assignment_for(fallback, link.base_url, shadow=False, fallback=True))
+        for message in messages:
+            if not await link.send(message):  # it gets the assignment when it is back
+                log.info("robot %s disconnected before its assignment was sent", robot_id)
+                return False
+            log.info("assigned %s%s to robot %s", message.version,
+                     " (shadow)" if message.shadow else " (shadow stopped)" if message.stop_shadow
+                     else " (fallback)" if message.fallback else "", robot_id)  # fmt: skip
+            if message.fallback:
+                fallbacks[robot_id] = message.version
+            elif message.shadow:
+                shadows[robot_id] = message.version
+            elif message.stop_shadow:
+                shadows.pop(robot_id, None)
+        self.sent.assignments[robot_id] = (assigned.version if assigned else None, time.monotonic())
+        return bool(messages)
 
+    async def push_to_robots(self, robot_ids: list[str]) -> None:
+        for robot_id in robot_ids:
+            await self.push_to_robot(robot_id)
 
-async def push_to_robots(app: FastAPI, robot_ids: list[str]) -> None:
-    for robot_id in robot_ids:
-        await push_to_robot(app, robot_id)
+    async def on_robot_connected(self, robot_id: str) -> None:
+        """Called by the robot socket after `welcome`: send what the robot should run, if it
+        differs from what it reported in hello (or a shadow model is assigned)."""
+        self.sent.shadows.pop(robot_id, None)  # the agent dropped its shadow model on welcome
+        self.sent.fallbacks.pop(robot_id, None)  # sent again after every welcome
+        assigned, shadow, fallback, running, running_sha256 = await run_in_threadpool(
+            self._wanted, robot_id
+        )
+        if shadow is not None:
+            await self.push_to_robot(robot_id, force=True)
+        elif (
+            assigned is not None and not runs_assigned(assigned, running, running_sha256)
+        ) or fallback is not None:
+            await self.push_to_robot(robot_id, force=False)
 
-
-async def on_robot_connected(websocket: WebSocket, robot_id: str) -> None:
-    """Called by the robot socket after `welcome`: send what the robot should run, if it differs
-    from what it reported in hello (or a shadow model is assigned)."""
-    app = websocket.app
-    _shadows_sent(app).pop(robot_id, None)  # the agent dropped its shadow model on welcome
-    _fallbacks_sent(app).pop(robot_id, None)  # sent again after every welcome
-    assigned, shadow, fallback, running, running_sha256 = await run_in_threadpool(
-        _wanted, app, robot_id
-    )
-    if shadow is not None:
-        await push_to_robot(app, robot_id, force=True)
-    elif (
-        assigned is not None and not runs_assigned(assigned, running, running_sha256)
-    ) or fallback is not None:
-        await push_to_robot(app, robot_id, force=False)
-
-
-async def reconcile(app: FastAPI) -> list[str]:
-    """Resend to connected robots that still do not run their assigned version."""
-    resend_after = app.state.settings.assignment_resend_s
-    sent = _sent(app)
-
-    fallbacks = _fallbacks_sent(app)
-
-    def _assigned() -> list[tuple[str, str, bool, str | None]]:
+    def _assigned(self) -> list[tuple[str, str, bool, str | None]]:
         """(robot, assigned version, whether it runs it, fallback version) of robots with a
         model."""
         cache: dict = {}
-        with app.state.session_factory() as session:
+        with self._session_factory() as session:
             rows = session.execute(
                 select(
                     Robot.id, ModelVersion, Robot.running_model_version, Robot.running_model_sha256
@@ -192,26 +184,29 @@ async def reconcile(app: FastAPI) -> list[str]:
                             fallback.version if fallback else None))  # fmt: skip
             return out
 
-    pushed = []
-    for robot_id, version, runs, fallback in await run_in_threadpool(_assigned):
-        if _socket(app, robot_id) is None:
-            continue
-        new_fallback = fallback is not None and fallbacks.get(robot_id) != fallback
-        if runs and not new_fallback:
-            continue
-        last = sent.get(robot_id)
-        recent = last and last[0] == version and time.monotonic() - last[1] < resend_after
-        if recent and not new_fallback:
-            continue
-        if await push_to_robot(app, robot_id, force=False):
-            pushed.append(robot_id)
-    return pushed
+    async def reconcile(self) -> list[str]:
+        """Resend to connected robots that still do not run their assigned version."""
+        pushed = []
+        for robot_id, version, runs, fallback in await run_in_threadpool(self._assigned):
+            if self._link(robot_id) is None:
+                continue
+            new_fallback = fallback is not None and self.sent.fallbacks.get(robot_id) != fallback
+            if runs and not new_fallback:
+                continue
+            last = self.sent.assignments.get(robot_id)
+            recent = (
+                last and last[0] == version and time.monotonic() - last[1] < self.resend_after_s
+            )
+            if recent and not new_fallback:
+                continue
+            if await self.push_to_robot(robot_id, force=False):
+                pushed.append(robot_id)
+        return pushed
 
-
-async def reconcile_forever(app: FastAPI, period_s: float = 2.0) -> None:
-    while True:
-        await asyncio.sleep(period_s)
-        try:
-            await reconcile(app)
-        except Exception:
-            log.exception("assignment reconcile failed")
+    async def reconcile_forever(self, period_s: float = 2.0) -> None:
+        while True:
+            await asyncio.sleep(period_s)
+            try:
+                await self.reconcile()
+            except Exception:
+                log.exception("assignment reconcile failed")

@@ -203,3 +203,7 @@ def compare(a: ModelVersion, b: ModelVersion) -> tuple[list[dict], list[dict]]:
         for name in sorted(set(events_a) | set(events_b))
     ]
     return rows, events
+
+
+def robot_ids(session: Session) -> list[str]:
+    return list(session.scalars(select(Robot.id)))

@@ -203,10 +203,9 @@ def _chunked(
 def _incremental_vacuum(factory: sessionmaker[Session], pages: int) -> None:
     """Give up to `pages` free pages (0: all) back to the file system. The statement frees
     one page per step: a script is stepped to its end (a plain execute stops after one)."""
-    with factory() as session:
+    with transaction(factory) as session:
         driver = session.connection().connection.driver_connection
         driver.executescript(f"PRAGMA incremental_vacuum({int(pages)});")
-        session.commit()
 
 
 def _partitioned(

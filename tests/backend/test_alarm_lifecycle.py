@@ -48,7 +48,7 @@ def stream(client, robot_id: str, token: str, transport: str, *frames, end: bool
 
 
 def tick(client, now) -> list[dict]:
-    return client.portal.call(client.app.state.monitor.tick, now)
+    return client.portal.call(client.app.state.services.monitor.tick, now)
 
 
 def events(session_factory, alarm_id: int) -> list[tuple[str, str | None, str, str]]:

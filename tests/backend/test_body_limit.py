@@ -59,7 +59,7 @@ def test_the_default_limit_is_64_mib():
 
 
 def test_import_larger_than_the_limit_gets_413_and_smaller_is_still_read(client, make_account):
-    client.app.state.settings.max_upload_bytes = 20_000
+    client.app.state.services.settings.max_upload_bytes = 20_000
     annotator = make_account(Role.ANNOTATOR, None, "anna")
     big = b'{"format": "vigil-labels", "pad": "' + b"x" * 30_000 + b'"}'
     for content in (big, iter([big[:10_000], big[10_000:]])):  # declared length, then chunked

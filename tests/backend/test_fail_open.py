@@ -133,7 +133,7 @@ def test_a_browser_connecting_during_a_stall_gets_the_unstored_alarms_of_its_war
 ):
     """The snapshot holds what was pushed unstored (the stall may outlast a page reload), and
     only for wards the user may see."""
-    fail_open = client.app.state.writer.fail_open
+    fail_open = client.app.state.services.writer.fail_open
     emergency = provisional_alarm(AlarmKind.EMERGENCY, "robot-a", "ward-a", "t-1", "P-1")
     fail_open.unstored[emergency["key"]] = Unstored(emergency, since=0.0, jobs={1}, pushed=True)
     waiting = provisional_alarm(AlarmKind.EMERGENCY, "robot-c", "ward-a", "t-3")

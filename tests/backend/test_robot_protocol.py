@@ -229,7 +229,7 @@ def test_bad_hello_is_refused_with_a_reason(client, robot, first, code, reason):
 
 
 def test_hello_timeout(client, robot):
-    client.app.state.settings.robot_hello_timeout_s = 0.2
+    client.app.state.services.settings.robot_hello_timeout_s = 0.2
     with client.websocket_connect("/ws/robot") as ws:
         assert closed_with(ws) == (protocol.CLOSE_HELLO_TIMEOUT, "no hello received in time")
 
@@ -313,7 +313,7 @@ def test_unstorable_text_is_a_bad_message_not_a_server_error(client, robot, othe
         hello(ws, robot, ROBOT_TOKEN)
         hello(good, other_robot, OTHER_TOKEN)
         ws.send_text(frames_message(model_version="m\u0000"))
-        if client.app.state.engine.dialect.name == "postgresql":
+        if client.app.state.services.engine.dialect.name == "postgresql":
             code, reason = closed_with(ws)
             assert code == protocol.CLOSE_BAD_MESSAGE and "cannot be stored" in reason
         else:
@@ -329,7 +329,7 @@ def test_integer_beyond_the_column_is_refused_not_wrapped(client, robot, session
     with client.websocket_connect("/ws/robot") as ws:
         hello(ws, robot, ROBOT_TOKEN)
         ws.send_text(frames_message(**{field: value}))
-        if client.app.state.engine.dialect.name == "postgresql":
+        if client.app.state.services.engine.dialect.name == "postgresql":
             code, reason = closed_with(ws)
             assert code == protocol.CLOSE_BAD_MESSAGE and "cannot be stored" in reason
         else:
@@ -337,7 +337,9 @@ def test_integer_beyond_the_column_is_refused_not_wrapped(client, robot, session
             assert ack == {"type": "ack", "seq": value if field == "seq" else 100}
     with session_factory() as session:
         stored = session.scalars(select(getattr(Frame, field))).all()
-    assert stored == ([] if client.app.state.engine.dialect.name == "postgresql" else [value])
+    assert stored == (
+        [] if client.app.state.services.engine.dialect.name == "postgresql" else [value]
+    )
 
 
 def test_metrics_count_frames_ack_latency_open_alarms_and_robots(client, robot, make_account):

@@ -76,7 +76,7 @@ def test_a_rotation_committed_while_the_robot_connects_still_closes_it(
 ):
     """The rotation commits after the hello's token check but before the connection is
     registered, so the rotation finds no socket to close: the robot socket checks again."""
-    registry = client.app.state.robots
+    registry = client.app.state.services.robots
     register = registry.connect
 
     def rotate_then_register(robot_id, connection):

@@ -184,10 +184,14 @@ def test_the_writer_refuses_another_robots_transport_inside_its_transaction(
         assert ack(b) == 0
 
     async def flush() -> tuple[FakeLink, FakeLink]:
-        async def publish(alarm: dict) -> None:
-            pass
+        class NoEffects:
+            async def publish_alarm(self, alarm: dict) -> None:
+                pass
 
-        writer = FrameWriter(session_factory, Metrics(), publish)
+            async def push_assignments(self, robot_ids: list[str]) -> None:
+                pass
+
+        writer = FrameWriter(session_factory, Metrics(), NoEffects())
         forger, honest = FakeLink(robot), FakeLink(other_robot)
         forged = [frame(5, "emergency", transport="t-b1")]
         await writer.submit(forger, from_batch(FrameBatch(frames=forged)), 0.0)

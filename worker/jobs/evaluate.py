@@ -3,7 +3,6 @@ per-event results, per-frame latency and plots, stored with the model."""
 
 from __future__ import annotations
 
-from backend.db import transaction
 from backend.jobs.params import EvaluateParams, parse
 from worker.context import JobContext
 from worker.jobs.common import gold_evaluation, model_dir, model_or_error, reload
@@ -11,12 +10,12 @@ from worker.jobs.common import gold_evaluation, model_dir, model_or_error, reloa
 
 def run(context: JobContext) -> dict:
     params = parse(EvaluateParams, context.params)
-    with transaction(context.factory) as session:
+    with context.read() as session:
         model = model_or_error(session, params.model_version_id)
         directory, mode, version = model_dir(model), model.mode, model.version
     classifier = reload(directory)  # verifies the sha256 of the stored file
     context.progress(0.2, f"evaluating {version} on the gold set")
-    with transaction(context.factory) as session:
+    with context.result() as session:
         metrics = gold_evaluation(session, classifier, directory, mode)
         if metrics.get("gold") is None:
             raise ValueError(metrics["gold_note"])

@@ -6,7 +6,6 @@ from __future__ import annotations
 import shutil
 from datetime import UTC, datetime
 
-from backend.db import transaction
 from backend.jobs.params import RethresholdParams, parse
 from backend.models.videos import Split
 from vigil.model_file import read_manifest, write_model
@@ -27,7 +26,7 @@ from worker.registration import register, store_path
 def run(context: JobContext) -> dict:
     params = parse(RethresholdParams, context.params)
     context.progress(0.05, "loading the model and the labelled recordings")
-    with transaction(context.factory) as session:
+    with context.read() as session:
         parent = model_or_error(session, params.model_version_id)
         parent_version, mode, parent_dir = parent.version, parent.mode, model_dir(parent)
         videos = labelled_videos(session, mode, None if params.video_ids else Split.TRAIN,
@@ -54,11 +53,11 @@ def run(context: JobContext) -> dict:
         write_model(directory, onnx_bytes, manifest)
         classifier = reload(directory)
         context.progress(0.6, "evaluating on the gold set")
-        with transaction(context.factory) as session:
+        with context.read() as session:
             metrics = gold_evaluation(session, classifier, directory, mode, sweep)
         metrics["rethreshold"] = {"delay_sweep": sweep, "data_sha256": data.data_sha256,
                                   "videos": data.names}  # fmt: skip
-        with transaction(context.factory) as session:
+        with context.result() as session:
             model = register(
                 session, directory, context.settings.model_store_dir,
                 lineage={"started_by": who, "parent": parent_version, "spec": manifest.name,

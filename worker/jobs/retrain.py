@@ -9,7 +9,6 @@ from datetime import UTC, datetime
 
 import numpy as np
 
-from backend.db import transaction
 from backend.jobs.params import RetrainParams, parse
 from backend.models.videos import Split
 from backend.storage.archive import import_archive
@@ -58,7 +57,7 @@ def run(context: JobContext) -> dict:
     params = parse(RetrainParams, context.params)
     spec = spec_for(params)
     context.progress(0.02, "loading labelled training recordings")
-    with transaction(context.factory) as session:
+    with context.read() as session:
         videos = labelled_videos(session, params.mode, None if params.video_ids else Split.TRAIN,
                                  params.video_ids)  # fmt: skip
         if params.archive_ids:
@@ -97,7 +96,7 @@ def run(context: JobContext) -> dict:
                 metrics={"dataset": "database", "videos": len(data.names)})  # fmt: skip
         classifier = reload(directory)
         context.progress(0.8, "evaluating on the gold set")
-        with transaction(context.factory) as session:
+        with context.read() as session:
             metrics = gold_evaluation(
                 session, classifier, directory, params.mode, selected.delay_sweep
             )
@@ -109,7 +108,7 @@ def run(context: JobContext) -> dict:
             "seconds": selected.seconds,
         }
         context.progress(0.95, "registering")
-        with transaction(context.factory) as session:
+        with context.result() as session:
             model = register(
                 session, directory, context.settings.model_store_dir,
                 lineage={

@@ -3,7 +3,6 @@ how alarms, recall and time to alarm would change, before anything is promoted."
 
 from __future__ import annotations
 
-from backend.db import transaction
 from backend.jobs.params import WhatIfParams, parse
 from worker.context import JobContext
 from worker.db_data import frame_data, labelled_videos
@@ -23,7 +22,7 @@ def _summary(result: dict) -> dict:
 
 def run(context: JobContext) -> dict:
     params = parse(WhatIfParams, context.params)
-    with transaction(context.factory) as session:
+    with context.read() as session:
         model = model_or_error(session, params.model_version_id)
         directory, mode, version = model_dir(model), model.mode, model.version
         videos = labelled_videos(session, mode, None if params.video_ids else params.split,

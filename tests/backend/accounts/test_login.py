@@ -194,7 +194,7 @@ def test_hashing_runs_at_a_lower_priority_than_ingest():
 
 def test_a_saturated_gate_answers_503_with_retry_after(client, session_factory):
     add_user(session_factory)
-    state = client.app.state
+    state = client.app.state.services
     state.login_gate = HashingGate(1, wait_s=0.05, queue_max=5)
 
     async def hold_the_slot() -> None:

@@ -10,7 +10,6 @@ from sqlalchemy import select
 from backend import models
 from backend.db import transaction
 from backend.models import Deployment, Robot, Role
-from backend.registry import push
 from tests.backend.conftest import ROBOT_TOKEN
 from tests.backend.registry.conftest import FEEDS_ALL
 from tests.registry_fixtures import derive_model
@@ -174,11 +173,13 @@ def test_robots_keep_the_keypoints_only_fallback_which_cannot_be_rolled_away(
         # A newer keypoints-only model becomes the fallback: robot-a hears of it (here through
         # the reconcile loop, as for a change made by another replica or the worker).
         assert promote(client, engineer, kp2, scope="robot", target="robot-b").status_code == 201
-        pushed = client.portal.call(push.reconcile, client.app)
+        pushed = client.portal.call(client.app.state.services.assignments.reconcile)
         assert pushed in (["robot-a"], [])  # [] if the app's own reconcile loop came first
         newer = json.loads(ws.receive_text())
         assert (newer["version"], newer["fallback"]) == ("rf-kp-test-2", True)
-        assert client.portal.call(push.reconcile, client.app) == []  # sent once
+        assert (
+            client.portal.call(client.app.state.services.assignments.reconcile) == []
+        )  # sent once
 
     # Now the first keypoints-only model may go.
     rolled = client.post(f"/api/deployments/{first['id']}/rollback", headers=engineer.headers,

@@ -110,7 +110,7 @@ def test_staged_rollout_canary_then_ward_then_rollback_restores_each_robot(
 def test_second_approver_is_required_when_configured(
     client, make_account, fleet, urfd_db, register, trained_model_dir, session_factory
 ):
-    client.app.state.settings.require_second_approver = True
+    client.app.state.services.settings.require_second_approver = True
     first = make_account(Role.ENGINEER, username="eng-1")
     second = make_account(Role.ENGINEER, username="eng-2")
     v1 = register(trained_model_dir)

@@ -1,0 +1,184 @@
+"""What one writer transaction shares across every robot's work (`IngestContext`): the frame
+rows gathered for one bulk insert, and robots, transports and videos loaded once as plain rows
+and written back with one statement per table. The writer keeps it between flushes."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from datetime import datetime
+
+from sqlalchemy import select
+from sqlalchemy.orm import Session
+
+from backend.ingest.bulk import insert_frame_rows
+from backend.ingest.bulk_update import update_rows
+from backend.models.alarms import Alarm, AlarmKind, AlarmState
+from backend.models.robots import Robot, Transport
+from backend.models.videos import Video
+from vigil.classes import Decision, TransportMode
+
+ALARM_KIND_OF_DECISION = {Decision.EMERGENCY: AlarmKind.EMERGENCY, Decision.PAUSE: AlarmKind.PAUSE}
+
+
+def video_name(robot_id: str, transport_id: str | None) -> str:
+    """The video a robot's frames of one transport are stored in."""
+    return f"robot/{robot_id}/{transport_id or 'untracked'}"
+
+
+@dataclass(slots=True)
+class RobotState:
+    """The robot columns the ingest path reads and writes, loaded without the ORM."""
+
+    id: str
+    ward: str
+    token_hash: str | None
+    last_seq: int | None
+    last_seen_at: datetime | None = None
+    running_model_version: str | None = None
+    running_model_sha256: str | None = None
+    running_model_changed: bool = False
+
+
+@dataclass(slots=True)
+class TransportState:
+    id: str
+    robot_id: str
+    mode: TransportMode
+    patient: str | None
+    location: str | None
+    fps: float | None = None
+    last_frame_at: datetime | None = None
+
+
+@dataclass(slots=True)
+class VideoState:
+    id: int
+    name: str
+    frame_count: int
+    initial_count: int = 0
+
+
+@dataclass
+class IngestContext:
+    """Rows and lookups shared by every robot's work in one writer transaction.
+
+    Frame rows are gathered here and inserted with one bulk statement by `flush_rows`; robots,
+    transports and videos are loaded once per transaction as plain rows (no ORM identity map)
+    and their changed columns written back with one executemany per table.
+    """
+
+    robots: dict[str, RobotState | None] = field(default_factory=dict)
+    transports: dict[str, TransportState | Transport | None] = field(default_factory=dict)
+    videos: dict[str, VideoState | Video] = field(default_factory=dict)
+    rows: list[tuple] = field(default_factory=list)  # laid out as bulk.FRAME_COLUMNS
+    pending_seqs: dict[str, set[int]] = field(default_factory=dict)
+    open_alarms: dict[tuple[str, str, AlarmKind], Alarm] = field(default_factory=dict)
+
+    def preload(
+        self,
+        session: Session,
+        streams: set[tuple[str, str | None]],
+        alarming_robots: set[str] | None = None,
+    ) -> IngestContext:
+        """Load, in a few queries, what the (robot id, transport id) streams of a flush touch;
+        unresolved alarms only for `alarming_robots` (those with an Emergency or Pause frame
+        in the flush; default: every robot)."""
+        robot_ids = {robot_id for robot_id, _ in streams}
+        transport_ids = {tid for _, tid in streams if tid is not None}
+        missing = robot_ids - self.robots.keys()
+        if missing:
+            self.robots.update(dict.fromkeys(missing))
+            for row in session.execute(
+                select(Robot.id, Robot.ward, Robot.token_hash, Robot.last_seq).where(
+                    Robot.id.in_(missing)
+                )
+            ):
+                self.robots[row.id] = RobotState(row.id, row.ward, row.token_hash, row.last_seq)
+        missing = transport_ids - self.transports.keys()
+        if missing:
+            self.transports.update(dict.fromkeys(missing))
+            for row in session.execute(
+                select(
+                    Transport.id, Transport.robot_id, Transport.mode, Transport.patient,
+                    Transport.location, Transport.fps,
+                ).where(Transport.id.in_(missing))
+            ):  # fmt: skip
+                self.transports[row.id] = TransportState(*row)
+        names = {video_name(robot_id, tid) for robot_id, tid in streams} - self.videos.keys()
+        if names:
+            for row in session.execute(
+                select(Video.id, Video.name, Video.frame_count).where(Video.name.in_(names))
+            ):
+                self.videos[row.name] = VideoState(row.id, row.name, row.frame_count,
+                                                   row.frame_count)  # fmt: skip
+        alarming = robot_ids if alarming_robots is None else alarming_robots & robot_ids
+        if alarming:
+            for alarm in session.scalars(
+                select(Alarm).where(
+                    Alarm.robot_id.in_(alarming),
+                    Alarm.state != AlarmState.RESOLVED,
+                    Alarm.kind.in_(ALARM_KIND_OF_DECISION.values()),
+                )
+            ).unique():
+                self.open_alarms[(alarm.robot_id, alarm.transport_key, alarm.kind)] = alarm
+        return self
+
+    def write_back(self, session: Session) -> None:
+        """One bulk update per table for the columns the flush changed."""
+        robots = [r for r in self.robots.values() if r is not None and r.last_seen_at]
+        robot_table = Robot.__table__
+        update_rows(session, robot_table, ("id", "last_seq", "last_seen_at"),
+                    [(r.id, r.last_seq, r.last_seen_at) for r in robots])  # fmt: skip
+        update_rows(session, robot_table, ("id", "running_model_version", "running_model_sha256"),
+                    [(r.id, r.running_model_version, r.running_model_sha256) for r in robots
+                     if r.running_model_changed])  # fmt: skip
+        videos = [
+            v for v in self.videos.values()
+            if isinstance(v, VideoState) and v.frame_count != v.initial_count
+        ]  # fmt: skip
+        update_rows(session, Video.__table__, ("id", "frame_count"),
+                    [(v.id, v.frame_count) for v in videos])  # fmt: skip
+        for video in videos:
+            video.initial_count = video.frame_count
+        transports = [
+            t for t in self.transports.values()
+            if isinstance(t, TransportState) and t.last_frame_at is not None
+        ]  # fmt: skip
+        update_rows(session, Transport.__table__, ("id", "last_frame_at"),
+                    [(t.id, t.last_frame_at) for t in transports])  # fmt: skip
+        for robot in robots:
+            robot.last_seen_at = None
+            robot.running_model_changed = False
+        for transport in transports:
+            transport.last_frame_at = None
+
+    def detach(self) -> IngestContext:
+        """After the commit: a context for the next flush that keeps the robot, transport and
+        video rows (as plain states, ORM objects converted) and nothing else."""
+        transports = {
+            key: TransportState(t.id, t.robot_id, t.mode, t.patient, t.location, t.fps)
+            if isinstance(t, Transport) else t
+            for key, t in self.transports.items()
+        }  # fmt: skip
+        videos = {
+            key: VideoState(v.id, v.name, v.frame_count, v.frame_count)
+            if isinstance(v, Video) else v
+            for key, v in self.videos.items()
+        }  # fmt: skip
+        return IngestContext(robots=self.robots, transports=transports, videos=videos)
+
+    def transport(
+        self, session: Session, transport_id: str | None
+    ) -> TransportState | Transport | None:
+        if transport_id is None:
+            return None
+        if transport_id not in self.transports:
+            self.transports[transport_id] = session.get(Transport, transport_id)
+        return self.transports[transport_id]
+
+    def flush_rows(self, session: Session) -> int:
+        stored = len(self.rows)
+        insert_frame_rows(session, self.rows)
+        self.rows = []
+        self.pending_seqs = {}
+        return stored

@@ -1,0 +1,97 @@
+"""The backend's services, built once in the lifespan and reached through typed dependencies
+(`ServicesDep` and the `Annotated` aliases below), never as loose attributes of `app.state`.
+
+`Services` is also where a committed unit of work's effects go (`backend.unit_of_work.Effects`):
+an alarm to the bus, an assignment to the robots' links.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Annotated
+
+from fastapi import Depends, Request, WebSocket
+from sqlalchemy import Engine
+from sqlalchemy.orm import Session, sessionmaker
+
+from backend.accounts.gate import HashingGate
+from backend.accounts.throttle import LoginThrottle
+from backend.alarms.monitor import AlarmMonitor
+from backend.ingest.registry import RobotRegistry
+from backend.ingest.writer import FrameWriter
+from backend.labelling.probability import LaneComputer
+from backend.labelling.rgb import FrameCache, JpegCache
+from backend.labelling.viewer3d import Viewer3D
+from backend.metrics import Metrics
+from backend.realtime.bus import AlarmBus
+from backend.realtime.hub import BrowserHub
+from backend.registry.push import AssignmentPusher
+from backend.settings import Settings
+from backend.storage.service import SummaryCache
+
+
+@dataclass
+class Labelling:
+    """The labelling workspace's process-wide tools."""
+
+    rgb_frames: FrameCache
+    rgb_jpegs: JpegCache
+    model_lane: LaneComputer
+    viewer3d: Viewer3D
+
+    @classmethod
+    def build(cls, settings: Settings) -> Labelling:
+        return cls(
+            FrameCache(settings.rgb_cache_frames),
+            JpegCache(),
+            LaneComputer(settings.labelling_model_dir),
+            Viewer3D(settings.viser_host, settings.viser_port),
+        )
+
+    def close(self) -> None:
+        self.viewer3d.stop()
+        self.rgb_frames.close()
+
+
+@dataclass(frozen=True)
+class Fanout:
+    """Where committed changes go: alarms to the bus, assignments to the robots' links."""
+
+    bus: AlarmBus
+    assignments: AssignmentPusher
+
+    async def publish_alarm(self, alarm: dict) -> None:
+        await self.bus.publish(alarm)
+
+    async def push_assignments(self, robot_ids: list[str]) -> None:
+        await self.assignments.push_to_robots(robot_ids)
+
+
+@dataclass
+class Services:
+    settings: Settings
+    engine: Engine
+    session_factory: sessionmaker[Session]
+    metrics: Metrics
+    hub: BrowserHub
+    bus: AlarmBus
+    robots: RobotRegistry
+    assignments: AssignmentPusher
+    effects: Fanout
+    writer: FrameWriter
+    monitor: AlarmMonitor
+    login_gate: HashingGate
+    login_throttle: LoginThrottle
+    labelling: Labelling
+    storage_summary: SummaryCache
+
+
+def get_services(request: Request) -> Services:
+    return request.app.state.services
+
+
+def socket_services(websocket: WebSocket) -> Services:
+    return websocket.app.state.services
+
+
+ServicesDep = Annotated[Services, Depends(get_services)]
