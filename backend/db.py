@@ -3,15 +3,12 @@
 from __future__ import annotations
 
 from sqlalchemy import Engine, create_engine, event
-from sqlalchemy.orm import DeclarativeBase, Session, sessionmaker
+from sqlalchemy.orm import Session, sessionmaker
 
+from backend.models.base import Base
 from backend.unit_of_work import transaction
 
 __all__ = ["Base", "make_engine", "make_session_factory", "transaction"]
-
-
-class Base(DeclarativeBase):
-    pass
 
 
 def make_engine(database_url: str) -> Engine:

@@ -4,8 +4,8 @@ from enum import StrEnum
 from sqlalchemy import JSON, ForeignKey, Index, String, Text, text
 from sqlalchemy.orm import Mapped, mapped_column, relationship
 
-from backend.db import Base
 from backend.models._types import UTCDateTime, utcnow
+from backend.models.base import Base
 from backend.models.robots import Transport
 from backend.models.users import User
 

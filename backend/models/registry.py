@@ -4,8 +4,8 @@ from enum import StrEnum
 from sqlalchemy import JSON, ForeignKey, String, Text
 from sqlalchemy.orm import Mapped, mapped_column
 
-from backend.db import Base
 from backend.models._types import UTCDateTime, utcnow
+from backend.models.base import Base
 from vigil.classes import TransportMode
 
 

@@ -3,8 +3,8 @@ from datetime import datetime
 from sqlalchemy import JSON, ForeignKey, Index, String
 from sqlalchemy.orm import Mapped, mapped_column
 
-from backend.db import Base
 from backend.models._types import UTCDateTime, utcnow
+from backend.models.base import Base
 from vigil.classes import TransportMode
 from vigil.inputs import KEYPOINTS, InputName, normalise
 

@@ -4,8 +4,8 @@ from enum import StrEnum
 from sqlalchemy import ForeignKey, String
 from sqlalchemy.orm import Mapped, mapped_column
 
-from backend.db import Base
 from backend.models._types import UTCDateTime, utcnow
+from backend.models.base import Base
 
 
 class Role(StrEnum):

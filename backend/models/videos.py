@@ -13,8 +13,8 @@ from sqlalchemy import (
 )
 from sqlalchemy.orm import Mapped, mapped_column
 
-from backend.db import Base
 from backend.models._types import UTCDateTime, utcnow
+from backend.models.base import Base
 from vigil.classes import Decision, TransportMode
 
 
