@@ -13,10 +13,7 @@
   the real backend (uvicorn subprocess, throwaway SQLite): frames per second from `hello` until
   the backend acknowledged the last one.
 - tracking: the patient tracker (vigil.tracking) on the 70 REAL URFD replays (frames with a
-  person in view but no patient passed on: `urfd_dropped_frames`, of which
-  `urfd_refused_far_from_the_fallen_patient` were lone detections far from where the patient
-  went down, which the tracker refuses; the same on MediaPipe's landmarks of fall-01) and on
-  GENERATED transports
+  person in view but no patient passed on: `urfd_dropped_frames`) and on GENERATED transports
   with bystanders crossing and occluding (vigil.synthetic: walking, rollator, wheelchair; 3 and
   5 people; 15 s; seeds 100-111): frames attributed to someone else (`identity_switch_frames`),
   transports with any, and frames where the visible patient was not passed on
@@ -128,18 +125,13 @@ def bench_urfd_tracking() -> dict:
     from vigil.datasets import urfd
     from vigil.tracking import PatientTracker
 
-    dropped, refused, with_person, sequences_with_drops = 0, 0, 0, []
-    refusals: dict[str, list[int]] = {}
+    dropped, with_person, sequences_with_drops = 0, 0, []
     for sequence in urfd.load(URFD_DIR):
         tracker, before = PatientTracker(), dropped
         for observation in UrfdReplaySource(sequence.name, URFD_DIR, speed=0):
             result = tracker.update(observation)
             with_person += bool(observation.people)
-            drop = bool(observation.people) and result.patient is None
-            dropped += drop
-            if drop and result.refused:
-                refused += 1
-                refusals.setdefault(sequence.name, []).append(observation.index)
+            dropped += bool(observation.people) and result.patient is None
         if dropped > before:
             sequences_with_drops.append(sequence.name)
     return {
@@ -147,32 +139,6 @@ def bench_urfd_tracking() -> dict:
         "urfd_frames_with_a_person": with_person,
         "urfd_dropped_frames": dropped,
         "urfd_sequences_with_drops": sequences_with_drops,
-        # Of the dropped frames: a lone detection the tracker refused because the patient had
-        # gone down elsewhere (vigil.tracking), and the frames by sequence (URFD replay index).
-        "urfd_refused_far_from_the_fallen_patient": refused,
-        "urfd_refusals": refusals,
-        "urfd_dropped_frames_other_than_refusals": dropped - refused,
-    }
-
-
-def bench_mediapipe_tracking() -> dict:
-    """The tracker on MediaPipe's landmarks of URFD fall-01 (the agent's source): frames with a
-    person in view but no patient passed on, and how many of them were refusals."""
-    from robot_agent.sources.mediapipe_video import URFD_RGB_CROP, MediaPipeVideoSource
-    from vigil.tracking import PatientTracker
-
-    tracker, dropped, refused = PatientTracker(), [], []
-    for observation in MediaPipeVideoSource(VIDEO, crop=URFD_RGB_CROP):
-        result = tracker.update(observation)
-        if observation.people and result.patient is None:
-            dropped.append(observation.index)
-            if result.refused:
-                refused.append(observation.index)
-    return {
-        "clip": "video/fall-01-cam0.mp4 (RGB half), MediaPipe Pose",
-        "dropped_frames": len(dropped),
-        "refused_frames": len(refused),
-        "first_refused_video_index": refused[0] if refused else None,
     }
 
 
@@ -217,7 +183,6 @@ def bench_generated_tracking(with_depth: bool) -> dict:
 def bench_tracking() -> dict:
     return {
         **bench_urfd_tracking(),
-        "mediapipe_fall_01": bench_mediapipe_tracking() if VIDEO.exists() else None,
         "generated_with_depth": bench_generated_tracking(with_depth=True),
         "generated_without_depth": bench_generated_tracking(with_depth=False),
         "data": "REAL URFD replays; GENERATED transports with bystanders (vigil.synthetic)",
@@ -295,9 +260,6 @@ def bench_outbox_replay(workdir: Path, n: int) -> dict:
 def tracking_goals(tracking: dict) -> dict:
     return {
         "urfd_dropped_frames_met": tracking["urfd_dropped_frames"] == 0,
-        "urfd_dropped_frames_other_than_refusals_met": (
-            tracking["urfd_dropped_frames_other_than_refusals"] == 0
-        ),
         "identity_switches_met": tracking["generated_with_depth"]["identity_switch_frames"] == 0,
     }
 

@@ -256,14 +256,7 @@ def _robot() -> str | None:
         text += (
             f"\n\nPatient tracker: on the {tracking['urfd_sequences']} real URFD replays, "
             f"{tracking['urfd_dropped_frames']} of {tracking['urfd_frames_with_a_person']} frames "
-            "with a person in view passed on no patient"
-            + (
-                f" ({tracking['urfd_refused_far_from_the_fallen_patient']} of them lone "
-                "detections far from where the patient lay, refused on purpose)"
-                if tracking.get("urfd_refused_far_from_the_fallen_patient")
-                else ""
-            )
-            + "; on "
+            "with a person in view passed on no patient; on "
             f"{with_depth['transports']} GENERATED transports with bystanders crossing and "
             f"occluding, {with_depth['identity_switch_frames']} frames attributed to a bystander "
             f"and {with_depth['patient_lost_frames']} of {with_depth['patient_visible_frames']} "

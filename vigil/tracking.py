@@ -17,17 +17,8 @@ everyone else is discarded. People seen in the same frame as the patient are mar
 A frame without the patient makes it LOST. It becomes TRACKING again when the patient's track
 is matched (the gate widens a little per missed frame), or when a person who appeared since the
 patient was lost, and is no known bystander, shows up near the patient's last position (the
-patient changed pose while hidden). A lone person in view who is no known bystander is taken
-for the patient wherever they are (a fall can change a body beyond every gate within a frame),
-unless the patient went *down* (seen upright, then their last whole-body detection at least as
-wide as tall: lying or huddled on the floor): somebody who went down does not reappear
-elsewhere a moment later, so then only the gates and the nearness rule apply. A pose
-estimator that loses a fallen patient and follows an object elsewhere in the room is not taken
-for the patient (MediaPipe on URFD fall-01 took an office chair for a person; MoveNet in URFD
-fall-13, fall-21, fall-23 and fall-29 found a standing "person" at the same spot left of the
-lying patient, whom URFD's depth measures place on the floor). After ``max_missed`` frames it
-is SEARCHING and selects anew, never choosing a known bystander (the marker, if seen, still
-decides).
+patient changed pose while hidden). After ``max_missed`` frames it is SEARCHING and selects
+anew, never choosing a known bystander (the marker, if seen, still decides).
 """
 
 from __future__ import annotations
@@ -46,7 +37,6 @@ TORSO = np.array([INDEX[k] for k in ("neck", "r_shoulder", "l_shoulder", "mid_hi
                                      "l_hip")])  # fmt: skip
 MIN_SHARED_JOINTS = 3
 MIN_PERSON_KEYPOINTS = 4
-WHOLE_BODY_KEYPOINTS = 8  # joints (of BODY_25's 25; MoveNet gives 15) to judge a body's shape
 SCALE_MEMORY = 0.97  # share of a track's remembered body size kept per frame
 
 
@@ -90,8 +80,6 @@ class TrackResult:
     index: int | None
     selected_by: SelectedBy | None = None
     missed: int = 0
-    # A lone person in view was not taken for the patient: the patient went down elsewhere.
-    refused: bool = False
 
 
 def _box(keypoints: np.ndarray, joints: np.ndarray | None = None) -> np.ndarray | None:
@@ -100,18 +88,6 @@ def _box(keypoints: np.ndarray, joints: np.ndarray | None = None) -> np.ndarray 
     if len(pts) < 2:
         return None
     return np.concatenate([pts.min(0), pts.max(0)])
-
-
-def body_shape(keypoints: np.ndarray) -> str | None:
-    """ "down" when a detection of at least WHOLE_BODY_KEYPOINTS joints is at least as wide as
-    tall in the image (lying, or huddled on the floor), "up" when it is taller than wide, None
-    for a partial detection (too few joints to tell a body's shape)."""
-    if int((keypoints[:, 2] > 0).sum()) < WHOLE_BODY_KEYPOINTS:
-        return None
-    box = _box(keypoints)
-    if box is None:
-        return None
-    return "down" if box[2] - box[0] >= box[3] - box[1] else "up"
 
 
 def skeleton_height(keypoints: np.ndarray) -> float:
@@ -218,9 +194,7 @@ def body_gap(predicted: np.ndarray, candidate: np.ndarray, scale: float) -> floa
 class _Track:
     """One person followed from frame to frame (the patient or someone to tell apart)."""
 
-    __slots__ = (
-        "keypoints", "depth", "velocity", "scale", "missed", "born", "bystander", "was_up", "down"
-    )  # fmt: skip
+    __slots__ = ("keypoints", "depth", "velocity", "scale", "missed", "born", "bystander")
 
     def __init__(self, person: SkeletonFrame, born: int, min_scale: float) -> None:
         self.keypoints = person.keypoints.copy()
@@ -230,10 +204,6 @@ class _Track:
         self.missed = 0
         self.born = born  # frame count when first seen
         self.bystander = False  # seen in the same frame as the patient: not the patient
-        # Went down: seen upright, then its last whole-body detection was down (body_shape).
-        self.was_up = False
-        self.down = False
-        self._shape(person.keypoints)
 
     def predicted(self) -> np.ndarray:
         out = self.keypoints.copy()
@@ -269,13 +239,6 @@ class _Track:
         # the body is remembered and forgets slowly (SCALE_MEMORY per frame).
         self.scale = max(skeleton_height(keypoints), SCALE_MEMORY**frames * self.scale, min_scale)
         self.missed = 0
-        self._shape(keypoints)
-
-    def _shape(self, keypoints: np.ndarray) -> None:
-        shape = body_shape(keypoints)
-        if shape is not None:
-            self.was_up = self.was_up or shape == "up"
-            self.down = self.was_up and shape == "down"
 
 
 class PatientTracker:
@@ -352,7 +315,6 @@ class PatientTracker:
             observation = replace(observation, people=people_with_depth(observation))
         people = observation.people
         assigned = self._associate(people)  # detection index -> track, for everyone
-        self._refused = False
         if self.state_ is TrackState.SEARCHING:
             return self._select(observation, assigned)
         index = next((i for i, t in assigned.items() if t is self.patient_), None)
@@ -364,7 +326,7 @@ class PatientTracker:
             return TrackResult(self.state_, people[index], index)
         TRACKER.move(self, TrackState.LOST)
         if self.missed_ <= self.max_missed:
-            return TrackResult(self.state_, None, None, missed=self.missed_, refused=self._refused)
+            return TrackResult(self.state_, None, None, missed=self.missed_)
         TRACKER.move(self, TrackState.SEARCHING)
         self.patient_ = None
         return self._select(observation, assigned)
@@ -393,11 +355,9 @@ class PatientTracker:
         """The patient was not matched: take a person who is no known bystander for them.
 
         When that person is the only one in view, they are (a fall can change a body beyond
-        both gates within a frame; a partial detection can hide everything the gates compare),
-        unless the patient was down when last seen. Otherwise only a person who appeared since
-        the patient was lost and is near their last position is taken: a stranger stepping out
-        from behind a bystander is not, nor a "person" the pose estimator finds across the room
-        after the patient went down."""
+        both gates within a frame; a partial detection can hide everything the gates compare).
+        With others in view, only a person who appeared since the patient was lost and is near
+        their last position is taken: a stranger stepping out from behind a bystander is not."""
         patient = self.patient_
         lost_at = self.frame_ - patient.missed
         last = patient.centre()
@@ -410,8 +370,7 @@ class PatientTracker:
             and not (np.isfinite(track.depth) and abs(track.depth - patient.depth) > depth_limit)
         ]
         best = None
-        lone = len(candidates) == 1 and len(assigned) == 1
-        if lone and not patient.down:
+        if len(candidates) == 1 and len(assigned) == 1:
             best = candidates[0][0]
         else:
             best_distance = self.reacquire_radius
@@ -421,7 +380,6 @@ class PatientTracker:
                 distance = float(np.linalg.norm(track.centre() - last)) / patient.scale
                 if distance <= best_distance:
                     best, best_distance = index, distance
-        self._refused = lone and best is None
         if best is not None:
             self.tracks_.remove(patient)
             self.patient_ = assigned[best]
