@@ -295,13 +295,13 @@ def _nurse_soak() -> str | None:
     mark = lambda ok: "met" if ok else "**not met**"  # noqa: E731
     rows = [
         ["board first render (navigation → every seeded alarm shown)",
-         f"{_fmt(data['first_render_ms'], 0)} ms", f"≤ {goals['first_render_ms']} ms",
+         f"{_fmt(data['first_render_ms'])} ms", f"≤ {goals['first_render_ms']} ms",
          mark(met["first_render"])],
         ["new Emergency → first row of the board, p50 / p95",
-         f"{_fmt(data['top']['p50_ms'], 0)} / {_fmt(data['top']['p95_ms'], 0)} ms "
+         f"{_fmt(data['top']['p50_ms'])} / {_fmt(data['top']['p95_ms'])} ms "
          f"(n={data['top']['n']})", f"p95 ≤ {goals['top_p95_ms']} ms", mark(met["top_p95"])],
         ["new Emergency → first beep of the tone, p50 / p95",
-         f"{_fmt(data['tone']['p50_ms'], 0)} / {_fmt(data['tone']['p95_ms'], 0)} ms "
+         f"{_fmt(data['tone']['p50_ms'])} / {_fmt(data['tone']['p95_ms'])} ms "
          f"(n={data['tone']['n']})", f"p95 ≤ {goals['tone_p95_ms']} ms", mark(met["tone_p95"])],
         ["JS heap start → end (after GC)",
          f"{data['heap_mb']['start']} → {data['heap_mb']['end']} MB",
