@@ -20,6 +20,7 @@ from backend.alarm_review.schemas import (
 )
 from backend.alarms import queries as alarm_queries
 from backend.alarms.schemas import AlarmOut
+from backend.api.downloads import attachment
 from backend.deps import CurrentUser, SessionDep
 from backend.models import Frame, Video
 from backend.models._types import utcnow
@@ -190,7 +191,7 @@ def shift_handover_csv(
     return Response(
         to_csv(report, out.since, out.until, out.ward),
         media_type="text/csv; charset=utf-8",
-        headers={"Content-Disposition": f'attachment; filename="{name}"'},
+        headers={"Content-Disposition": attachment(name)},
     )
 
 

@@ -302,6 +302,15 @@ def test_missed_emergency_is_latched_says_its_transport_ended_and_counts_in_the_
     (row,) = [line for line in lines[3:] if line.startswith(f"resolved,{alarm.id},")]
     assert row.startswith(f"resolved,{alarm.id},emergency,resolved,{robot},ward-a,P-1")
     assert ",true_emergency," in row and ",yes," in row
+    # Any ward name an admin asks for downloads (no 500): the file name falls back to ASCII.
+    admin = make_account(Role.ADMIN, None, "ada")
+    odd = client.get("/api/handover.csv", params={"ward": 'Station "Ü"\n3'}, headers=admin.headers)
+    assert odd.status_code == 200, odd.text
+    assert 'filename="handover-Station ____3-' in odd.headers["content-disposition"]
+    assert (
+        "filename*=UTF-8''handover-Station%20%22%C3%9C%22%0A3-"
+        in odd.headers["content-disposition"]
+    )
     assert events(session_factory, alarm.id)[-3:] == [
         ("miss", "open", "missed", "system"),
         ("acknowledge", "missed", "acknowledged", "nurse:nora"),

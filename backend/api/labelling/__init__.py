@@ -5,10 +5,9 @@ from fastapi import FastAPI, Request
 from fastapi.responses import JSONResponse
 
 from backend.api.labelling import agreement, exchange, media, segments, videos
-from backend.api.labelling.exchange import attachment
 from backend.labelling.errors import LabellingError
 
-__all__ = ["ROUTERS", "attachment", "install"]
+__all__ = ["ROUTERS", "install"]
 
 #: In this order in the OpenAPI document (as when they were one module).
 ROUTERS = (videos.router, segments.router, exchange.router, agreement.router, media.router)

@@ -4,11 +4,11 @@ from __future__ import annotations
 
 import json
 from typing import Literal
-from urllib.parse import quote
 
 from fastapi import APIRouter, Query, Response, UploadFile, status
 from fastapi.responses import JSONResponse
 
+from backend.api.downloads import attachment
 from backend.deps import CurrentUser, DbId, SessionDep
 from backend.labelling import exchange, export, segments
 from backend.labelling.errors import LabellingError
@@ -25,13 +25,6 @@ EXPORT_SUFFIX: dict[str, str] = {"csv": "csv", "json": "json", "coco": "coco.jso
 
 
 # -- export / import ------------------------------------------------------------------------
-
-
-def attachment(filename: str) -> str:
-    """Content-Disposition for any name: an ASCII stand-in in `filename` (quotes, backslashes,
-    control and non-ASCII characters replaced) and the exact name in RFC 5987 `filename*`."""
-    fallback = "".join(c if " " <= c <= "~" and c not in '"\\' else "_" for c in filename)
-    return f"attachment; filename=\"{fallback}\"; filename*=UTF-8''{quote(filename, safe='')}"
 
 
 def _not_a_json_number(constant: str) -> float:

@@ -9,7 +9,7 @@ from urllib.parse import unquote
 
 import pytest
 
-from backend.api.labelling import attachment
+from backend.api.downloads import attachment
 from tests.backend.labelling.test_exchange import API, _export, _import
 
 
