@@ -37,19 +37,25 @@ chromium:
 run: setup
 	$(PY) -m scripts.run_all
 
-# The two database runs go side by side: the suite keeps one core busy, the machine has two. The
-# PostgreSQL run's output is printed after the SQLite run's, so the two do not interleave.
+# Two runs side by side (the suite keeps one core busy, the machine has two): the SQLite run
+# without browser tests, and the PostgreSQL run followed by the browser tests (on SQLite), which
+# balances the two. The second run's output is printed after the first's, so they do not interleave.
 test: $(STAMP) frontend chromium lint
-	@echo "== Python tests on SQLite (with browser tests) and on PostgreSQL (throwaway database), side by side =="
-	@postgresql_log=$$(mktemp); \
-	VIGIL_TEST_DATABASE=postgresql $(PY) -m pytest -q -p no:cacheprovider -m "not browser" \
-		$(PYTEST_ARGS) >"$$postgresql_log" 2>&1 & postgresql_pid=$$!; \
+	@echo "== Python tests on SQLite, and on PostgreSQL (throwaway database) then the browser tests, side by side =="
+	@second_log=$$(mktemp); \
+	( VIGIL_TEST_DATABASE=postgresql $(PY) -m pytest -q -p no:cacheprovider -m "not browser" \
+		$(PYTEST_ARGS); postgresql_status=$$?; \
+	  echo "-- browser tests (SQLite) --"; \
+	  VIGIL_TEST_DATABASE=sqlite $(PY) -m pytest -q -p no:cacheprovider -m browser \
+		$(PYTEST_ARGS); browser_status=$$?; \
+	  echo "PostgreSQL run exit status $$postgresql_status, browser run exit status $$browser_status"; \
+	  test $$postgresql_status -eq 0 && test $$browser_status -eq 0 ) >"$$second_log" 2>&1 & second_pid=$$!; \
 	echo "-- SQLite --"; \
-	VIGIL_TEST_DATABASE=sqlite $(PY) -m pytest -q $(PYTEST_ARGS); sqlite_status=$$?; \
-	wait $$postgresql_pid; postgresql_status=$$?; \
-	echo "-- PostgreSQL --"; cat "$$postgresql_log"; rm -f "$$postgresql_log"; \
-	echo "SQLite run exit status $$sqlite_status, PostgreSQL run exit status $$postgresql_status"; \
-	test $$sqlite_status -eq 0 && test $$postgresql_status -eq 0
+	VIGIL_TEST_DATABASE=sqlite $(PY) -m pytest -q -m "not browser" $(PYTEST_ARGS); sqlite_status=$$?; \
+	wait $$second_pid; second_status=$$?; \
+	echo "-- PostgreSQL --"; cat "$$second_log"; rm -f "$$second_log"; \
+	echo "SQLite run exit status $$sqlite_status, PostgreSQL + browser run exit status $$second_status"; \
+	test $$sqlite_status -eq 0 && test $$second_status -eq 0
 	@echo "== Frontend unit tests =="
 	cd frontend && npm test
 
