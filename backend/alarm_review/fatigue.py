@@ -40,6 +40,23 @@ def shift_of(moment: datetime) -> tuple[datetime, ShiftName]:
     return day + timedelta(hours=start_hour), name
 
 
+def ack_wait_s(alarm: AlarmFacts, until: datetime) -> float:
+    """How long an alarm waited for an acknowledgement; one nobody acknowledged counts until it
+    was resolved, or until `until`."""
+    if alarm.acknowledged_at is not None:
+        waited_until = alarm.acknowledged_at
+    else:
+        waited_until = min(alarm.resolved_at or until, until)
+    return max((waited_until - alarm.raised_at).total_seconds(), 0.0)
+
+
+def was_missed(alarm: AlarmFacts, missed: Collection[int]) -> bool:
+    """Missed now, or at some point (`missed`: ids of alarms that were)."""
+    return (
+        getattr(alarm, "state", None) == AlarmState.MISSED or getattr(alarm, "id", None) in missed
+    )
+
+
 @dataclass
 class _Tally:
     alarms: int = 0
@@ -54,19 +71,14 @@ class _Tally:
     def add(self, alarm: AlarmFacts, until: datetime, missed: Collection[int] = ()) -> None:
         self.alarms += 1
         self.emergencies += alarm.kind == AlarmKind.EMERGENCY
-        self.missed += (getattr(alarm, "state", None) == AlarmState.MISSED
-                        or getattr(alarm, "id", None) in missed)  # fmt: skip
+        self.missed += was_missed(alarm, missed)
         if alarm.verdict is not None:
             self.resolved += 1
             self.false_alarms += alarm.verdict == Verdict.FALSE_ALARM
-        if alarm.acknowledged_at is not None:
-            self.acknowledged += 1
-            waited_until = alarm.acknowledged_at
-        else:
-            self.unacknowledged += 1
-            waited_until = min(alarm.resolved_at or until, until)
+        self.acknowledged += alarm.acknowledged_at is not None
+        self.unacknowledged += alarm.acknowledged_at is None
         self.ack_seconds = self.ack_seconds or []
-        self.ack_seconds.append(max((waited_until - alarm.raised_at).total_seconds(), 0.0))
+        self.ack_seconds.append(ack_wait_s(alarm, until))
 
     @property
     def median_ack_s(self) -> float | None:

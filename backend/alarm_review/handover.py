@@ -22,19 +22,14 @@ from collections import Counter, defaultdict
 from collections.abc import Collection, Iterable, Sequence
 from datetime import datetime
 
+from backend.alarm_review.fatigue import ack_wait_s, was_missed
 from backend.models.alarms import TECHNICAL_KINDS, Alarm, AlarmKind, AlarmState, Verdict
 
 SECTIONS = ("open", "missed", "acknowledged", "resolved")
 
 
 def section_of(alarm: Alarm) -> str:
-    state = AlarmState(alarm.state)
-    return {
-        AlarmState.OPEN: "open",
-        AlarmState.MISSED: "missed",
-        AlarmState.ACKNOWLEDGED: "acknowledged",
-        AlarmState.RESOLVED: "resolved",
-    }[state]
+    return AlarmState(alarm.state).value
 
 
 def percentile(values: Sequence[float], q: float) -> float | None:
@@ -46,19 +41,11 @@ def percentile(values: Sequence[float], q: float) -> float | None:
     return round(ordered[rank - 1], 1)
 
 
-def _ack_wait_s(alarm: Alarm, until: datetime) -> float:
-    if alarm.acknowledged_at is not None:
-        end = alarm.acknowledged_at
-    else:
-        end = min(alarm.resolved_at or until, until)
-    return max((end - alarm.raised_at).total_seconds(), 0.0)
-
-
 def fatigue_figures(alarms: Iterable[Alarm], missed_ids: Collection[int], until: datetime) -> dict:
     alarms = list(alarms)
     with_verdict = [a for a in alarms if a.verdict is not None]
     false_alarms = sum(a.verdict == Verdict.FALSE_ALARM for a in with_verdict)
-    waits = [_ack_wait_s(a, until) for a in alarms]
+    waits = [ack_wait_s(a, until) for a in alarms]
     return {
         "alarms": len(alarms),
         "emergencies": sum(a.kind == AlarmKind.EMERGENCY for a in alarms),
@@ -77,10 +64,6 @@ def fatigue_figures(alarms: Iterable[Alarm], missed_ids: Collection[int], until:
         "ack_p90_s": percentile(waits, 90),
         "ack_p95_s": percentile(waits, 95),
     }
-
-
-def was_missed(alarm: Alarm, missed_ids: Collection[int]) -> bool:
-    return alarm.state == AlarmState.MISSED or alarm.id in missed_ids
 
 
 def handover(

@@ -112,23 +112,18 @@ def start_transport(session: Session, robot: Robot, message: TransportStart) -> 
     return transport
 
 
-def end_transport(session: Session, robot: Robot, message: TransportEnd) -> list[Alarm]:
+def end_transport(session: Session, robot: Robot, message: TransportEnd) -> None:
     """Mark the transport ended; its unresolved alarms stay latched but are pushed again (after
-    the commit) so the board can say "transport ended N min ago". Returns them."""
+    the commit) so the board can say "transport ended N min ago"."""
     transport = session.get(Transport, message.transport_id)
     if transport is None or transport.robot_id != robot.id or transport.ended_at is not None:
-        return []
+        return
     transport.ended_at = datetime.fromtimestamp(message.ts, UTC)
-    alarms = list(
-        session.scalars(
-            select(Alarm).where(
-                Alarm.transport_id == transport.id, Alarm.state != AlarmState.RESOLVED
-            )
-        ).unique()
-    )
-    for alarm in alarms:
+    unresolved = session.scalars(
+        select(Alarm).where(Alarm.transport_id == transport.id, Alarm.state != AlarmState.RESOLVED)
+    ).unique()
+    for alarm in unresolved:
         publish_alarm(session, alarm)
-    return alarms
 
 
 def _video_for(

@@ -5,6 +5,7 @@ import {
   bannerEmergency,
   countBoard,
   filterBoard,
+  inWard,
   GROUP_LABEL,
   needsAttention,
   robotsOf,
@@ -41,7 +42,7 @@ export function NurseBoard() {
   const now = useNow(1000);
 
   // The ward's alarms (the server sends only wards the nurse may see), then the filters.
-  const inWards = useMemo(() => filterBoard(board.values(), { ward, robot: null, group: null }), [board, ward]);
+  const inWards = useMemo(() => inWard(board.values(), ward), [board, ward]);
   const shown = useMemo(() => sortForBoard(filterBoard(inWards, { ward: null, robot, group })), [inWards, robot, group]);
   const counts = useMemo(() => countBoard(inWards), [inWards]);
   const wards = useMemo(() => {
