@@ -34,6 +34,8 @@ class TransportPlan:
     location: str | None = None
     materialise: bool = False  # generate all observations in a thread first (generated data)
     fps: float | None = None  # the source's real frame rate, when it knows it
+    #: What a GENERATED transport was made to contain (its ground truth), shown in the log.
+    generated_events: tuple[str, ...] = ()
 
 
 @dataclass
@@ -205,11 +207,14 @@ class RobotAgent:
                 transport_id, time.time(), plan.patient, plan.location, plan.fps
             )
             log.info(
-                "robot %s: transport %s started (patient %s, %s)",
+                "robot %s: transport %s started (patient %s, %s)%s",
                 self.robot_id,
                 transport_id,
                 plan.patient or "unknown",
                 plan.location or "no location",
+                f"; GENERATED events: {', '.join(plan.generated_events)}"
+                if plan.generated_events
+                else "",
             )
             await self._stream(plan)
             self.pipeline.end_transport(time.time())

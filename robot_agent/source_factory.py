@@ -89,6 +89,7 @@ def generated_transports(
             location=GENERATED_LOCATION,
             materialise=True,
             fps=source.fps,
+            generated_events=tuple(events or ()),
         )
 
 

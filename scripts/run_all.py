@@ -14,7 +14,9 @@ import urllib.request
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
-VAR = ROOT / "var"
+#: Everything `make run` writes (database, secret key, models, tokens, outboxes); VIGIL_VAR_DIR
+#: moves it elsewhere, e.g. a throwaway directory (bench/demo_hour.py).
+VAR = Path(os.environ.get("VIGIL_VAR_DIR") or ROOT / "var").resolve()
 PY = sys.executable
 HOST, PORT = "127.0.0.1", int(os.environ.get("VIGIL_PORT", "8000"))
 MODEL_DIR = VAR / "models" / "default-walking"  # feature set "full": keypoints + floor measures
@@ -31,6 +33,22 @@ FLEET_RATES = [
     for arg in (flag, os.environ[name])
 ]  # fmt: skip
 TOKENS = VAR / "robot_tokens.json"
+
+
+def use_var_dir() -> None:
+    """Point every child's settings at VAR when VIGIL_VAR_DIR moved it (settings given in the
+    environment stay as they are)."""
+    if not os.environ.get("VIGIL_VAR_DIR"):
+        return  # the settings' own defaults are ROOT/var already (and a .env file may set them)
+    for name, value in (
+        ("VIGIL_DATABASE_URL", f"sqlite:///{VAR / 'vigil.db'}"),
+        ("VIGIL_SECRET_KEY_FILE", VAR / "secret_key"),
+        ("VIGIL_MODEL_STORE_DIR", VAR / "models"),
+        ("VIGIL_LABELLING_MODEL_DIR", MODEL_DIR),
+        ("VIGIL_ARCHIVE_DIR", VAR / "archive"),
+        ("VIGIL_ROBOT_MODELS_DIR", VAR / "robot-models"),
+    ):
+        os.environ.setdefault(name, str(value))
 
 
 def step(title: str, *args: str) -> None:
@@ -107,10 +125,12 @@ def _terminate(signum, frame) -> None:
 
 def main() -> int:
     signal.signal(signal.SIGTERM, _terminate)
-    VAR.mkdir(exist_ok=True)
+    VAR.mkdir(parents=True, exist_ok=True)
+    use_var_dir()
     step("applying database migrations", "-m", "backend.cli", "migrate")
     step("creating demo users and robots", "-m", "backend.cli", "seed-demo", "--robots",
-         str(ROBOTS))  # fmt: skip
+         str(ROBOTS), "--tokens-file", str(TOKENS), "--passwords-file",
+         str(VAR / "demo_passwords.json"))  # fmt: skip
     train_missing_models()
     models = ["--floor-model", str(MODEL_DIR), "--keypoints-model", str(KEYPOINTS_MODEL_DIR)]
     step(
@@ -138,6 +158,8 @@ def main() -> int:
                 str(ROBOTS),
                 "--tokens-file",
                 str(TOKENS),
+                "--outbox-dir",
+                str(VAR / "robot-outbox"),
                 # No local model: a robot runs only what the registry assigned it through the
                 # promotion gate; until then it streams the generator's ground truth, marked
                 # model_version "generated-ground-truth". Rates: --falls-per-hour etc.

@@ -6,7 +6,7 @@ from collections.abc import Sequence
 from datetime import datetime
 
 from sqlalchemy import func, select
-from sqlalchemy.orm import Session
+from sqlalchemy.orm import Session, aliased
 
 from backend import wards
 from backend.models.alarms import Alarm, AlarmEvent, AlarmKind, AlarmState
@@ -47,16 +47,25 @@ def list_alarms(
     return session.scalars(query.order_by(Alarm.raised_at.desc()).limit(limit)).unique().all()
 
 
-def unresolved_for(session: Session, user: User) -> Sequence[Alarm]:
-    return (
-        session.scalars(
-            select(Alarm)
-            .where(visible_to(user), Alarm.state != AlarmState.RESOLVED)
-            .order_by(Alarm.raised_at)
+def unresolved_rows(session: Session, user: User) -> list[dict]:
+    """Every unresolved alarm the user may see, oldest first, as plain rows with the fields of
+    AlarmOut (the nurse board's snapshot): one query of columns, no ORM objects, as hundreds
+    of alarms may be open when a nurse opens the board."""
+    acknowledger, resolver = aliased(User), aliased(User)
+    query = (
+        select(
+            *Alarm.__table__.c,
+            acknowledger.username.label("acknowledged_by"),
+            resolver.username.label("resolved_by"),
+            Transport.ended_at.label("transport_ended_at"),
         )
-        .unique()
-        .all()
+        .outerjoin(acknowledger, acknowledger.id == Alarm.acknowledged_by_id)
+        .outerjoin(resolver, resolver.id == Alarm.resolved_by_id)
+        .outerjoin(Transport, Transport.id == Alarm.transport_id)
+        .where(visible_to(user), Alarm.state != AlarmState.RESOLVED)
+        .order_by(Alarm.raised_at, Alarm.id)
     )
+    return [dict(row) for row in session.execute(query).mappings()]
 
 
 def get_visible(session: Session, user: User, alarm_id: int) -> Alarm | None:

@@ -12,6 +12,7 @@ import asyncio
 import json
 
 from fastapi import APIRouter, WebSocket, WebSocketDisconnect
+from pydantic import TypeAdapter
 from starlette.concurrency import run_in_threadpool
 
 from backend.alarms import queries
@@ -63,6 +64,27 @@ async def _first_message_token(websocket: WebSocket, timeout_s: float) -> str | 
     return token if isinstance(token, str) else CLOSE_BAD_MESSAGE
 
 
+def _signed_in_user(state: Services, token: str):
+    """(user, claims) of a valid session, else None; the user stays readable after the
+    session closes (its ward and role scope the snapshot)."""
+    with state.session_factory() as session:
+        found = session_from_token(session, state.settings, token)
+        if found is not None:
+            session.expunge(found[0])
+        return found
+
+
+_ALARMS = TypeAdapter(list[AlarmOut])
+
+
+def _snapshot(state: Services, user) -> list[dict]:
+    """Every unresolved alarm the user may see, as the board's JSON (one query, validated and
+    dumped as one list)."""
+    with state.session_factory() as session:
+        rows = queries.unresolved_rows(session, user)
+    return _ALARMS.dump_python(_ALARMS.validate_python(rows), mode="json")
+
+
 def _session_still_valid(state: Services, token: str) -> bool:
     with state.session_factory() as session:
         return session_from_token(session, state.settings, token) is not None
@@ -95,22 +117,23 @@ async def browser_socket(websocket: WebSocket) -> None:
                 CLOSE_BAD_MESSAGE, 'the first message must be {"type": "auth", "token": "..."}'
             )
             return
-    with state.session_factory() as session:
-        found = session_from_token(session, state.settings, token)
-        if found is None:
-            await websocket.close(CLOSE_UNAUTHORIZED, "not signed in or session expired")
-            return
-        user, claims = found
-        if user.role not in ALARM_VIEWERS:
-            await websocket.close(CLOSE_FORBIDDEN, f"role {user.role} receives no alarms")
-            return
-        connection = BrowserConnection(websocket, user.id, user.role, user.ward, claims.jti)
-        # Register before reading the snapshot so no alarm committed in between is missed.
-        state.hub.add(connection)
-        alarms = [
-            AlarmOut.model_validate(a).model_dump(mode="json")
-            for a in queries.unresolved_for(session, user)
-        ]
+    # Database work runs off the event loop, so other boards' pushes do not wait for it.
+    found = await run_in_threadpool(_signed_in_user, state, token)
+    if found is None:
+        await websocket.close(CLOSE_UNAUTHORIZED, "not signed in or session expired")
+        return
+    user, claims = found
+    if user.role not in ALARM_VIEWERS:
+        await websocket.close(CLOSE_FORBIDDEN, f"role {user.role} receives no alarms")
+        return
+    connection = BrowserConnection(websocket, user.id, user.role, user.ward, claims.jti)
+    # Register before reading the snapshot so no alarm committed in between is missed.
+    state.hub.add(connection)
+    try:
+        alarms = await run_in_threadpool(_snapshot, state, user)
+    except BaseException:
+        state.hub.remove(connection)
+        raise
     # Fail open: alarms pushed before they could be stored (storage stalled) are on the board too.
     alarms += [a for a in state.writer.unstored_alarms() if connection.can_see(a["ward"])]
     try:

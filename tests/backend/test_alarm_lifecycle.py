@@ -234,6 +234,27 @@ def test_reconnecting_browser_first_receives_every_open_alarm(client, robot, mak
     assert sorted(a["kind"] for a in snapshot["alarms"]) == ["emergency", "pause"]
 
 
+def test_snapshot_holds_each_alarm_as_the_api_shows_it(client, robot, make_account):
+    """The board's snapshot is one query of columns (alarms.queries.unresolved_rows): each alarm
+    in it is what GET /api/alarms/{id} gives, who acknowledged it and its transport's end too."""
+    nurse = make_account(Role.NURSE, ward="ward-a", username="nell")
+    stream(client, robot, ROBOT_TOKEN, "t-1", frame(0, "emergency", "t-1"),
+           frame(1, "pause", "t-1"))  # fmt: skip
+    alarms = client.get("/api/alarms", headers=nurse.headers).json()
+    emergency = next(a for a in alarms if a["kind"] == "emergency")
+    acknowledged = client.post(f"/api/alarms/{emergency['id']}/acknowledge", headers=nurse.headers)
+    assert acknowledged.status_code == 200, acknowledged.text
+    with client.websocket_connect("/ws/browser", headers=nurse.headers) as browser:
+        snapshot = browser.receive_json()["alarms"]
+    assert [a["raised_at"] for a in snapshot] == sorted(a["raised_at"] for a in snapshot)
+    by_id = {a["id"]: a for a in snapshot}
+    assert len(by_id) == len(snapshot) == 2
+    for alarm_id, pushed in by_id.items():
+        assert pushed == client.get(f"/api/alarms/{alarm_id}", headers=nurse.headers).json()
+    assert by_id[emergency["id"]]["acknowledged_by"] == "nell"
+    assert all(a["transport_ended_at"] is not None for a in snapshot)
+
+
 def test_missed_emergency_is_latched_says_its_transport_ended_and_counts_in_the_handover(
     client, robot, make_account, session_factory
 ):

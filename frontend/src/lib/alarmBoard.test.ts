@@ -78,6 +78,24 @@ describe("alarms pushed before they are stored (fail open)", () => {
     expect([...board.keys()].sort()).toEqual([-1, 8]);
   });
 
+  it("a snapshot builds the same board as its alarms sent one by one", () => {
+    const alarms = Array.from({ length: 60 }, (_, i) =>
+      alarm({
+        id: i % 7 === 0 ? -i - 1 : i + 1,
+        stored: i % 7 !== 0,
+        key: `r${i % 5}/t${i % 11}/emergency`,
+        state: i % 9 === 0 ? "resolved" : i % 4 === 0 ? "missed" : "open",
+        updated_at: `2026-01-01T10:00:${String(i % 60).padStart(2, "0")}Z`,
+      }),
+    );
+    let oneByOne = emptyBoard;
+    for (const a of alarms.filter((x) => x.stored !== false)) oneByOne = applyMessage(oneByOne, { type: "alarm", alarm: a });
+    for (const a of alarms.filter((x) => x.stored === false)) oneByOne = applyMessage(oneByOne, { type: "alarm", alarm: a });
+    const snapshot = applyMessage(emptyBoard, { type: "snapshot", alarms });
+    expect([...snapshot.keys()].sort((a, b) => a - b)).toEqual([...oneByOne.keys()].sort((a, b) => a - b));
+    expect(snapshot.size).toBeGreaterThan(30);
+  });
+
   it("a snapshot holding both keeps only the stored alarm", () => {
     const board = applyMessage(emptyBoard, { type: "snapshot", alarms: [unstored, alarm({ id: 9 })] });
     expect([...board.keys()]).toEqual([9]);

@@ -12,12 +12,7 @@ export const emptyBoard: Board = new Map();
  * storage recovers, and a not-yet-stored alarm is not shown beside a stored live one of its key:
  * one card per alarm, never two. */
 export function applyMessage(board: Board, message: BrowserMessage): Board {
-  if (message.type === "snapshot") {
-    let next: Board = emptyBoard;
-    for (const a of message.alarms.filter((x) => isStored(x))) next = applyMessage(next, { type: "alarm", alarm: a });
-    for (const a of message.alarms.filter((x) => !isStored(x))) next = applyMessage(next, { type: "alarm", alarm: a });
-    return next;
-  }
+  if (message.type === "snapshot") return snapshotBoard(message.alarms);
   const alarm = message.alarm;
   const known = board.get(alarm.id);
   // Messages may overtake each other; never let an older version replace a newer one.
@@ -33,6 +28,28 @@ export function applyMessage(board: Board, message: BrowserMessage): Board {
   }
   if (isLive(alarm)) next.set(alarm.id, alarm);
   else next.delete(alarm.id);
+  return next;
+}
+
+/** The board of a snapshot, built in one pass (a snapshot holds hundreds of alarms): the same
+ * rules as one message at a time (the newest version of an alarm; a not-yet-stored alarm only
+ * when no stored live alarm has its key). */
+function snapshotBoard(alarms: readonly Alarm[]): Board {
+  const next = new Map<number, Alarm>();
+  const storedKeys = new Set<string>();
+  for (const alarm of alarms) {
+    if (!isStored(alarm) || !isLive(alarm)) continue;
+    const known = next.get(alarm.id);
+    if (known && Date.parse(known.updated_at) > Date.parse(alarm.updated_at)) continue;
+    next.set(alarm.id, alarm);
+  }
+  for (const alarm of next.values()) storedKeys.add(alarm.key);
+  for (const alarm of alarms) {
+    if (isStored(alarm) || !isLive(alarm) || storedKeys.has(alarm.key)) continue;
+    const known = next.get(alarm.id);
+    if (known && Date.parse(known.updated_at) > Date.parse(alarm.updated_at)) continue;
+    next.set(alarm.id, alarm);
+  }
   return next;
 }
 
