@@ -30,6 +30,7 @@ from backend.ingest.received import ReceivedFrame, ReceivedFrames
 from backend.metrics import Metrics
 from backend.unit_of_work import Effects, UnitOfWork, unit_of_work
 from vigil import protocol
+from vigil.classes import Decision
 from vigil.protocol import DetectionStatus, Heartbeat, TransportEnd, TransportStart
 
 log = logging.getLogger(__name__)
@@ -67,6 +68,14 @@ class Job:
     def frame_count(self) -> int:
         return len(self.message.frames) if isinstance(self.message, ReceivedFrames) else 0
 
+    @property
+    def urgent(self) -> bool:
+        """It carries an Emergency decision: committed (and pushed to the board) without
+        waiting for more messages to batch with it."""
+        return isinstance(self.message, ReceivedFrames) and any(
+            frame.decision == Decision.EMERGENCY for frame in self.message.frames
+        )
+
 
 @dataclass
 class Outcome:
@@ -96,6 +105,7 @@ class FrameWriter:
         self._pending: list[Job] = []
         self._pending_frames = 0
         self._oldest: float | None = None
+        self._urgent = False  # an Emergency waits: flush without lingering
         self._arrived = asyncio.Event()
         self._room = asyncio.Event()
         self._room.set()
@@ -120,6 +130,7 @@ class FrameWriter:
             self._oldest = received
         self._pending.append(job)
         self._pending_frames += job.frame_count
+        self._urgent = self._urgent or job.urgent
         self._arrived.set()
         return job
 
@@ -146,8 +157,9 @@ class FrameWriter:
         while True:
             await self._arrived.wait()
             self._arrived.clear()
-            # Linger until the oldest message has waited flush_ms or enough frames are queued.
-            while self._pending and self._pending_frames < self._flush_frames:
+            # Linger until the oldest message has waited flush_ms or enough frames are queued,
+            # unless an Emergency decision waits.
+            while self._pending and not self._urgent and self._pending_frames < self._flush_frames:
                 remaining = (self._oldest or 0) + self._flush_s - time.perf_counter()
                 if remaining <= 0:
                     break
@@ -195,6 +207,7 @@ class FrameWriter:
     async def _flush(self) -> None:
         jobs, self._pending = self._pending, []
         self._pending_frames = 0
+        self._urgent = False
         self._oldest = None
         self._room.set()
         started = time.perf_counter()

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import asyncio
 import json
+import time
 
 import pytest
 from sqlalchemy import select
@@ -248,3 +249,50 @@ def test_over_a_real_socket_the_forger_is_closed_and_the_owner_keeps_streaming(t
     assert stored(factory, "robot-b1") == [0, 1]
     assert alarms_of(factory, ROBOT_ID) == []
     engine.dispose()
+
+
+def test_the_writer_commits_an_emergency_at_once_and_batches_the_rest(
+    client, robot, session_factory
+):
+    """Normal frames wait up to flush_ms to be committed together; a batch with an Emergency
+    decision is committed (and its alarm pushed) without waiting."""
+    with client.websocket_connect("/ws/robot") as a:
+        connect(a, robot, ROBOT_TOKEN)
+        start(a, "t-u")
+        send(a, [frame(0, transport="t-u")])
+        assert ack(a) == 0
+
+    async def run() -> tuple[list[int], list[int]]:
+        class NoEffects:
+            async def publish_alarm(self, alarm: dict) -> None:
+                pass
+
+            async def push_assignments(self, robot_ids: list[str]) -> None:
+                pass
+
+        writer = FrameWriter(session_factory, Metrics(), NoEffects(), flush_ms=60_000)
+        link = FakeLink(robot)
+        writer.start()
+        try:
+            await writer.submit(
+                link,
+                from_batch(FrameBatch(frames=[frame(1, transport="t-u")])),
+                time.perf_counter(),
+            )
+            await asyncio.sleep(0.5)
+            lingering = list(link.acks)
+            emergency = [frame(2, "emergency", transport="t-u")]
+            await writer.submit(link, from_batch(FrameBatch(frames=emergency)), time.perf_counter())
+            for _ in range(100):
+                if link.acks:
+                    break
+                await asyncio.sleep(0.05)
+            return lingering, list(link.acks)
+        finally:
+            await writer.stop()
+
+    lingering, acked = asyncio.run(run())
+    assert lingering == []  # normal frames wait for their batch (flush_ms)
+    assert acked == [2]  # the Emergency took them along at once
+    assert stored(session_factory, robot) == [0, 1, 2]
+    assert [a.kind for a in alarms_of(session_factory, robot)] == ["emergency"]
