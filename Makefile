@@ -11,7 +11,8 @@ PYTEST_ARGS ?=
 .PHONY: run test test-python test-sqlite test-postgresql test-frontend test-browser setup \
 	frontend chromium lint format bench-detection bench-detection-splits bench-fall-onset \
 	bench-floor bench-ingest bench-robot bench-video bench-labelling bench-registry \
-	bench-alarm-latency bench-storage-stall bench-storage bench-login-flood bench-nurse-soak readme \
+	bench-alarm-latency bench-storage-stall bench-storage bench-login-flood bench-nurse-soak \
+	bench-demo-hour readme \
 	screenshots \
 	clean
 
@@ -103,6 +104,11 @@ bench-alarm-latency: $(STAMP) frontend chromium
 # 30 minutes in Chromium (VIGIL_SOAK_MINUTES=2 for a quick check); not part of `make test`.
 bench-nurse-soak: $(STAMP) frontend chromium
 	$(PY) -m bench.nurse_soak
+
+# An hour of make run's system on a throwaway data directory: the board against the simulated
+# fall rate, the models the robots run (counts and order, not speed: it runs under nice).
+bench-demo-hour: $(STAMP) frontend chromium
+	nice -n 10 $(PY) -m bench.demo_hour
 
 bench-storage-stall: $(STAMP)
 	$(PY) -m bench.storage_stall

@@ -56,6 +56,7 @@ from tests.browser.live_server import (
     TABLET,
     LiveServer,
     build_frontend,
+    list_alarm_ids,
     sign_in,
 )
 from tests.browser.simulated_robot import SimulatedRobot, fall_frames
@@ -254,32 +255,8 @@ def heap_mb(cdp) -> float:
     return round(metrics["JSHeapUsedSize"] / 2**20, 2)
 
 
-#: Every row of the list as a nurse reads it: scrolled through from the top, one window at a
-#: time (the list draws only the rows near the window), then back to the top.
-READ_LIST = """
-async () => {
-  const seen = [];
-  const frame = () => new Promise((r) => requestAnimationFrame(() => requestAnimationFrame(r)));
-  const end = () => document.documentElement.scrollHeight;
-  for (let y = 0; ; y += Math.floor(window.innerHeight / 2)) {
-    window.scrollTo(0, y);
-    await frame();
-    const rows = [...document.querySelectorAll("main.board [data-alarm-id]")];
-    for (const r of rows) seen.push([Number(r.style.top.replace("px", "")) || 0,
-                                     Number(r.getAttribute("data-alarm-id"))]);
-    if (y + window.innerHeight >= end()) break;
-  }
-  window.scrollTo(0, 0);
-  await frame();
-  // One entry per drawn place: a row seen in two windows is one row; two places, two rows.
-  const byPlace = new Map(seen.map(([top, id]) => [`${top}`, id]));
-  return [...byPlace.values()];
-}
-"""
-
-
 def board_ids(page) -> list[int]:
-    return [int(x) for x in page.evaluate(READ_LIST)]
+    return list_alarm_ids(page)
 
 
 def reconcile(page, database_url: str) -> dict:

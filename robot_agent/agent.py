@@ -38,6 +38,17 @@ class TransportPlan:
     generated_events: tuple[str, ...] = ()
 
 
+def transport_started(robot_id: str, transport_id: str, plan: TransportPlan) -> str:
+    """The log line of a transport's start; a GENERATED one names its events (bench/demo_hour.py
+    counts the fleet's falls from these lines)."""
+    events = plan.generated_events
+    return (
+        f"robot {robot_id}: transport {transport_id} started (patient {plan.patient or 'unknown'}"
+        f", {plan.location or 'no location'})"
+        + (f"; GENERATED events: {', '.join(events)}" if events else "")
+    )
+
+
 @dataclass
 class AgentOptions:
     url: str
@@ -206,16 +217,7 @@ class RobotAgent:
             self.pipeline.start_transport(
                 transport_id, time.time(), plan.patient, plan.location, plan.fps
             )
-            log.info(
-                "robot %s: transport %s started (patient %s, %s)%s",
-                self.robot_id,
-                transport_id,
-                plan.patient or "unknown",
-                plan.location or "no location",
-                f"; GENERATED events: {', '.join(plan.generated_events)}"
-                if plan.generated_events
-                else "",
-            )
+            log.info("%s", transport_started(self.robot_id, transport_id, plan))
             await self._stream(plan)
             self.pipeline.end_transport(time.time())
             self.link.notify_queued()

@@ -19,7 +19,8 @@ from tests.support.live_backend import (
 )
 
 __all__ = ["PASSWORD", "REPO_ROOT", "SCREENSHOTS", "ROBOT_ID", "ROBOT_TOKEN", "LiveServer",
-           "free_port", "prepare_database", "build_frontend", "sign_in"]  # fmt: skip
+           "free_port", "prepare_database", "build_frontend", "list_alarm_ids",
+           "sign_in"]  # fmt: skip
 
 FRONTEND = REPO_ROOT / "frontend"
 #: Where browser tests save screenshots: a temporary folder, unless `make screenshots` points
@@ -57,3 +58,33 @@ def sign_in(page, base_url: str, username: str = "nina", password: str = PASSWOR
     page.get_by_label("User name").fill(username)
     page.get_by_label("Password").fill(password)
     page.get_by_role("button", name="Sign in").click()
+
+
+#: Every row of the list as a nurse reads it: scrolled through from the top, one window at a
+#: time (the list draws only the rows near the window), then back to the top.
+_READ_LIST = """
+async () => {
+  const seen = [];
+  const frame = () => new Promise((r) => requestAnimationFrame(() => requestAnimationFrame(r)));
+  const end = () => document.documentElement.scrollHeight;
+  for (let y = 0; ; y += Math.floor(window.innerHeight / 2)) {
+    window.scrollTo(0, y);
+    await frame();
+    const rows = [...document.querySelectorAll("main.board .alarm-list [data-alarm-id]")];
+    for (const r of rows)
+      seen.push([parseFloat(r.style.top), Number(r.getAttribute("data-alarm-id"))]);
+    if (y + window.innerHeight >= end()) break;
+  }
+  window.scrollTo(0, 0);
+  await frame();
+  // One entry per place in the list: a row seen in two windows is one row; two places, two rows.
+  const byPlace = new Map(seen.map(([top, id]) => [top, id]));
+  return [...byPlace.entries()].sort((a, b) => a[0] - b[0]).map(([, id]) => id);
+}
+"""
+
+
+def list_alarm_ids(page) -> list[int]:
+    """The alarm ids of the board's list view, top to bottom, as a nurse reads them by
+    scrolling (the list draws only the rows near the window)."""
+    return [int(x) for x in page.evaluate(_READ_LIST)]

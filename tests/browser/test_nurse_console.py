@@ -29,7 +29,7 @@ from backend.models import (
 from backend.models._types import utcnow
 from vigil.protocol import TransportEnd
 
-from .live_server import ROBOT_TOKEN, SCREENSHOTS, LiveServer, sign_in
+from .live_server import ROBOT_TOKEN, SCREENSHOTS, LiveServer, list_alarm_ids, sign_in
 from .simulated_robot import SimulatedRobot, fall_frames
 
 pytestmark = pytest.mark.browser
@@ -456,3 +456,48 @@ def test_triage_order_missed_state_banner_filters_and_handover_export(live_serve
     assert by_id[ids["t-missed"]]["transport_ended_at"] != ""
     assert by_id[new_id]["state"] == "acknowledged"
     assert by_id[new_id]["acknowledged_by"] == "nina"
+
+
+def test_list_of_hundreds_of_alarms_is_in_triage_order_and_draws_the_rows_in_view(
+    live_server, page, db
+):
+    """Issue 21 under load: 300 unresolved alarms (GENERATED rows). The list holds all of them
+    in triage order, newest first in each group, as the nurse reads them by scrolling; the page
+    draws only the rows near the window; the banner's Emergency is the first row."""
+    now = utcnow()
+    with transaction(db) as session:
+        robot = session.get(Robot, "robot-a")
+        nina = session.scalars(select(User).where(User.username == "nina")).one()
+        evidence = DecisionEvidence(seq=None, ts=None)
+        for i in range(300):
+            transport = Transport(id=f"t-{i}", robot_id="robot-a", mode="walking",
+                                  patient=f"GEN-{i}", location="generated corridor",
+                                  started_at=now - timedelta(hours=3), ended_at=now)  # fmt: skip
+            session.add(transport)
+            session.flush()
+            alarm, _ = service.raise_or_update(
+                session, robot, transport, AlarmKind.EMERGENCY, evidence
+            )
+            alarm.raised_at = now - timedelta(seconds=300 - i)  # t-299 is the newest
+            if i % 3 == 0:
+                service.acknowledge(session, alarm, nina)
+            elif i != 299:
+                service.miss(session, alarm, now)
+    sign_in(page, live_server.base_url)
+    board = page.locator("main.board")
+    expect(board).to_have_attribute("data-link", "live")
+    expect(board).to_have_attribute("data-view", "list")
+    expect(page.locator(".alarm-list")).to_have_attribute("data-alarm-count", "300")
+    drawn = page.locator("main.board .alarm-list [data-alarm-id]")
+    assert 0 < drawn.count() < 60  # the rows near the window, not 300
+
+    with db() as session:
+        alarms = {a.transport_id: a for a in session.scalars(select(Alarm)).unique()}
+    newest = alarms["t-299"].id
+    expect(drawn.first).to_have_attribute("data-alarm-id", str(newest))
+    expect(page.get_by_test_id("emergency-banner")).to_contain_text("GEN-299")
+    missed = [alarms[f"t-{i}"].id for i in range(298, -1, -1) if i % 3 and i != 299]
+    acknowledged = [alarms[f"t-{i}"].id for i in range(299, -1, -1) if i % 3 == 0]
+    assert list_alarm_ids(page) == [newest, *missed, *acknowledged]
+    # Read from the top again after the scroll: the same first row.
+    expect(drawn.first).to_have_attribute("data-alarm-id", str(newest))

@@ -53,3 +53,4 @@ def test_no_falls_when_the_rate_is_zero_and_every_transport_is_one_situation():
     for plan in plans:  # 450/h over 8 s transports: every transport a fall
         (event,) = plan.observations.events
         assert event in EMERGENCY_EVENTS[Locomotion.WALKING]
+        assert plan.generated_events == (event,)  # the ground truth the agent logs

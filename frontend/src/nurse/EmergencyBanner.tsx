@@ -12,8 +12,13 @@ interface Props {
 /** Sticky strip for the newest unacknowledged Emergency: robot, patient and location where the
  * eye already is, until someone acknowledges it (the tone repeats until then). */
 export function EmergencyBanner({ alarm, others, now, busy, onAcknowledge }: Props) {
-  const show = () =>
-    document.querySelector(`[data-alarm-id='${alarm.id}']`)?.scrollIntoView({ block: "center" });
+  // The list draws only the rows near the window: a row out of it is not in the page, and the
+  // banner's alarm (the newest unacknowledged Emergency) is the board's first row, at its top.
+  const show = () => {
+    const row = document.querySelector(`[data-alarm-id='${alarm.id}']`);
+    if (row) row.scrollIntoView({ block: "center" });
+    else document.querySelector("main.board .board-head")?.scrollIntoView({ block: "start" });
+  };
   return (
     <div className="banner banner-emergency" role="alert" data-testid="emergency-banner" data-alarm-id-banner={alarm.id}>
       <strong>Emergency</strong>
