@@ -73,8 +73,12 @@ export function NurseBoard() {
     return () => { document.title = "Vigil"; };
   }, [titleCount]);
 
-  const groups = TRIAGE_GROUPS.map((g) => ({ group: g, alarms: shown.filter((a) => triageGroup(a) === g) }))
-    .filter((g) => g.alarms.length > 0);
+  // Memoised on the board: the clock's tick re-renders the page, not the list's layout.
+  const groups = useMemo(
+    () => TRIAGE_GROUPS.map((g) => ({ group: g, alarms: shown.filter((a) => triageGroup(a) === g) }))
+      .filter((g) => g.alarms.length > 0),
+    [shown],
+  );
 
   return (
     <main className="board" data-audio-state={sound.state} data-link={status} data-view={view}>
