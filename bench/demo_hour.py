@@ -122,6 +122,10 @@ def board_summary(alarms: list[dict]) -> dict:
     }
 
 
+def _time(text: str) -> datetime:
+    return datetime.fromisoformat(text)
+
+
 def recount(results: Path) -> None:
     """Recount a run's board from its database (for runs whose read went through /api/alarms,
     which returns at most 200 alarms): the ward's alarms raised before the read, in the state
@@ -150,6 +154,14 @@ def recount(results: Path) -> None:
             ]
     finally:
         engine.dispose()
+    running_at = read_at - timedelta(minutes=data["measured_minutes"])
+    for sample in data["samples"]:
+        at = running_at + timedelta(minutes=sample["minutes"])
+        then = [a for a in alarms if _time(a["raised_at"]) <= at
+                and (a["resolved_at"] is None or _time(a["resolved_at"]) > at)]  # fmt: skip
+        sample["through_api"] = {k: sample[k] for k in ("open_emergencies", "unresolved")}
+        sample["unresolved"] = len(then)
+        sample["open_emergencies"] = sum(a["kind"] == "emergency" for a in then)
     data["board_read_through_api"] = data["board"]
     data["board"] = board_summary(alarms)
     data["board_note"] = (
