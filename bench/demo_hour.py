@@ -73,20 +73,50 @@ def generated_falls(log_text: str) -> dict:
     transports: Counter[str] = Counter()
     falls: Counter[str] = Counter()
     events: Counter[str] = Counter()
+    by_transport: dict[str, list[str]] = {}
     for line in log_text.splitlines():
         match = STARTED.search(line)
         if not match:
             continue
         transports[match["robot"]] += 1
-        for event in (match["events"] or "").split(", "):
-            if event:
-                events[event] += 1
-                falls[match["robot"]] += event in falls_events
+        by_transport[match["transport"]] = [e for e in (match["events"] or "").split(", ") if e]
+        for event in by_transport[match["transport"]]:
+            events[event] += 1
+            falls[match["robot"]] += event in falls_events
     return {
         "transports": dict(transports),
         "falls": dict(falls),
         "falls_total": sum(falls.values()),
         "events": dict(events),
+        "fall_transports": sorted(
+            t for t, names in by_transport.items() if set(names) & falls_events
+        ),
+        "events_by_transport": by_transport,
+    }
+
+
+def alarms_against_falls(alarms: list[dict], generated: dict) -> dict:
+    """The board's Emergency alarms against the fleet's ground truth, per transport: alarms on
+    a transport with a generated fall, alarms on one without (false alarms, by what the
+    transport held), and generated falls with no Emergency alarm."""
+    emergencies = [a for a in alarms if a["kind"] == "emergency"]
+    falls = set(generated["fall_transports"])
+    alarmed = {a["transport_id"] for a in emergencies}
+    false = [a for a in emergencies if a["transport_id"] not in falls]
+    return {
+        "emergency_alarms": len(emergencies),
+        "on_a_generated_fall": sum(a["transport_id"] in falls for a in emergencies),
+        "false_alarms": len(false),
+        "false_alarms_by_event": dict(
+            Counter(
+                ", ".join(generated["events_by_transport"].get(a["transport_id"]) or ["unknown"])
+                for a in false
+            )
+        ),  # fmt: skip
+        "falls_without_alarm": len(falls - alarmed),
+        "falls_without_alarm_events": dict(
+            Counter(", ".join(generated["events_by_transport"][t]) for t in falls - alarmed)
+        ),  # fmt: skip
     }
 
 
@@ -96,12 +126,17 @@ def sign_in(client: httpx.Client, username: str, password: str) -> dict:
     return {"Authorization": f"Bearer {response.json()['access_token']}"}
 
 
-def board_snapshot(client: httpx.Client, headers: dict, since: str) -> dict:
-    """The ward's unresolved alarms as the nurse's handover lists them (GET /api/handover:
-    every unresolved alarm, no page limit; /api/alarms returns at most 200)."""
+def board_alarms(client: httpx.Client, headers: dict, since: str) -> list[dict]:
+    """The ward's alarms as the nurse's handover lists them (GET /api/handover: every
+    unresolved alarm and every one raised since `since`, no page limit; /api/alarms returns
+    at most 200)."""
     response = client.get("/api/handover", params={"since": since}, headers=headers)
     response.raise_for_status()
-    return board_summary([row["alarm"] for row in response.json()["alarms"]])
+    return [row["alarm"] for row in response.json()["alarms"]]
+
+
+def board_snapshot(client: httpx.Client, headers: dict, since: str) -> dict:
+    return board_summary(board_alarms(client, headers, since))
 
 
 def board_summary(alarms: list[dict]) -> dict:
@@ -159,11 +194,15 @@ def recount(results: Path) -> None:
         at = running_at + timedelta(minutes=sample["minutes"])
         then = [a for a in alarms if _time(a["raised_at"]) <= at
                 and (a["resolved_at"] is None or _time(a["resolved_at"]) > at)]  # fmt: skip
-        sample["through_api"] = {k: sample[k] for k in ("open_emergencies", "unresolved")}
+        sample.setdefault("through_api", {k: sample[k] for k in ("open_emergencies", "unresolved")})
         sample["unresolved"] = len(then)
         sample["open_emergencies"] = sum(a["kind"] == "emergency" for a in then)
-    data["board_read_through_api"] = data["board"]
+    data.setdefault("board_read_through_api", data["board"])  # a second recount keeps it
     data["board"] = board_summary(alarms)
+    data["generated"] = generated_falls(Path(data["log"]).read_text(errors="replace"))
+    data["alarms_against_falls"] = alarms_against_falls(
+        [a for a in alarms if a["state"] != "resolved"], data["generated"]
+    )
     data["board_note"] = (
         "board recounted from the run's database (python -m bench.demo_hour --recount): the "
         "API read of this run went through /api/alarms, which returns at most 200 alarms; "
@@ -282,7 +321,8 @@ def main(argv: list[str] | None = None) -> int:
             print(f"{samples[-1]}", flush=True)
         minutes = (time.monotonic() - running) / 60
         nurse = sign_in(client, "nurse", passwords["nurse"])
-        board = board_snapshot(client, nurse, started_utc)
+        alarms = board_alarms(client, nurse, started_utc)
+        board = board_summary(alarms)
         read_at = datetime.now(UTC).isoformat()
         browser = first_card(base_url, passwords["nurse"])
         engineer = sign_in(client, "engineer", passwords["engineer"])
@@ -330,6 +370,9 @@ def main(argv: list[str] | None = None) -> int:
             board["open_emergencies"],
             generated["falls_total"],
         ],  # fmt: skip
+        "alarms_against_falls": alarms_against_falls(
+            [a for a in alarms if a["state"] != "resolved"], generated
+        ),
         "samples": samples,
         "models": models,
         "every_robot_runs_a_gated_model": bool(models)

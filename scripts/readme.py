@@ -342,6 +342,15 @@ def _demo_hour() -> str | None:
         [f"falls expected at the configured {data['configured_falls_per_robot_per_hour']:g} "
          f"per robot per hour ({data['fleet_minutes']:g} min of {data['robots']} robots)",
          data["expected_falls_at_configured_rate"]],
+        ["Emergency alarms on a generated fall / false (on what) / falls without one",
+         f"{data['alarms_against_falls']['on_a_generated_fall']} / "
+         f"{data['alarms_against_falls']['false_alarms']} ("
+         + ", ".join(f"{k} {v}" for k, v in
+                     data["alarms_against_falls"]["false_alarms_by_event"].items())
+         + f") / {data['alarms_against_falls']['falls_without_alarm']} ("
+         + ", ".join(f"{k} {v}" for k, v in
+                     data["alarms_against_falls"]["falls_without_alarm_events"].items())
+         + ")"],
         ["unresolved alarms by kind:state", ", ".join(
             f"{k} {v}" for k, v in sorted(board["unresolved_by_kind_state"].items()))],
         ["newest open Emergency is the board's first card",
@@ -356,7 +365,10 @@ def _demo_hour() -> str | None:
         f"{data['data']}): {data['measured_minutes']:g} min after the system said it was running "
         f"(setup {data['setup_s'] / 60:.0f} min, first-run training included); load average "
         f"{data['load_average'][0]} on {data['machine']['cpus']} cores at the end (the machine "
-        "was shared).\n\n" + _table(["what", "measured"], rows)
+        "was shared; the system ran under `nice -n 10`)."
+        + (f" Note: {data['board_note']}." if data.get("board_note") else "")
+        + "\n\n"
+        + _table(["what", "measured"], rows)
     )
 
 
