@@ -32,7 +32,7 @@ class TransportPlan:
     observations: Iterable[Observation]
     patient: str | None = None
     location: str | None = None
-    materialise: bool = False  # generate all observations in a thread first (generated data)
+    materialise: bool = False  # generate all observations in a thread before the transport starts
     fps: float | None = None  # the source's real frame rate, when it knows it
     #: What a GENERATED transport was made to contain (its ground truth), shown in the log.
     generated_events: tuple[str, ...] = ()
@@ -213,12 +213,16 @@ class RobotAgent:
         # The next plan is made in a thread: preparing a generated transport takes a while.
         while (plan := await asyncio.to_thread(next, self.transports, None)) is not None:
             number += 1
+            # Generated data: the whole transport is made (in a thread) before it starts, so
+            # the backend never sees a transport without frames (stream stalled, robot
+            # offline) while the generator works.
+            made = await asyncio.to_thread(list, plan.observations) if plan.materialise else None
             transport_id = f"{self.robot_id}-{int(time.time())}-{number}"[-64:]
             self.pipeline.start_transport(
                 transport_id, time.time(), plan.patient, plan.location, plan.fps
             )
             log.info("%s", transport_started(self.robot_id, transport_id, plan))
-            await self._stream(plan)
+            await self._stream(plan, made)
             self.pipeline.end_transport(time.time())
             self.link.notify_queued()
             log.info(
@@ -229,16 +233,16 @@ class RobotAgent:
             )
         self.source_done.set()
 
-    async def _stream(self, plan: TransportPlan) -> None:
-        if plan.materialise:  # generated data: make the whole transport in a thread at once
-            ready = iter(await asyncio.to_thread(list, plan.observations))
+    async def _stream(self, plan: TransportPlan, made: list[Observation] | None) -> None:
+        if made is not None:  # made already (generated data)
+            ready = iter(made)
         else:  # a recording or camera: read frame by frame in a thread
             iterator = iter(plan.observations)
         speed = self.options.speed
         started: float | None = None
         first_ts = 0.0
         while True:
-            if plan.materialise:
+            if made is not None:
                 observation = next(ready, None)
             else:
                 observation = await asyncio.to_thread(next, iterator, None)
