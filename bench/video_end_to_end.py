@@ -266,6 +266,22 @@ def read_labels() -> dict:
 
 
 # --- models -------------------------------------------------------------------------------
+def _login(server, user: str, attempts: int = 10) -> str:
+    """A bearer token; on a loaded host the backend's bounded password hashing answers 503
+    (or is slow) for a while, so a refused or timed-out login is tried again."""
+    import httpx
+
+    for attempt in range(attempts):
+        try:
+            return server.login(user)
+        except (httpx.HTTPStatusError, httpx.TimeoutException) as error:
+            status = getattr(getattr(error, "response", None), "status_code", None)
+            if attempt == attempts - 1 or status not in (None, 503):
+                raise
+            time.sleep(2.0)
+    raise AssertionError("unreachable")
+
+
 def train_held_out(spec_name: str, out: Path, inner_folds: int) -> dict:
     from threadpoolctl import threadpool_limits
 
@@ -413,7 +429,7 @@ def run_robot(command: list[str]) -> tuple[int, float, list[tuple[float, str]]]:
 def _get(server, path: str, user: str, **params) -> list | dict:
     import httpx
 
-    token = server.login(user)
+    token = _login(server, user)
     response = httpx.get(f"{server.base_url}{path}", params=params, timeout=30,
                          headers={"Authorization": f"Bearer {token}"})  # fmt: skip
     response.raise_for_status()
@@ -458,7 +474,7 @@ class ArrivalPoller:
     def _run(self) -> None:
         import httpx
 
-        headers = {"Authorization": f"Bearer {self.server.login('anna')}"}
+        headers = {"Authorization": f"Bearer {_login(self.server, 'anna')}"}
         video_id = None
         with httpx.Client(base_url=self.server.base_url, headers=headers, timeout=5) as client:
             while not self._stop.wait(self.interval_s):
