@@ -494,6 +494,29 @@ class ArrivalPoller:
                     self.arrivals.setdefault(frame["index"], now)
 
 
+ROBOT_PACE = re.compile(
+    r"at most (?P<behind>[\d.]+) s behind the source's pace, frame path (?P<mean>[\d.]+) ms a "
+    r"frame on average \(max (?P<max>[\d.]+) ms\)"
+)
+
+
+def robot_pace(lines: list[tuple[float, str]]) -> dict:
+    """The agent's own account of keeping the video's pace (its transport-end log line,
+    robot_agent.pipeline): how far its frames' completion fell behind the source's pace, and
+    what the frame path after MediaPipe took. Beside the backend's arrivals (`pace`), this
+    tells the robot's lag from the delivery's."""
+    for _, line in lines:
+        if (match := ROBOT_PACE.search(line)) is not None:
+            return {
+                "what": "the agent's transport-end log: worst lag of a frame's completion behind "
+                "the video's pace, and the frame path's time per frame after the source",
+                "behind_source_pace_max_s": float(match["behind"]),
+                "frame_path_mean_ms": float(match["mean"]),
+                "frame_path_max_ms": float(match["max"]),
+            }
+    return {"what": "no transport-end line from the agent", "behind_source_pace_max_s": None}
+
+
 def _timestamp(text: str) -> float:
     return datetime.fromisoformat(text.replace("Z", "+00:00")).timestamp()
 
@@ -568,6 +591,7 @@ def measure_run(model: dict, label_index: int, fps: float) -> dict:
         "first_frame_after_transport_start_s": _round(arrivals[0] - frames[0]["ts"])
         if 0 in arrivals and frames else None,
     }  # fmt: skip
+    result["robot_pace"] = robot_pace(lines)
     result.update(_alarm_timing(alarm, frames, lines, arrivals, label_index, fps))
     result["reference_urfd_keypoints"] = reference_on_urfd_keypoints(model["dir"])
     return result
