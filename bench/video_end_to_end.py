@@ -406,6 +406,9 @@ def robot_command(backend_ws: str, model_dir: Path, workdir: Path) -> list[str]:
 def run_robot(command: list[str]) -> tuple[int, float, list[tuple[float, str]]]:
     """Run the agent; every output line with the wall time it arrived."""
     env = {k: v for k, v in os.environ.items() if not k.startswith("VIGIL_ROBOT_")}
+    # This checkout's code, not whatever the virtualenv's editable install points to (a git
+    # worktree shares the main checkout's .venv, whose console script imports the main one).
+    env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(REPO), env.get("PYTHONPATH")]))
     started = time.perf_counter()
     process = subprocess.Popen(command, cwd=REPO, env=env, stdout=subprocess.PIPE,
                                stderr=subprocess.STDOUT, text=True, bufsize=1)  # fmt: skip
