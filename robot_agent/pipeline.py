@@ -73,8 +73,14 @@ class _TransportCounts:
     behind_max_s: float = 0.0
     path_s_total: float = 0.0
     path_s_max: float = 0.0
+    # The agent process's CPU time (every thread: the source's pose estimation too) from the
+    # first frame's end to the latest one's: what keeping the pace costs, whatever the host's load.
+    cpu_first: float | None = None
+    cpu_last: float = 0.0
 
-    def add(self, ts: float, people: int, seen: bool, started: float, done: float) -> None:
+    def add(
+        self, ts: float, people: int, seen: bool, started: float, done: float, cpu: float
+    ) -> None:
         self.frames += 1
         self.with_person += people > 0
         self.with_patient += seen
@@ -85,6 +91,8 @@ class _TransportCounts:
         self.behind_max_s = max(self.behind_max_s, behind)
         self.path_s_total += done - started
         self.path_s_max = max(self.path_s_max, done - started)
+        self.cpu_first = cpu if self.cpu_first is None else self.cpu_first
+        self.cpu_last = cpu
 
     def pace(self) -> str:
         """How the robot kept the source's pace (docs/robot_agent.md: a file source at --speed 1
@@ -94,7 +102,9 @@ class _TransportCounts:
         return (
             f"at most {self.behind_max_s:.2f} s behind the source's pace, frame path "
             f"{1000 * self.path_s_total / self.frames:.1f} ms a frame on average "
-            f"(max {1000 * self.path_s_max:.1f} ms) after the source"
+            f"(max {1000 * self.path_s_max:.1f} ms) after the source, "
+            f"{1000 * (self.cpu_last - self.cpu_first) / max(self.frames - 1, 1):.1f} ms of the "
+            "process's CPU a frame"
         )
 
     @property
@@ -117,9 +127,10 @@ class Pipeline:
         fallback: FrameClassifier | None = None,
         available_inputs: list[str] | None = None,
         clock: Callable[[], float] = time.monotonic,
+        cpu_clock: Callable[[], float] = time.process_time,
     ) -> None:
         self.outbox = outbox
-        self._clock = clock
+        self._clock, self._cpu_clock = clock, cpu_clock
         self.mode = TransportMode(mode)
         frames = PatientFrames(
             tracker, depth_sampler if depth_sampler is not None else sample_depth, camera_mount
@@ -337,8 +348,9 @@ class Pipeline:
         body = self._frame_body(frame, wall_ts, decision, classification, shadow)
         seq = self.outbox.add_frame(body, _priority(classification, decision))
         self._counts.add(
-            observation.timestamp, detected.people, detected.seen, started, self._clock()
-        )
+            observation.timestamp, detected.people, detected.seen, started, self._clock(),
+            self._cpu_clock(),
+        )  # fmt: skip
         changed = decision is not None and decision != self.last_decision
         if changed and (decision != Decision.NORMAL or self.last_decision is not None):
             log.info("transport %s frame %d: %s", self.transport_id, seq, decision.value.upper())

@@ -139,7 +139,8 @@ def test_robot_pace_reads_the_agents_transport_end_line(tmp_path, caplog):
 
     ticks = iter(np.arange(100.0, 200.0, 0.025))  # every clock reading 25 ms later (GENERATED)
     pipeline = Pipeline(Outbox(tmp_path / "o.sqlite"), TransportMode.WALKING,
-                        clock=lambda: float(next(ticks)))  # fmt: skip
+                        clock=lambda: float(next(ticks)),
+                        cpu_clock=lambda: float(next(ticks)))  # fmt: skip
     pipeline.start_transport("t-1", ts=1_700_000_000.0, fps=30.0)
     for i in range(31):
         pipeline.process(Observation(i / 30.0, [], i))
@@ -147,6 +148,8 @@ def test_robot_pace_reads_the_agents_transport_end_line(tmp_path, caplog):
         pipeline.end_transport(1_700_000_100.0)
     lines = [(0.0, r.getMessage()) for r in caplog.records]
     pace = robot_pace(lines)
-    assert pace["behind_source_pace_max_s"] == 0.5  # 30 x (50 - 33.3) ms
+    # Three clock readings a frame, 25 ms apart: 75 ms from one frame's end to the next.
+    assert pace["behind_source_pace_max_s"] == 1.25  # 30 x (75 - 33.3) ms
     assert pace["frame_path_mean_ms"] == 25.0 and pace["frame_path_max_ms"] == 25.0
+    assert pace["process_cpu_ms_per_frame"] == 75.0
     assert robot_pace([(0.0, "something else")])["behind_source_pace_max_s"] is None

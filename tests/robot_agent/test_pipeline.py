@@ -275,7 +275,7 @@ def test_transport_end_logs_how_far_the_robot_fell_behind_the_source_pace(tmp_pa
     against the source's 33.3 ms, so after 30 frames the robot is 29 x 16.7 ms = 0.48 s behind;
     the frame path itself took 25 ms a frame."""
     pipeline = Pipeline(Outbox(tmp_path / "o.sqlite"), TransportMode.WALKING,
-                        clock=_SlowClock(0.025))  # fmt: skip
+                        clock=_SlowClock(0.025), cpu_clock=_SlowClock(0.040))  # fmt: skip
     pipeline.start_transport("t-1", ts=1_700_000_000.0, fps=30.0)
     for i in range(30):
         pipeline.process(Observation(i / 30.0, [], i))
@@ -284,6 +284,7 @@ def test_transport_end_logs_how_far_the_robot_fell_behind_the_source_pace(tmp_pa
     (line,) = [r.getMessage() for r in caplog.records if "ended" in r.getMessage()]
     assert "at most 0.48 s behind the source's pace" in line
     assert "frame path 25.0 ms a frame on average (max 25.0 ms)" in line
+    assert "40.0 ms of the process's CPU a frame" in line  # more than 33 ms: no core keeps up
 
 
 def test_a_robot_keeping_up_is_not_behind(tmp_path, caplog):
