@@ -463,6 +463,7 @@ class ArrivalPoller:
     def __init__(self, server, interval_s: float = 0.1) -> None:
         self.server, self.interval_s = server, interval_s
         self.arrivals: dict[int, float] = {}
+        self.last_error: str | None = None
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._run, daemon=True)
 
@@ -475,25 +476,33 @@ class ArrivalPoller:
         self._thread.join(10)
 
     def _run(self) -> None:
+        """Never dies on a refused login or an error answer (a loaded host answers 503 for a
+        while): it tries again at the next poll and keeps the last error for the results."""
         import httpx
 
-        headers = {"Authorization": f"Bearer {_login(self.server, 'anna')}"}
-        video_id = None
-        with httpx.Client(base_url=self.server.base_url, headers=headers, timeout=5) as client:
+        video_id, headers = None, None
+        with httpx.Client(base_url=self.server.base_url, timeout=5) as client:
             while not self._stop.wait(self.interval_s):
                 try:
+                    if headers is None:
+                        headers = {"Authorization": f"Bearer {self.server.login('anna')}"}
                     if video_id is None:
-                        videos = client.get("/api/videos", params={"source": "robot"}).json()
-                        video_id = videos[0]["id"] if videos else None
+                        videos = client.get("/api/videos", params={"source": "robot"},
+                                            headers=headers)  # fmt: skip
+                        videos.raise_for_status()
+                        video_id = videos.json()[0]["id"] if videos.json() else None
                         if video_id is None:
                             continue
                     start = max(self.arrivals, default=-1) + 1
-                    page = client.get(f"/api/videos/{video_id}/frames",
-                                      params={"start": start}).json()  # fmt: skip
-                except (httpx.HTTPError, ValueError, KeyError, IndexError):
+                    page = client.get(f"/api/videos/{video_id}/frames", params={"start": start},
+                                      headers=headers)  # fmt: skip
+                    page.raise_for_status()
+                    frames = page.json()
+                except (httpx.HTTPError, ValueError, KeyError, IndexError, TypeError) as error:
+                    self.last_error = f"{type(error).__name__}: {error}"[:300]
                     continue
                 now = time.time()
-                for frame in page:
+                for frame in frames:
                     self.arrivals.setdefault(frame["index"], now)
 
 
@@ -590,6 +599,7 @@ def measure_run(model: dict, label_index: int, fps: float) -> dict:
         "what": "when each frame first showed in the backend's frames API (polled every "
         f"{poller.interval_s} s), against the video's own pace from frame 0",
         "frames_seen_arriving": len(arrivals),
+        "poller_last_error": poller.last_error,
         "lag_behind_real_time_max_s": _round(max(lags)) if lags else None,
         "frames_per_s_reaching_the_backend": _round(
             (len(arrivals) - 1) / (max(arrivals.values()) - arrivals[0]), 1
