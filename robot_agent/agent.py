@@ -10,6 +10,7 @@ import logging
 import time
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
+from functools import partial
 from pathlib import Path
 
 from robot_agent.alarm import LocalAlarm
@@ -234,31 +235,46 @@ class RobotAgent:
         self.source_done.set()
 
     async def _stream(self, plan: TransportPlan, made: list[Observation] | None) -> None:
+        """A recording or camera is read frame by frame in a thread, one frame ahead: the next
+        frame's pose estimation runs while this one goes through the frame path, so the robot
+        keeps real time while the slower of the two fits between frames, not their sum."""
+        upcoming: asyncio.Future | None = None
         if made is not None:  # made already (generated data)
             ready = iter(made)
-        else:  # a recording or camera: read frame by frame in a thread
+        else:
             iterator = iter(plan.observations)
+            # Submitted to the thread at once (asyncio.to_thread would wait for the next await).
+            loop = asyncio.get_running_loop()
+            read_next = partial(loop.run_in_executor, None, next, iterator, None)
+            upcoming = read_next()
         speed = self.options.speed
         started: float | None = None
         first_ts = 0.0
-        while True:
-            if made is not None:
-                observation = next(ready, None)
-            else:
-                observation = await asyncio.to_thread(next, iterator, None)
-            if observation is None:
-                return
-            if speed > 0:
-                if started is None:
-                    started, first_ts = time.monotonic(), observation.timestamp
-                delay = started + (observation.timestamp - first_ts) / speed - time.monotonic()
-                if delay > 0:
-                    await asyncio.sleep(delay)
-            elif self.frames % 50 == 0:
-                await asyncio.sleep(0)  # let the link breathe when running flat out
-            self.pipeline.process(observation)
-            self.frames += 1
-            self.link.notify_queued()
+        try:
+            while True:
+                if upcoming is None:
+                    observation = next(ready, None)
+                else:
+                    observation = await upcoming
+                    upcoming = None
+                    if observation is not None:  # read the next frame while this one is processed
+                        upcoming = read_next()
+                if observation is None:
+                    return
+                if speed > 0:
+                    if started is None:
+                        started, first_ts = time.monotonic(), observation.timestamp
+                    due = started + (observation.timestamp - first_ts) / speed
+                    if (delay := due - time.monotonic()) > 0:
+                        await asyncio.sleep(delay)
+                elif self.frames % 50 == 0:
+                    await asyncio.sleep(0)  # let the link breathe when running flat out
+                self.pipeline.process(observation)
+                self.frames += 1
+                self.link.notify_queued()
+        finally:
+            if upcoming is not None and not upcoming.done():
+                upcoming.cancel()
 
     # --- the whole robot ---------------------------------------------------------------------
     async def run(self) -> None:

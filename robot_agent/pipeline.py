@@ -14,6 +14,7 @@ import json
 import logging
 import math
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -65,13 +66,46 @@ class _TransportCounts:
     with_patient: int = 0
     first_ts: float | None = None
     last_ts: float | None = None
+    # Keeping real time: when the first frame was done (monotonic clock), how far the latest
+    # frame's completion was behind the source's own pace from there at worst, and the seconds
+    # this frame path (everything after the source) took per frame.
+    first_done: float | None = None
+    behind_max_s: float = 0.0
+    path_s_total: float = 0.0
+    path_s_max: float = 0.0
+    # The agent process's CPU time (every thread: the source's pose estimation too) from the
+    # first frame's end to the latest one's: what keeping the pace costs, whatever the host's load.
+    cpu_first: float | None = None
+    cpu_last: float = 0.0
 
-    def add(self, ts: float, people: int, seen: bool) -> None:
+    def add(
+        self, ts: float, people: int, seen: bool, started: float, done: float, cpu: float
+    ) -> None:
         self.frames += 1
         self.with_person += people > 0
         self.with_patient += seen
         self.first_ts = ts if self.first_ts is None else self.first_ts
         self.last_ts = ts
+        self.first_done = done if self.first_done is None else self.first_done
+        behind = (done - self.first_done) - (ts - self.first_ts)
+        self.behind_max_s = max(self.behind_max_s, behind)
+        self.path_s_total += done - started
+        self.path_s_max = max(self.path_s_max, done - started)
+        self.cpu_first = cpu if self.cpu_first is None else self.cpu_first
+        self.cpu_last = cpu
+
+    def pace(self) -> str:
+        """How the robot kept the source's pace (docs/robot_agent.md: a file source at --speed 1
+        is read ahead of its pace, so "behind" is 0 while the robot keeps up)."""
+        if not self.frames:
+            return "no frames"
+        return (
+            f"at most {self.behind_max_s:.2f} s behind the source's pace, frame path "
+            f"{1000 * self.path_s_total / self.frames:.1f} ms a frame on average "
+            f"(max {1000 * self.path_s_max:.1f} ms) after the source, "
+            f"{1000 * (self.cpu_last - self.cpu_first) / max(self.frames - 1, 1):.1f} ms of the "
+            "process's CPU a frame"
+        )
 
     @property
     def fps(self) -> float | None:
@@ -92,8 +126,11 @@ class Pipeline:
         camera_mount: CameraMount | None = None,
         fallback: FrameClassifier | None = None,
         available_inputs: list[str] | None = None,
+        clock: Callable[[], float] = time.monotonic,
+        cpu_clock: Callable[[], float] = time.process_time,
     ) -> None:
         self.outbox = outbox
+        self._clock, self._cpu_clock = clock, cpu_clock
         self.mode = TransportMode(mode)
         frames = PatientFrames(
             tracker, depth_sampler if depth_sampler is not None else sample_depth, camera_mount
@@ -175,9 +212,9 @@ class Pipeline:
         counts = self._counts
         fps = counts.fps
         log.info(
-            "transport %s ended: %d frames, %d with a person in view, %d with the patient, %s",
+            "transport %s ended: %d frames, %d with a person in view, %d with the patient, %s; %s",
             self.transport_id, counts.frames, counts.with_person, counts.with_patient,
-            "no frame rate" if fps is None else f"{fps:.1f} frames/s",
+            "no frame rate" if fps is None else f"{fps:.1f} frames/s", counts.pace(),
         )  # fmt: skip
         self.outbox.add_message(
             TransportEnd(transport_id=self.transport_id, ts=ts).model_dump_json()
@@ -287,6 +324,7 @@ class Pipeline:
 
     # --- frames ----------------------------------------------------------------------------
     def process(self, observation: Observation) -> FrameResult:
+        started = self._clock()
         if self._last_ts is not None and observation.timestamp < self._last_ts:
             self._restart_stream(observation.timestamp)
         self._last_ts = observation.timestamp
@@ -305,11 +343,14 @@ class Pipeline:
             self._clock_offset = anchor - observation.timestamp
         wall_ts = observation.timestamp + self._clock_offset
         self._last_wall_ts = wall_ts
-        self._counts.add(observation.timestamp, detected.people, detected.seen)
         if detected.status is not None:
             self._report_status(detected.status, wall_ts)
         body = self._frame_body(frame, wall_ts, decision, classification, shadow)
         seq = self.outbox.add_frame(body, _priority(classification, decision))
+        self._counts.add(
+            observation.timestamp, detected.people, detected.seen, started, self._clock(),
+            self._cpu_clock(),
+        )  # fmt: skip
         changed = decision is not None and decision != self.last_decision
         if changed and (decision != Decision.NORMAL or self.last_decision is not None):
             log.info("transport %s frame %d: %s", self.transport_id, seq, decision.value.upper())

@@ -15,6 +15,7 @@ from bench.video_end_to_end import (
     labels_of,
     lag_behind_real_time,
     official_frame,
+    robot_pace,
     runs_of,
     shown_command,
     time_to_alarm,
@@ -127,3 +128,28 @@ def test_shown_command_hides_the_token_and_temporary_paths():
     assert "secret" not in shown and "/tmp/x" not in shown and "5555" not in shown
     assert shown.startswith("vigil-robot run --backend ws://127.0.0.1:<port>/ws/robot")
     assert shown.endswith("--token <token> --outbox <tmp>/outbox.sqlite")
+
+
+def test_robot_pace_reads_the_agents_transport_end_line(tmp_path, caplog):
+    """The line the agent really logs (robot_agent.pipeline), read back by the benchmark."""
+    from robot_agent.outbox import Outbox
+    from robot_agent.pipeline import Pipeline
+    from vigil.classes import TransportMode
+    from vigil.observation import Observation
+
+    ticks = iter(np.arange(100.0, 200.0, 0.025))  # every clock reading 25 ms later (GENERATED)
+    pipeline = Pipeline(Outbox(tmp_path / "o.sqlite"), TransportMode.WALKING,
+                        clock=lambda: float(next(ticks)),
+                        cpu_clock=lambda: float(next(ticks)))  # fmt: skip
+    pipeline.start_transport("t-1", ts=1_700_000_000.0, fps=30.0)
+    for i in range(31):
+        pipeline.process(Observation(i / 30.0, [], i))
+    with caplog.at_level("INFO", logger="robot_agent.pipeline"):
+        pipeline.end_transport(1_700_000_100.0)
+    lines = [(0.0, r.getMessage()) for r in caplog.records]
+    pace = robot_pace(lines)
+    # Three clock readings a frame, 25 ms apart: 75 ms from one frame's end to the next.
+    assert pace["behind_source_pace_max_s"] == 1.25  # 30 x (75 - 33.3) ms
+    assert pace["frame_path_mean_ms"] == 25.0 and pace["frame_path_max_ms"] == 25.0
+    assert pace["process_cpu_ms_per_frame"] == 75.0
+    assert robot_pace([(0.0, "something else")])["behind_source_pace_max_s"] is None

@@ -257,3 +257,43 @@ def test_transport_start_carries_the_source_frame_rate_and_end_logs_counts(tmp_p
     assert start["type"] == "transport_start" and start["fps"] == 23.976
     (line,) = [r.getMessage() for r in caplog.records if "ended" in r.getMessage()]
     assert "25 frames, 20 with a person in view, 20 with the patient, 24.0 frames/s" in line
+
+
+class _SlowClock:
+    """A monotonic clock that advances `step` seconds on every reading (GENERATED timing)."""
+
+    def __init__(self, step: float) -> None:
+        self.now, self.step = 100.0, step
+
+    def __call__(self) -> float:
+        self.now += self.step
+        return self.now
+
+
+def _transport_end_line(tmp_path, caplog, clock_step: float, cpu_step: float = 0.001) -> str:
+    """30 frames of a 30 frames/s source through a pipeline whose clocks advance by the given
+    steps on every reading; the transport-end log line."""
+    pipeline = Pipeline(Outbox(tmp_path / "o.sqlite"), TransportMode.WALKING,
+                        clock=_SlowClock(clock_step), cpu_clock=_SlowClock(cpu_step))  # fmt: skip
+    pipeline.start_transport("t-1", ts=1_700_000_000.0, fps=30.0)
+    for i in range(30):
+        pipeline.process(Observation(i / 30.0, [], i))
+    with caplog.at_level("INFO", logger="robot_agent.pipeline"):
+        pipeline.end_transport(1_700_000_100.0)
+    (line,) = [r.getMessage() for r in caplog.records if "ended" in r.getMessage()]
+    return line
+
+
+def test_transport_end_logs_how_far_the_robot_fell_behind_the_source_pace(tmp_path, caplog):
+    """Every reading of the clock advances 25 ms: 50 ms from one frame's end to the next
+    against the source's 33.3 ms, so after 30 frames the robot is 29 x 16.7 ms = 0.48 s behind;
+    the frame path itself took 25 ms a frame."""
+    line = _transport_end_line(tmp_path, caplog, 0.025, 0.040)
+    assert "at most 0.48 s behind the source's pace" in line
+    assert "frame path 25.0 ms a frame on average (max 25.0 ms)" in line
+    assert "40.0 ms of the process's CPU a frame" in line  # more than 33 ms: no core keeps up
+
+
+def test_a_robot_keeping_up_is_not_behind(tmp_path, caplog):
+    line = _transport_end_line(tmp_path, caplog, 0.005)
+    assert "at most 0.00 s behind" in line

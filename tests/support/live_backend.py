@@ -99,6 +99,7 @@ class LiveServer:
                     return
             except httpx.HTTPError:
                 time.sleep(0.1)
+        self.stop()  # a backend that did not come up must not outlive the test
         raise RuntimeError("backend did not come up in 30 s")
 
     def kill(self) -> None:
