@@ -282,14 +282,13 @@ def retention_under_load(url: str, config: ingest.RunConfig, workdir: Path, now:
 def bench_database(kind: str, frames: int, args, workdir: Path) -> dict:
     now = time.time()
     fleet = ingest.RunConfig(kind, args.robots, 10, 1, args.seconds, 50, 20)
-    with timed_phase(f"{kind}: ingest on an empty database"):
-        empty = ingest.run(fleet, workdir)
     url, drop = ingest._prepare_database(kind, workdir, args.robots)
     try:
         history = load_history(url, frames, args.history_robots, args.days, now)
         loaded = disk(url)
         print(json.dumps({"history": history, "disk": loaded}), flush=True)
-        with timed_phase(f"{kind}: ingest, reads, export and retention with the history"):
+        with timed_phase(f"{kind}: ingest (empty and with the history), reads, export, retention"):
+            empty = ingest.run(fleet, workdir)
             with_history = ingest_run(url, fleet, workdir)
             env = {"VIGIL_DATABASE_URL": url, "VIGIL_SECRET_KEY": ingest.SECRET,
                    "VIGIL_FRONTEND_DIR": str(workdir / "no-frontend")}  # fmt: skip
@@ -329,8 +328,14 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--retention-window", type=float, default=60)
     parser.add_argument("--read-samples", type=int, default=300)
     parser.add_argument("--output", type=Path, default=RESULTS)
+    parser.add_argument("--append", action="store_true",
+                        help="keep the output file's runs of the other databases")  # fmt: skip
     args = parser.parse_args(argv)
     runs = []
+    if args.append and args.output.is_file():
+        asked = set(args.databases.split(","))
+        earlier = json.loads(args.output.read_text())["runs"]
+        runs = [run for run in earlier if run["database"] not in asked]
     with tempfile.TemporaryDirectory(prefix="vigil-bench-storage-") as tmp:
         for kind in args.databases.split(","):
             frames = args.pg_frames if kind == "postgresql" else args.sqlite_frames
