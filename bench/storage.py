@@ -44,6 +44,7 @@ from backend.storage.policy import DAY_S, RetentionPolicy, day_of
 from backend.storage.retention import run_retention
 from backend.storage.settings import StorageSettings
 from bench import ingest
+from bench.timing_lock import timed_phase
 from vigil.skeleton import encode_depth, encode_floor, encode_keypoints
 
 RESULTS = Path(__file__).resolve().parent / "results" / "storage.json"
@@ -193,20 +194,19 @@ def reads(server: BackendProcess, url: str, samples: int) -> dict:
 
 
 def training_export(url: str) -> dict:
+    from backend.labelling.importers.urfd import import_urfd
     from backend.models.videos import Split
     from vigil.classes import TransportMode
-    from vigil.datasets import urfd
-    from worker.db_data import frame_data, import_urfd, labelled_videos
+    from worker.db_data import frame_data, labelled_videos
 
     engine = make_engine(url)
     factory = make_session_factory(engine)
-    names = [s.name for s in urfd.load()]
     with transaction(factory) as session:
-        import_urfd(session, names, Split.TRAIN)
+        names = {video.name for video in import_urfd(session, split=Split.TRAIN).videos}
     with transaction(factory) as session:
         started = time.perf_counter()
         videos = [v for v in labelled_videos(session, TransportMode.WALKING, Split.TRAIN)
-                  if v.name.startswith("urfd/")]  # fmt: skip
+                  if v.name in names]  # fmt: skip
         data = frame_data(session, videos, TransportMode.WALKING)
         seconds = time.perf_counter() - started
     engine.dispose()
@@ -282,21 +282,23 @@ def retention_under_load(url: str, config: ingest.RunConfig, workdir: Path, now:
 def bench_database(kind: str, frames: int, args, workdir: Path) -> dict:
     now = time.time()
     fleet = ingest.RunConfig(kind, args.robots, 10, 1, args.seconds, 50, 20)
-    empty = ingest.run(fleet, workdir)
     url, drop = ingest._prepare_database(kind, workdir, args.robots)
     try:
         history = load_history(url, frames, args.history_robots, args.days, now)
         loaded = disk(url)
         print(json.dumps({"history": history, "disk": loaded}), flush=True)
-        with_history = ingest_run(url, fleet, workdir)
-        env = {"VIGIL_DATABASE_URL": url, "VIGIL_SECRET_KEY": ingest.SECRET,
-               "VIGIL_FRONTEND_DIR": str(workdir / "no-frontend")}  # fmt: skip
-        with BackendProcess(env, log_path=workdir / f"reads-{kind}.log") as server:
-            read = reads(server, url, args.read_samples)
-        export = training_export(url)
-        print(json.dumps({"reads": read, "training_export": export}), flush=True)
-        retention_config = ingest.RunConfig(kind, args.robots, 10, 1, args.retention_window, 50, 20)
-        retention = retention_under_load(url, retention_config, workdir, now)
+        with timed_phase(f"{kind}: ingest (empty and with the history), reads, export, retention"):
+            empty = ingest.run(fleet, workdir)
+            with_history = ingest_run(url, fleet, workdir)
+            env = {"VIGIL_DATABASE_URL": url, "VIGIL_SECRET_KEY": ingest.SECRET,
+                   "VIGIL_FRONTEND_DIR": str(workdir / "no-frontend")}  # fmt: skip
+            with BackendProcess(env, log_path=workdir / f"reads-{kind}.log") as server:
+                read = reads(server, url, args.read_samples)
+            export = training_export(url)
+            print(json.dumps({"reads": read, "training_export": export}), flush=True)
+            retention_config = ingest.RunConfig(kind, args.robots, 10, 1,
+                                                args.retention_window, 50, 20)  # fmt: skip
+            retention = retention_under_load(url, retention_config, workdir, now)
     finally:
         try:
             drop()
@@ -326,13 +328,26 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--retention-window", type=float, default=60)
     parser.add_argument("--read-samples", type=int, default=300)
     parser.add_argument("--output", type=Path, default=RESULTS)
+    parser.add_argument("--append", action="store_true",
+                        help="keep the output file's runs of the other databases")  # fmt: skip
     args = parser.parse_args(argv)
     runs = []
+    if args.append and args.output.is_file():
+        asked = set(args.databases.split(","))
+        earlier = json.loads(args.output.read_text())["runs"]
+        runs = [run for run in earlier if run["database"] not in asked]
     with tempfile.TemporaryDirectory(prefix="vigil-bench-storage-") as tmp:
         for kind in args.databases.split(","):
             frames = args.pg_frames if kind == "postgresql" else args.sqlite_frames
             runs.append(bench_database(kind, frames, args, Path(tmp)))
             print(json.dumps(runs[-1]), flush=True)
+            write_results(args, runs)
+    print(f"wrote {args.output}")
+    return 0
+
+
+def write_results(args, runs: list[dict]) -> None:
+    """After each database, so that a later failure keeps the runs already measured."""
     args.output.parent.mkdir(parents=True, exist_ok=True)
     args.output.write_text(json.dumps({
         "runs": runs,
@@ -343,8 +358,6 @@ def main(argv: list[str] | None = None) -> int:
                 "alarm window 60 s before / 30 s after, labelled videos kept). The machine's 2 "
                 "cores are shared with other engineers' jobs: see load_average_1min.",
     }, indent=2) + "\n")  # fmt: skip
-    print(f"wrote {args.output}")
-    return 0
 
 
 if __name__ == "__main__":
