@@ -20,7 +20,8 @@ import httpx
 from backend.db import make_engine, make_session_factory, transaction
 from backend.migrate import upgrade
 from backend.models import Robot, Role, User
-from backend.security import hash_password, hash_robot_token
+from backend.security import hash_robot_token
+from tests.support.passwords import password_hash as cached_password_hash
 
 REPO_ROOT = Path(__file__).resolve().parents[2]
 PASSWORD = "nurse-password-1"
@@ -33,7 +34,7 @@ def prepare_database(database_url: str) -> None:
     upgrade(database_url)
     engine = make_engine(database_url)
     with transaction(make_session_factory(engine)) as session:
-        password_hash = hash_password(PASSWORD)
+        password_hash = cached_password_hash(PASSWORD)
         session.add(User(username="nina", password_hash=password_hash, role=Role.NURSE,
                          ward="ward-a"))  # fmt: skip
         session.add(User(username="anna", password_hash=password_hash, role=Role.ANNOTATOR))
