@@ -47,10 +47,11 @@ run: setup
 # directory VIGIL_TEST_POOL (tests/support/shared_pool.py): each run takes the next test file
 # when it is free, so both runs end at about the same time. The PostgreSQL run is pytest on the
 # database tests followed by a SQLite run that owns nothing and helps with the shared files.
-# The second side's output is printed after the first's, so they do not interleave.
+# The small test models trained on URFD are trained once for both runs (VIGIL_TEST_MODEL_CACHE,
+# tests/support/model_cache.py). The second side's output is printed after the first's.
 test: $(STAMP) frontend chromium lint
 	@echo "== Python tests on SQLite, and on PostgreSQL (throwaway database), side by side; the database-independent and browser tests shared out between them =="
-	@second_log=$$(mktemp); pool=$$(mktemp -d); \
+	@second_log=$$(mktemp); pool=$$(mktemp -d); export VIGIL_TEST_MODEL_CACHE=$$(mktemp -d); \
 	( VIGIL_TEST_DATABASE=postgresql $(PY) -m pytest -q -p no:cacheprovider -m "not browser" \
 		$(PYTEST_ARGS); postgresql_status=$$?; \
 	  echo "-- shared tests (SQLite; the rest ran in the SQLite run) --"; \
@@ -62,7 +63,7 @@ test: $(STAMP) frontend chromium lint
 	VIGIL_TEST_DATABASE=sqlite VIGIL_TEST_POOL="$$pool" VIGIL_TEST_OWN=database \
 		$(PY) -m pytest -q -p no:cacheprovider $(PYTEST_ARGS); sqlite_status=$$?; \
 	wait $$second_pid; second_status=$$?; \
-	echo "-- PostgreSQL --"; cat "$$second_log"; rm -rf "$$second_log" "$$pool"; \
+	echo "-- PostgreSQL --"; cat "$$second_log"; rm -rf "$$second_log" "$$pool" "$$VIGIL_TEST_MODEL_CACHE"; \
 	echo "SQLite run exit status $$sqlite_status, PostgreSQL + shared run exit status $$second_status"; \
 	test $$sqlite_status -eq 0 && test $$second_status -eq 0
 	@echo "== Frontend unit tests =="
