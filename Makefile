@@ -7,6 +7,10 @@ PIP := $(VENV)/bin/pip
 STAMP := $(VENV)/.installed
 FRONTEND_STAMP := frontend/node_modules/.installed
 PYTEST_ARGS ?=
+# Python must be free to cache bytecode: with PYTHONDONTWRITEBYTECODE set (some shells and
+# containers set it) every pytest run compiles and assertion-rewrites every module again, and
+# so does each backend, agent and worker process the tests start (about 4 s of CPU each).
+unexport PYTHONDONTWRITEBYTECODE
 
 .PHONY: run test test-python test-sqlite test-postgresql test-frontend test-browser setup \
 	frontend chromium lint format bench-detection bench-detection-splits bench-fall-onset \
@@ -38,24 +42,30 @@ chromium:
 run: setup
 	$(PY) -m scripts.run_all
 
-# Two runs side by side (the suite keeps one core busy, the machine has two): the SQLite run
-# without browser tests, and the PostgreSQL run followed by the browser tests (on SQLite), which
-# balances the two. The second run's output is printed after the first's, so they do not interleave.
+# Two runs side by side, one per core: the database tests on SQLite, and on a throwaway
+# PostgreSQL database. The tests that do not depend on the database (domain package, training,
+# robot agent, browser tests in Chromium) run once, shared out between the two runs through the
+# directory VIGIL_TEST_POOL (tests/support/shared_pool.py): each run takes the next test file
+# when it is free, so both runs end at about the same time. The PostgreSQL run is pytest on the
+# database tests followed by a SQLite run that owns nothing and helps with the shared files.
+# The small test models trained on URFD are trained once for both runs (VIGIL_TEST_MODEL_CACHE,
+# tests/support/model_cache.py). The second side's output is printed after the first's.
 test: $(STAMP) frontend chromium lint
-	@echo "== Python tests on SQLite, and on PostgreSQL (throwaway database) then the browser tests, side by side =="
-	@second_log=$$(mktemp); \
+	@echo "== Python tests on SQLite, and on PostgreSQL (throwaway database), side by side; the database-independent and browser tests shared out between them =="
+	@second_log=$$(mktemp); pool=$$(mktemp -d); export VIGIL_TEST_MODEL_CACHE=$$(mktemp -d); \
 	( VIGIL_TEST_DATABASE=postgresql $(PY) -m pytest -q -p no:cacheprovider -m "not browser" \
 		$(PYTEST_ARGS); postgresql_status=$$?; \
-	  echo "-- browser tests (SQLite) --"; \
-	  VIGIL_TEST_DATABASE=sqlite $(PY) -m pytest -q -p no:cacheprovider -m browser \
-		$(PYTEST_ARGS); browser_status=$$?; \
-	  echo "PostgreSQL run exit status $$postgresql_status, browser run exit status $$browser_status"; \
-	  test $$postgresql_status -eq 0 && test $$browser_status -eq 0 ) >"$$second_log" 2>&1 & second_pid=$$!; \
-	echo "-- SQLite --"; \
-	VIGIL_TEST_DATABASE=sqlite $(PY) -m pytest -q -m "not browser" $(PYTEST_ARGS); sqlite_status=$$?; \
+	  echo "-- shared tests (SQLite; the rest ran in the SQLite run) --"; \
+	  VIGIL_TEST_DATABASE=sqlite VIGIL_TEST_POOL="$$pool" VIGIL_TEST_OWN=none \
+		$(PY) -m pytest -q -p no:cacheprovider $(PYTEST_ARGS); shared_status=$$?; \
+	  echo "PostgreSQL run exit status $$postgresql_status, shared run exit status $$shared_status"; \
+	  test $$postgresql_status -eq 0 && test $$shared_status -eq 0 ) >"$$second_log" 2>&1 & second_pid=$$!; \
+	echo "-- SQLite (and shared tests) --"; \
+	VIGIL_TEST_DATABASE=sqlite VIGIL_TEST_POOL="$$pool" VIGIL_TEST_OWN=database \
+		$(PY) -m pytest -q -p no:cacheprovider $(PYTEST_ARGS); sqlite_status=$$?; \
 	wait $$second_pid; second_status=$$?; \
-	echo "-- PostgreSQL --"; cat "$$second_log"; rm -f "$$second_log"; \
-	echo "SQLite run exit status $$sqlite_status, PostgreSQL + browser run exit status $$second_status"; \
+	echo "-- PostgreSQL --"; cat "$$second_log"; rm -rf "$$second_log" "$$pool" "$$VIGIL_TEST_MODEL_CACHE"; \
+	echo "SQLite run exit status $$sqlite_status, PostgreSQL + shared run exit status $$second_status"; \
 	test $$sqlite_status -eq 0 && test $$second_status -eq 0
 	@echo "== Frontend unit tests =="
 	cd frontend && npm test

@@ -12,11 +12,18 @@ import pytest
 from sqlalchemy import create_engine, text
 
 from backend.migrate import upgrade
+from tests.support import shared_pool
+from tests.support.shared_pool import DATABASE_FIXTURES, uses_database  # noqa: F401
 
 PG_ADMIN_URL = os.environ.get(
     "VIGIL_TEST_PG_ADMIN_URL", "postgresql+psycopg://postgres@127.0.0.1:5432/postgres"
 )
 KEEP_TABLES = {"alembic_version", "taxonomy_versions", "taxonomy_labels"}
+
+
+def pytest_configure(config) -> None:
+    # VIGIL_TEST_POOL: two runs side by side share out the database-independent tests.
+    shared_pool.register(config)
 
 
 def pytest_report_header(config) -> str:
@@ -74,9 +81,6 @@ def database_url(migrated_database_url: str) -> Iterator[str]:
     engine.dispose()
 
 
-DATABASE_FIXTURES = {"migrated_database_url", "database_url"}
-
-
 def pytest_collection_modifyitems(config, items):
     """On the PostgreSQL run, keep only the tests that touch a database: the others (domain
     package, training, robot perception) do not depend on it and ran on the SQLite run."""
@@ -84,8 +88,7 @@ def pytest_collection_modifyitems(config, items):
         return
     keep, drop = [], []
     for item in items:
-        uses_database = DATABASE_FIXTURES & set(getattr(item, "fixturenames", ()))
-        (keep if uses_database else drop).append(item)
+        (keep if uses_database(item) else drop).append(item)
     if drop:
         config.hook.pytest_deselected(items=drop)
         items[:] = keep

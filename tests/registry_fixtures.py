@@ -11,6 +11,7 @@ import pytest
 from backend.db import make_engine, make_session_factory, transaction
 from backend.labelling.importers.urfd import import_urfd
 from backend.models.videos import Split
+from tests.support.model_cache import trained_once
 from vigil.model_file import read_manifest, write_model
 from worker.settings import WorkerSettings
 
@@ -55,12 +56,14 @@ def trained_model_dir(tmp_path_factory) -> Path:
     from worker.training.publish import publish
     from worker.training.trainers import SklearnTrainer
 
-    out = tmp_path_factory.mktemp("model") / "rf-test"
-    data = from_urfd(names=TRAIN)
-    trainer = SklearnTrainer(ModelSpec("rf-test", "rf", {k: v[:1] for k, v in SMALL_GRID.items()}))
-    selected = select(trainer, data, np.arange(len(data.names)), n_inner=3, stride=2)
-    publish(trainer, selected, data, out, version="rf-test-1")
-    return out
+    def train(out: Path) -> None:
+        data = from_urfd(names=TRAIN)
+        grid = {k: v[:1] for k, v in SMALL_GRID.items()}
+        trainer = SklearnTrainer(ModelSpec("rf-test", "rf", grid))
+        selected = select(trainer, data, np.arange(len(data.names)), n_inner=3, stride=2)
+        publish(trainer, selected, data, out, version="rf-test-1")
+
+    return trained_once("rf-test", train, tmp_path_factory.mktemp("model") / "rf-test")
 
 
 def derive_model(source: Path, out: Path, version: str, **changes) -> Path:

@@ -10,8 +10,9 @@ from backend.db import make_engine, make_session_factory, transaction
 from backend.main import create_app
 from backend.models.robots import Robot
 from backend.models.users import Role, User
-from backend.security import create_access_token, hash_password, hash_robot_token
+from backend.security import create_access_token, hash_robot_token
 from backend.settings import Settings
+from tests.support.passwords import password_hash
 
 PASSWORD = "correct horse battery"
 ROBOT_TOKEN = "robot-secret-token-for-tests"
@@ -61,7 +62,7 @@ def make_account(client: TestClient, session_factory):
         with transaction(session_factory) as session:
             session.add(
                 User(
-                    username=username, password_hash=hash_password(PASSWORD), role=role, ward=ward
+                    username=username, password_hash=password_hash(PASSWORD), role=role, ward=ward
                 )  # fmt: skip
             )
         response = client.post("/api/auth/login", json={"username": username, "password": PASSWORD})
@@ -84,7 +85,7 @@ def robot(session_factory) -> str:
 def nurse_token(session_factory) -> str:
     """A ward-a nurse's access token, valid on a subprocess backend (`SUBPROCESS_SECRET`)."""
     with transaction(session_factory) as session:
-        user = User(username="nurse", password_hash=hash_password("nurse-password"),
+        user = User(username="nurse", password_hash=password_hash("nurse-password"),
                     role=Role.NURSE, ward="ward-a")  # fmt: skip
         session.add(user)
         session.flush()

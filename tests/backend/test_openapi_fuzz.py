@@ -20,9 +20,10 @@ from hypothesis import HealthCheck, given, settings
 from backend.db import transaction
 from backend.models import Role, User
 from backend.process import BackendProcess, free_port
-from backend.security import create_access_token, hash_password
+from backend.security import create_access_token
 from tests.backend.conftest import SUBPROCESS_SECRET
 from tests.backend.test_reliability import backend_env  # noqa: F401  (fixture)
+from tests.support.passwords import password_hash
 from vigil.skeleton import N_FLOOR, N_KEYPOINTS
 
 EXAMPLES_PER_OPERATION = int(os.environ.get("VIGIL_FUZZ_EXAMPLES", "3"))  # per role
@@ -169,7 +170,7 @@ def test_generated_requests_never_get_a_server_error(
     tokens = {}
     with transaction(session_factory) as session:
         for role in Role:
-            user = User(username=f"fuzz-{role}", password_hash=hash_password("fuzz-password"),
+            user = User(username=f"fuzz-{role}", password_hash=password_hash("fuzz-password"),
                         role=role, ward="ward-a" if role == Role.NURSE else None)  # fmt: skip
             session.add(user)
             session.flush()

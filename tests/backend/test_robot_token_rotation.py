@@ -14,9 +14,10 @@ from websockets.sync.client import connect
 
 from backend.db import make_engine, make_session_factory, transaction
 from backend.models import Robot, Role, User
-from backend.security import hash_password, hash_robot_token
+from backend.security import hash_robot_token
 from tests.backend.conftest import ROBOT_TOKEN as TEST_ROBOT_TOKEN
 from tests.support.live_backend import PASSWORD, ROBOT_ID, ROBOT_TOKEN, LiveServer
+from tests.support.passwords import password_hash
 from vigil import protocol
 from vigil.protocol import Heartbeat, Hello
 
@@ -26,7 +27,7 @@ def server(tmp_path) -> Iterator[LiveServer]:
     live = LiveServer.create(tmp_path)
     engine = make_engine(live.database_url)
     with transaction(make_session_factory(engine)) as session:
-        session.add(User(username="ada", password_hash=hash_password(PASSWORD), role=Role.ADMIN))
+        session.add(User(username="ada", password_hash=password_hash(PASSWORD), role=Role.ADMIN))
     engine.dispose()
     live.start()
     yield live

@@ -4,8 +4,11 @@ backend as a uvicorn subprocess on a free port against a throwaway, migrated SQL
 
 from __future__ import annotations
 
+import fcntl
+import hashlib
 import os
 import subprocess
+import tempfile
 from pathlib import Path
 
 from tests.support.live_backend import (
@@ -42,15 +45,23 @@ def _newest_mtime(paths) -> float:
 
 
 def build_frontend() -> Path:
-    """The production build in frontend/dist, rebuilt when a source file is newer than it."""
+    """The production build in frontend/dist, rebuilt when a source file is newer than it. A
+    file lock keeps two test runs side by side (`make test`) from building it at once."""
     index = FRONTEND / "dist" / "index.html"
     sources = [*FRONTEND.joinpath("src").rglob("*"), FRONTEND / "index.html",
                FRONTEND / "package.json", FRONTEND / "vite.config.ts"]  # fmt: skip
-    if not index.exists() or _newest_mtime(sources) > index.stat().st_mtime:
-        if not (FRONTEND / "node_modules").is_dir():
-            subprocess.run(["npm", "ci", "--no-audit", "--no-fund"], cwd=FRONTEND, check=True)
-        subprocess.run(["npm", "run", "build"], cwd=FRONTEND, check=True)
+    lock_path = Path(tempfile.gettempdir()) / f"vigil-frontend-build-{_path_key(FRONTEND)}.lock"
+    with lock_path.open("w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)  # released when the file closes
+        if not index.exists() or _newest_mtime(sources) > index.stat().st_mtime:
+            if not (FRONTEND / "node_modules").is_dir():
+                subprocess.run(["npm", "ci", "--no-audit", "--no-fund"], cwd=FRONTEND, check=True)
+            subprocess.run(["npm", "run", "build"], cwd=FRONTEND, check=True)
     return index.parent
+
+
+def _path_key(path: Path) -> str:
+    return hashlib.sha256(str(path.resolve()).encode()).hexdigest()[:12]
 
 
 def sign_in(page, base_url: str, username: str = "nina", password: str = PASSWORD) -> None:

@@ -15,7 +15,7 @@ from backend.db import transaction
 from backend.labelling.importers.urfd import import_urfd
 from backend.labelling.runs import label_runs
 from backend.models import AnnotationSegment, Role, User, Video
-from backend.security import hash_password
+from tests.support.passwords import password_hash
 from vigil.datasets import urfd
 
 from .live_server import PASSWORD, SCREENSHOTS, sign_in
@@ -47,7 +47,7 @@ def test_annotator_labels_fall_stages_reviewer_accepts_export_matches(live_serve
     SCREENSHOTS.mkdir(parents=True, exist_ok=True)
     with transaction(db) as session:
         import_urfd(session, urfd.default_dir(), ["fall-01"], labels=False)
-        session.add(User(username="rita", password_hash=hash_password(PASSWORD),
+        session.add(User(username="rita", password_hash=password_hash(PASSWORD),
                          role=Role.ANNOTATOR))  # fmt: skip
     with db() as session:
         video_id = session.scalars(select(Video.id).where(Video.name == "fall-01")).one()

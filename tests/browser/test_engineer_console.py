@@ -16,8 +16,8 @@ from backend.labelling.importers.urfd import import_urfd
 from backend.models import Deployment, Robot, Role, User
 from backend.models.jobs import JobKind
 from backend.models.videos import Split
-from backend.security import hash_password
 from tests.registry_fixtures import GOLD, TRAIN, derive_model, trained_model_dir  # noqa: F401
+from tests.support.passwords import password_hash
 from worker.runner import Worker
 from worker.settings import WorkerSettings
 
@@ -34,7 +34,7 @@ def system(tmp_path, frontend_dist, trained_model_dir):  # noqa: F811
     engine = make_engine(server.database_url)
     factory = make_session_factory(engine)
     with transaction(factory) as session:
-        session.add(User(username="erin", password_hash=hash_password(PASSWORD),
+        session.add(User(username="erin", password_hash=password_hash(PASSWORD),
                          role=Role.ENGINEER))  # fmt: skip
         import_urfd(session, names=TRAIN[:2] + TRAIN[6:8], split=Split.TRAIN)
         import_urfd(session, names=GOLD, split=Split.TEST)

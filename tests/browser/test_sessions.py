@@ -12,7 +12,8 @@ from sqlalchemy import select
 
 from backend.db import transaction
 from backend.models import Robot, Role, User
-from backend.security import hash_password, robot_token_matches
+from backend.security import robot_token_matches
+from tests.support.passwords import password_hash
 
 from .live_server import PASSWORD, ROBOT_ID, ROBOT_TOKEN, sign_in
 
@@ -30,7 +31,7 @@ def _watch_csp(page) -> list[str]:
 
 def _add_admin(db) -> None:
     with transaction(db) as session:
-        session.add(User(username="ada", password_hash=hash_password(PASSWORD),
+        session.add(User(username="ada", password_hash=password_hash(PASSWORD),
                          role=Role.ADMIN))  # fmt: skip
 
 

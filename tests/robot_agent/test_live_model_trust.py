@@ -12,9 +12,9 @@ import httpx
 
 from backend.db import make_engine, make_session_factory, transaction
 from backend.models import Role, User
-from backend.security import hash_password
 from robot_agent.models import remember_running
 from tests.support.live_backend import PASSWORD, ROBOT_ID
+from tests.support.passwords import password_hash
 from vigil.model_file import read_manifest
 
 from .conftest import NurseSocket, query, wait_for
@@ -31,7 +31,7 @@ def fleet_row(backend, token: str) -> dict:
 def test_a_tampered_model_on_the_robots_disk_is_refused(backend, agents, tmp_path):
     engine = make_engine(backend.database_url)
     with transaction(make_session_factory(engine)) as session:
-        session.add(User(username="eve", password_hash=hash_password(PASSWORD),
+        session.add(User(username="eve", password_hash=password_hash(PASSWORD),
                          role=Role.ENGINEER))  # fmt: skip
     engine.dispose()
     engineer = backend.login("eve")

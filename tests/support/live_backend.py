@@ -20,12 +20,16 @@ import httpx
 from backend.db import make_engine, make_session_factory, transaction
 from backend.migrate import upgrade
 from backend.models import Robot, Role, User
-from backend.security import hash_password, hash_robot_token
+from backend.security import hash_robot_token
+from tests.support.passwords import password_hash as cached_password_hash
 
 REPO_ROOT = Path(__file__).resolve().parents[2]
 PASSWORD = "nurse-password-1"
 ROBOT_ID = "robot-a"
 ROBOT_TOKEN = "browser-test-robot-token"
+#: Generous: a start-up costs ~3 s of CPU, and on a loaded 2-core machine (two test runs side by
+#: side, at low priority) it has taken over 30 s of wall time.
+STARTUP_TIMEOUT_S = 120
 
 
 def prepare_database(database_url: str) -> None:
@@ -33,7 +37,7 @@ def prepare_database(database_url: str) -> None:
     upgrade(database_url)
     engine = make_engine(database_url)
     with transaction(make_session_factory(engine)) as session:
-        password_hash = hash_password(PASSWORD)
+        password_hash = cached_password_hash(PASSWORD)
         session.add(User(username="nina", password_hash=password_hash, role=Role.NURSE,
                          ward="ward-a"))  # fmt: skip
         session.add(User(username="anna", password_hash=password_hash, role=Role.ANNOTATOR))
@@ -90,7 +94,7 @@ class LiveServer:
              "--host", "127.0.0.1", "--port", str(self.port), "--log-level", "warning"],
             cwd=REPO_ROOT, env=self.env, stdout=log, stderr=subprocess.STDOUT,
         )  # fmt: skip
-        deadline = time.monotonic() + 30
+        deadline = time.monotonic() + STARTUP_TIMEOUT_S
         while time.monotonic() < deadline:
             if self.process.poll() is not None:
                 raise RuntimeError(f"backend exited: {self.log_path.read_text()[-2000:]}")
@@ -99,8 +103,8 @@ class LiveServer:
                     return
             except httpx.HTTPError:
                 time.sleep(0.1)
-        self.stop()  # a backend that did not come up must not outlive the test
-        raise RuntimeError("backend did not come up in 30 s")
+        self.stop()  # no server left running behind a failed test
+        raise RuntimeError(f"backend did not come up in {STARTUP_TIMEOUT_S} s")
 
     def kill(self) -> None:
         """SIGKILL: the process dies at once, as in a power cut of the server."""

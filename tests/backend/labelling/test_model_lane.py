@@ -7,6 +7,7 @@ from fastapi.testclient import TestClient
 
 from backend.main import create_app
 from tests.backend.labelling.conftest import URFD_DIR
+from tests.support.model_cache import trained_once
 from vigil.datasets import urfd
 
 
@@ -18,20 +19,21 @@ def tiny_model(tmp_path_factory):
     from worker.training.publish import publish
     from worker.training.trainers import SklearnTrainer
 
-    names = [f"fall-{i:02d}" for i in range(2, 7)] + [f"adl-{i:02d}" for i in range(1, 5)]
-    data = from_urfd(URFD_DIR, names)
-    spec = ModelSpec(
-        name="rf-tiny",
-        family="rf",
-        grid={"n_estimators": [10], "max_depth": [6], "min_samples_leaf": [5],
-              "max_features": [0.3]},
-        description="small test model",
-    )  # fmt: skip
-    trainer = SklearnTrainer(spec)
-    selected = select(trainer, data, np.arange(len(names)), n_inner=2, stride=2)
-    out = tmp_path_factory.mktemp("model")
-    publish(trainer, selected, data, out, version="rf-tiny-test")
-    return out
+    def train(out) -> None:
+        names = [f"fall-{i:02d}" for i in range(2, 7)] + [f"adl-{i:02d}" for i in range(1, 5)]
+        data = from_urfd(URFD_DIR, names)
+        spec = ModelSpec(
+            name="rf-tiny",
+            family="rf",
+            grid={"n_estimators": [10], "max_depth": [6], "min_samples_leaf": [5],
+                  "max_features": [0.3]},
+            description="small test model",
+        )  # fmt: skip
+        trainer = SklearnTrainer(spec)
+        selected = select(trainer, data, np.arange(len(names)), n_inner=2, stride=2)
+        publish(trainer, selected, data, out, version="rf-tiny-test")
+
+    return trained_once("rf-tiny", train, tmp_path_factory.mktemp("model"))
 
 
 def test_lane_is_computed_when_no_scores_are_stored(settings, tiny_model, urfd_videos, annotator):

@@ -19,6 +19,7 @@ from tests.registry_fixtures import (
     urfd_db,
     worker_settings,
 )
+from tests.support.model_cache import trained_once
 from worker.runner import Worker
 
 __all__ = ["factory", "trained_model_dir", "urfd_db", "worker_settings"]
@@ -34,13 +35,14 @@ def keypoints_model_dir(tmp_path_factory) -> Path:
     from worker.training.publish import publish
     from worker.training.trainers import SklearnTrainer
 
-    out = tmp_path_factory.mktemp("model") / "rf-kp-test"
-    data = from_urfd(names=TRAIN)
-    grid = {k: v[:1] for k, v in SMALL_GRID.items()}
-    trainer = SklearnTrainer(ModelSpec("rf-kp-test", "rf", grid, feature_set="keypoints"))
-    selected = select(trainer, data, np.arange(len(data.names)), n_inner=3, stride=2)
-    publish(trainer, selected, data, out, version="rf-kp-test-1")
-    return out
+    def train(out: Path) -> None:
+        data = from_urfd(names=TRAIN)
+        grid = {k: v[:1] for k, v in SMALL_GRID.items()}
+        trainer = SklearnTrainer(ModelSpec("rf-kp-test", "rf", grid, feature_set="keypoints"))
+        selected = select(trainer, data, np.arange(len(data.names)), n_inner=3, stride=2)
+        publish(trainer, selected, data, out, version="rf-kp-test-1")
+
+    return trained_once("rf-kp-test", train, tmp_path_factory.mktemp("model") / "rf-kp-test")
 
 
 @pytest.fixture
