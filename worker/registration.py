@@ -7,10 +7,10 @@ import subprocess
 from functools import cache
 from pathlib import Path
 
-from sqlalchemy import select
 from sqlalchemy.orm import Session
 
 from backend.models.registry import ModelStatus, ModelVersion
+from backend.registry.queries import model_by_version
 from vigil.model_file import MANIFEST_NAME, load_classifier, read_manifest
 
 REPO_ROOT = Path(__file__).resolve().parent.parent
@@ -39,6 +39,25 @@ def store_path(store_dir: Path, version: str) -> Path:
     return Path(store_dir) / version
 
 
+def refuse_registered(session: Session, version: str) -> None:
+    if model_by_version(session, version) is not None:
+        raise ValueError(f"model version {version} is already registered")
+
+
+def copy_to_store(model_dir: Path, store_dir: Path) -> Path:
+    """The model's directory in the store (model file, manifest, plots copied there unless the
+    model is there already)."""
+    manifest, source = read_manifest(model_dir)
+    target = store_path(store_dir, manifest.version)
+    if Path(source).resolve() != target.resolve():
+        target.mkdir(parents=True, exist_ok=True)
+        shutil.copyfile(source / manifest.file, target / manifest.file)
+        shutil.copyfile(source / MANIFEST_NAME, target / MANIFEST_NAME)
+        if (source / "plots").is_dir():
+            shutil.copytree(source / "plots", target / "plots", dirs_exist_ok=True)
+    return target
+
+
 def register(
     session: Session,
     model_dir: Path,
@@ -52,18 +71,8 @@ def register(
     """Verify the model (sha256 of its manifest), copy it to the store and add a candidate."""
     classifier = load_classifier(model_dir)  # raises ModelIntegrityError on a bad file
     manifest = classifier.manifest
-    if session.scalars(
-        select(ModelVersion).where(ModelVersion.version == manifest.version)
-    ).first():
-        raise ValueError(f"model version {manifest.version} is already registered")
-    target = store_path(store_dir, manifest.version)
-    if Path(model_dir).resolve() != target.resolve():
-        target.mkdir(parents=True, exist_ok=True)
-        _, source = read_manifest(model_dir)
-        shutil.copyfile(source / manifest.file, target / manifest.file)
-        shutil.copyfile(source / MANIFEST_NAME, target / MANIFEST_NAME)
-        if (source / "plots").is_dir():
-            shutil.copytree(source / "plots", target / "plots", dirs_exist_ok=True)
+    refuse_registered(session, manifest.version)
+    target = copy_to_store(model_dir, store_dir)
     model = ModelVersion(
         version=manifest.version,
         mode=manifest.mode,

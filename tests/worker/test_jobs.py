@@ -126,3 +126,21 @@ def test_register_refuses_a_tampered_model_file(factory, worker_settings, traine
     assert job.status == JobStatus.FAILED and "sha256 mismatch" in job.message
     with factory() as session:
         assert session.scalar(select(func.count()).select_from(ModelVersion)) == 0
+
+
+def test_register_commits_once_nothing_when_the_gold_evaluation_fails(
+    factory, worker_settings, trained_model_dir, monkeypatch
+):
+    from worker.jobs import register
+
+    def failing_evaluation(*_args, **_kwargs):
+        raise RuntimeError("gold set unreadable")
+
+    monkeypatch.setattr(register, "gold_evaluation", failing_evaluation)
+    job = _run(factory, worker_settings, JobKind.REGISTER, {"path": str(trained_model_dir)})
+    assert job.status == JobStatus.FAILED and "gold set unreadable" in job.message
+    with factory() as session:
+        # The model is registered with its gold-set figures in one commit, or not at all.
+        assert session.scalar(select(func.count()).select_from(ModelVersion)) == 0
+    version = load_classifier(trained_model_dir).manifest.version
+    assert not (Path(worker_settings.model_store_dir) / version).exists()
