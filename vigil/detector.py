@@ -2,8 +2,7 @@
 
 observation -> the patient (vigil.tracking) -> depth at the keypoints (vigil.depth) -> floor
 measures (vigil.floor, with a camera mount) -> features -> ONNX model -> threshold and delay
-(vigil.runtime, which holds the last usable pose's scores for up to 1 s on frames without a
-usable pose). The robot agent's pipeline adds the transport, the shadow model and the outbox
+(vigil.runtime). The robot agent's pipeline adds the transport, the shadow model and the outbox
 around it; `make bench-detection` and the worker's gold-set evaluation replay recordings through
 it (vigil.replay), so the figures they report are of this code.
 

@@ -10,14 +10,14 @@ import pytest
 from vigil.classes import Decision
 from vigil.model_file import load_classifier
 from vigil.policy import apply_delay, raw_decisions
-from vigil.runtime import HELD, FrameClassifier
+from vigil.runtime import FrameClassifier
 from worker.evaluation import evaluate_model
 from worker.training.cross_validation import select
 from worker.training.data import from_urfd
 from worker.training.estimators import ModelSpec
 from worker.training.publish import publish
 from worker.training.robot_path import replay_stream
-from worker.training.trainers import SklearnTrainer, held_scores
+from worker.training.trainers import SklearnTrainer
 
 # Falls whose first frames are partial detections, a fast fall, and daily activities that
 # lose the person: the cases the tracker used to drop.
@@ -52,10 +52,7 @@ def test_bulk_and_robot_path_decide_the_same_on_every_frame(data, model_dir):
     robot, dropped = replay_stream(FrameClassifier(classifier), data)
     assert dropped == 0
     columns = np.arange(data.features.shape[1])
-    sequences = np.arange(len(NAMES))
-    bulk_scores = held_scores(data, sequences, classifier.predict_proba(data.features[:, columns]))
-    held = data.features[:, HELD] > 0
-    assert held.any()  # the hold is exercised: frames without a usable pose
+    bulk_scores = classifier.predict_proba(data.features[:, columns])
     normal = manifest.classes.index(Decision.NORMAL)
     for s, times, _, robot_scores in robot.per_sequence():
         rows = data.group == s

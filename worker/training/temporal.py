@@ -15,7 +15,7 @@ from torch import nn
 
 from vigil.features import FEATURE_SETS, window_index
 from worker.training.data import FrameData
-from worker.training.trainers import held_scores, training_rows
+from worker.training.trainers import training_rows
 
 
 class TemporalCNN(nn.Module):
@@ -137,8 +137,7 @@ class TemporalTrainer:
 
     def score(self, fitted, data: FrameData, sequences: np.ndarray) -> np.ndarray:
         features, index = self._inputs(data)
-        scores = self._predict(fitted, features, index[data.frames_of(sequences)])
-        return held_scores(data, sequences, scores)
+        return self._predict(fitted, features, index[data.frames_of(sequences)])
 
     def to_onnx(self, fitted, data: FrameData) -> bytes:
         buffer = io.BytesIO()

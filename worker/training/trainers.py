@@ -7,7 +7,6 @@ from typing import Any, Protocol
 import numpy as np
 
 from vigil.features import FEATURE_SETS
-from vigil.runtime import HELD, hold_scores
 from worker.training.data import FrameData
 from worker.training.estimators import ModelSpec, positive_scores
 from worker.training.export import sklearn_to_onnx
@@ -23,19 +22,6 @@ class Trainer(Protocol):
     def score(self, fitted: Any, data: FrameData, sequences: np.ndarray) -> np.ndarray: ...
     def to_onnx(self, fitted: Any, data: FrameData) -> bytes: ...
     def reference(self, fitted: Any, data: FrameData, n: int) -> tuple[np.ndarray, np.ndarray]: ...
-
-
-def held_scores(data: FrameData, sequences: np.ndarray, scores: np.ndarray) -> np.ndarray:
-    """Bulk scores of the sequences' frames with the robot's hold applied (vigil.runtime):
-    frames without a usable pose keep the last usable frame's scores, stream by stream."""
-    mask = data.frames_of(sequences)
-    group, held = data.group[mask], data.features[mask, HELD] > 0
-    times = data.timestamps[mask]
-    out = np.array(scores, copy=True)
-    for s in np.unique(group):
-        rows = group == s
-        out[rows] = hold_scores(scores[rows], held[rows], times[rows])
-    return out
 
 
 def training_rows(data: FrameData, sequences: np.ndarray, stride: int) -> np.ndarray:
@@ -64,7 +50,7 @@ class SklearnTrainer:
 
     def score(self, fitted, data: FrameData, sequences: np.ndarray) -> np.ndarray:
         features = data.features[data.frames_of(sequences)][:, self.columns_]
-        return held_scores(data, sequences, positive_scores(fitted, features))
+        return positive_scores(fitted, features)
 
     def to_onnx(self, fitted, data: FrameData) -> bytes:
         return sklearn_to_onnx(fitted, data.features[data.trainable][:, self.columns_])
