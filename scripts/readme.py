@@ -417,14 +417,16 @@ def _frame_storage() -> str | None:
             run["ingest_with_history"]["load_average_1min"],
         ])  # fmt: skip
     args = data["arguments"]
+    sizes = ", ".join(f"{r['database']} {r['history']['frames']:,} frames "
+                      f"({r['retention']['measurement_window_s']:g} s retention window)"
+                      for r in data["runs"])  # fmt: skip
     return (
         "**Frames at hospital scale** (`make bench-storage` → `bench/results/storage.json`): "
         f"GENERATED history over {args['days']:g} days from {args['history_robots']} robots, "
         f"{args['robots']} generated robots streaming at 10 Hz; training export of the real URFD "
-        f"recordings; retention with the default policy while the robots stream "
-        f"({args['retention_window']:g} s window). Sizes run: PostgreSQL "
-        f"{args['pg_frames']:,}, SQLite {args['sqlite_frames']:,} frames (the issue's goal is 20 "
-        "M and 5 M: parameters of the bench).\n\n"
+        f"recordings; retention with the default policy while the robots stream. Sizes run: "
+        f"{sizes} (the issue's goal is 20 M and 5 M). Timed phases run under the shared "
+        "benchmark lock; the load average column says how busy the 2 cores were.\n\n"
         + _table(
             [
                 "database",
@@ -446,10 +448,36 @@ def _frame_storage() -> str | None:
             ],
             rows,
         )  # fmt: skip
-        + "\n\nThe latency goals (ack p99 ≤ 100 ms, replay/timeline p99 ≤ 200 ms) are **not met "
-        "in this run**: the 2 cores were shared with other jobs (load average column); the "
-        "empty-database ingest missed them by as much. Kept frames and space are exact."
+        + "\n\n"
+        + _storage_goals(data["runs"])
     )
+
+
+def _storage_goals(runs: list[dict]) -> str:
+    """Issue 20's goals, each met or not per database, from the results."""
+    lines = []
+    for run in runs:
+        reads, retention = run["reads_with_history"], run["retention"]
+        during = retention["ingest_during"]
+        goals = {
+            "ack p99 ≤ 100 ms with history": run["ingest_with_history"]["ack_p99_ms"] <= 100,
+            "alarm p99 ≤ 250 ms with history": run["ingest_with_history"]["alarm_p99_ms"] <= 250,
+            "ack p99 within 10% of the empty database": run["ack_p99_with_history_over_empty"]
+            <= 1.1,
+            "replay and timeline p99 ≤ 200 ms": max(reads["alarm_replay"]["p99_ms"],
+                                                   reads["labelling_timeline"]["p99_ms"]) <= 200,
+            "training export ≤ 10 s": run["training_export"]["seconds"] <= 10,
+            "ack p99 ≤ 100 ms during retention": during["ack_p99_ms"] <= 100,
+            "0 frames lost, every kept frame present": during["frames_lost"] == 0
+            and retention["kept_frames_all_present"],
+            "space within 10% of the policy": abs(retention["space"]["actual_over_predicted"] - 1)
+            <= 0.1,
+        }  # fmt: skip
+        met = [name for name, ok in goals.items() if ok]
+        missed = [name for name, ok in goals.items() if not ok]
+        lines.append(f"- {run['database']}: met: {'; '.join(met) or 'none'}. "
+                     f"**Not met**: {'; '.join(missed) or 'none'}.")  # fmt: skip
+    return "Goals per database (computed from the file):\n\n" + "\n".join(lines)
 
 
 def _login_flood() -> str | None:
