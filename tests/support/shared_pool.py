@@ -6,8 +6,9 @@ either side. With VIGIL_TEST_POOL naming a directory that both runs share, each 
 its own tests, then takes the shared ones a test file at a time: a run claims a file by
 creating its entry in that directory (atomic: exactly one run gets it), runs all of that file's
 shared tests, and skips nothing it claimed. Whichever run is free takes the next file, so both
-cores stay busy to the end. The shared files go largest-first (browser files, then the rest in
-collection order).
+cores stay busy to the end. The browser files go last: Playwright's synchronous API keeps an
+event loop running in the test thread for the rest of the session, and a later test calling
+`asyncio.run` would fail ("cannot be called from a running event loop").
 
 VIGIL_TEST_OWN says which tests are the run's own: `database` (the default) for the tests that
 use the database fixtures, `none` for a run that only helps with the shared ones. Without
@@ -68,7 +69,7 @@ class SharedPool:
 
     @pytest.hookimpl(trylast=True)
     def pytest_collection_modifyitems(self, config, items) -> None:
-        """Own tests first, then the shared ones by file, browser files first; a run that owns
+        """Own tests first, then the shared ones by file, browser files last; a run that owns
         nothing drops the database tests (the other run has them)."""
         own = [i for i in items if not is_shared(i)] if self.own == "database" else []
         if self.own == "none":
@@ -76,7 +77,7 @@ class SharedPool:
             if dropped:
                 config.hook.pytest_deselected(items=dropped)
         shared = [i for i in items if is_shared(i)]
-        shared.sort(key=lambda i: i.get_closest_marker("browser") is None)  # stable
+        shared.sort(key=lambda i: i.get_closest_marker("browser") is not None)  # stable
         items[:] = own + shared
 
     def runnable(self, items: list[pytest.Item]) -> Iterator[pytest.Item]:
