@@ -17,12 +17,14 @@ is active (worker.grid.GridBackend: Dask when VIGIL_DASK_SCHEDULER is set).
 from __future__ import annotations
 
 import time
+from typing import Any
 
 import numpy as np
 from sklearn.base import BaseEstimator, ClassifierMixin, MetaEstimatorMixin, clone
 from sklearn.metrics import average_precision_score
 from sklearn.model_selection import GridSearchCV
-from sklearn.utils.validation import check_is_fitted
+from sklearn.utils.multiclass import check_classification_targets
+from sklearn.utils.validation import check_is_fitted, validate_data
 
 from vigil.classes import MODE_CLASSES, Decision, TransportMode
 from vigil.features import FEATURE_SETS
@@ -77,11 +79,12 @@ class EmergencyDetector(ClassifierMixin, BaseEstimator):
     """Frame classifier with its operating point, chosen on training sequences only.
 
     fit(X, y, groups): X holds the full feature vectors (vigil.features.FEATURE_NAMES) of whole
-    sequences' frames, y each frame's class index in MODE_CLASSES[mode] (-1: unlabelled), groups
-    its sequence. Metadata: `timestamps` (s, for the delay; default 30 frames/s), `usable` (a
-    pose was seen; only usable labelled frames are fitted and ranked), `fit_target` (what the
-    models are fitted to, default y) and `positive_sequence` (per frame, whether its sequence
-    is a fall; default: it has an Emergency frame).
+    sequences' frames (feature_set None: X's columns are the features), y each frame's class
+    index in MODE_CLASSES[mode] (-1: unlabelled), groups its sequence (None: every frame is a
+    sequence of its own). Metadata: `timestamps` (s, for the delay; default 30 frames/s),
+    `usable` (a pose was seen; only usable labelled frames are fitted and ranked), `fit_target`
+    (what the models are fitted to, default y) and `positive_sequence` (per frame, whether its
+    sequence is a fall; default: it has an Emergency frame).
 
     Learned: `model_` (the refitted pipeline), `threshold_`, `delay_s_`, `columns_`,
     `best_params_` (grid keys), `cv_results_` (GridSearchCV's), `grid_scores_`,
@@ -90,31 +93,47 @@ class EmergencyDetector(ClassifierMixin, BaseEstimator):
 
     def __init__(
         self,
-        spec: ModelSpec | None = None,
+        family: str = "rf",
+        grid: dict[str, list[Any]] | None = None,
+        fixed: dict[str, Any] | None = None,
+        feature_set: str | None = "full",
+        operating_point: str = "event",
         mode: str = "walking",
         n_inner: int = 4,
         stride: int = 2,
         seed: int = 0,
         n_jobs: int | None = None,
     ) -> None:
-        self.spec = spec
+        self.family = family
+        self.grid = grid
+        self.fixed = fixed
+        self.feature_set = feature_set
+        self.operating_point = operating_point
         self.mode = mode
         self.n_inner = n_inner
         self.stride = stride
         self.seed = seed
         self.n_jobs = n_jobs
 
+    @classmethod
+    def from_spec(cls, spec: ModelSpec, **params) -> EmergencyDetector:
+        return cls(spec.family, spec.grid, spec.fixed, spec.feature_set, spec.operating_point,
+                   **params)  # fmt: skip
+
     def fit(
         self, X, y, groups=None, *, timestamps=None, usable=None, fit_target=None,
         positive_sequence=None,
     ):  # fmt: skip
         start = time.perf_counter()
-        spec = self.spec if self.spec is not None else _default_spec()
+        X, y = validate_data(self, X, y)
+        spec = ModelSpec("", self.family, self.grid or {}, self.feature_set or "full",
+                         fixed=self.fixed or {}, operating_point=self.operating_point)  # fmt: skip
         classes = MODE_CLASSES[TransportMode(self.mode)]
         e = classes.index(Decision.EMERGENCY)
-        X, y = np.asarray(X), np.asarray(y).astype(np.int64)
+        check_classification_targets(y)
+        y = y.astype(np.int64)
         n = len(y)
-        groups = np.zeros(n, np.int64) if groups is None else np.asarray(groups)
+        groups = np.arange(n) if groups is None else np.asarray(groups)
         sequence_ids, group = np.unique(groups, return_inverse=True)  # sequences in sorted order
         timestamps = np.arange(n) / 30.0 if timestamps is None else np.asarray(timestamps)
         usable = np.ones(n, bool) if usable is None else np.asarray(usable, bool)
@@ -124,7 +143,9 @@ class EmergencyDetector(ClassifierMixin, BaseEstimator):
         is_positive = np.zeros(len(sequence_ids), bool)
         np.logical_or.at(is_positive, group, np.asarray(positive_sequence, bool))
 
-        self.columns_ = FEATURE_SETS[spec.feature_set]
+        self.columns_ = (
+            np.arange(X.shape[1]) if self.feature_set is None else FEATURE_SETS[self.feature_set]
+        )
         self.classes_ = np.arange(len(classes))
         features = X[:, self.columns_]
         trainable = (y >= 0) & usable
@@ -186,7 +207,8 @@ class EmergencyDetector(ClassifierMixin, BaseEstimator):
     def predict_proba(self, X) -> np.ndarray:
         """(n, k) class scores of full feature vectors, as the exported ONNX graph gives them."""
         check_is_fitted(self, "model_")
-        return positive_scores(self.model_, np.asarray(X)[:, self.columns_])
+        X = validate_data(self, X, reset=False)
+        return positive_scores(self.model_, X[:, self.columns_])
 
     def predict(self, X) -> np.ndarray:
         """Class index per frame at the chosen threshold, before the delay filter (frames
@@ -207,12 +229,6 @@ def fit_on(detector: EmergencyDetector, data: FrameData, sequences: np.ndarray):
         fit_target=data.fit_target[mask],
         positive_sequence=data.is_positive_sequence[data.group[mask]],
     )
-
-
-def _default_spec() -> ModelSpec:
-    from worker.training.estimators import RF
-
-    return RF
 
 
 def jsonable(params: dict) -> dict:

@@ -51,7 +51,9 @@ class SklearnTrainer:
     def detector(
         self, mode: str, n_inner: int, stride: int, n_jobs: int | None = None
     ) -> EmergencyDetector:
-        return EmergencyDetector(self.spec, mode, n_inner, stride, self.seed, n_jobs)
+        return EmergencyDetector.from_spec(
+            self.spec, mode=mode, n_inner=n_inner, stride=stride, seed=self.seed, n_jobs=n_jobs
+        )
 
     def score(self, fitted, data: FrameData, sequences: np.ndarray) -> np.ndarray:
         features = data.features[data.frames_of(sequences)][:, self.columns]
