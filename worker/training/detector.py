@@ -104,16 +104,9 @@ class EmergencyDetector(ClassifierMixin, BaseEstimator):
         seed: int = 0,
         n_jobs: int | None = None,
     ) -> None:
-        self.family = family
-        self.grid = grid
-        self.fixed = fixed
-        self.feature_set = feature_set
-        self.operating_point = operating_point
-        self.mode = mode
-        self.n_inner = n_inner
-        self.stride = stride
-        self.seed = seed
-        self.n_jobs = n_jobs
+        self.family, self.grid, self.fixed = family, grid, fixed
+        self.feature_set, self.operating_point, self.mode = feature_set, operating_point, mode
+        self.n_inner, self.stride, self.seed, self.n_jobs = n_inner, stride, seed, n_jobs
 
     @classmethod
     def from_spec(cls, spec: ModelSpec, **params) -> EmergencyDetector:
