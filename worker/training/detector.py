@@ -125,6 +125,11 @@ class EmergencyDetector(ClassifierMixin, BaseEstimator):
         e = classes.index(Decision.EMERGENCY)
         check_classification_targets(y)
         y = y.astype(np.int64)
+        if not ((y == e).any() and ((y >= 0) & (y != e)).any()):
+            raise ValueError(
+                "y holds only one class: an emergency detector needs Emergency frames and "
+                "frames of another class to choose its threshold"
+            )
         n = len(y)
         groups = np.arange(n) if groups is None else np.asarray(groups)
         sequence_ids, group = np.unique(groups, return_inverse=True)  # sequences in sorted order
