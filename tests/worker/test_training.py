@@ -77,7 +77,8 @@ def test_small_end_to_end_training_exports_a_working_model(data, tmp_path):
 
 
 def test_paper_svm_configuration_is_fixed():
-    (params,) = PAPER_SVM.configurations()
-    model = PAPER_SVM.build(params, n_features=81).steps[-1][1]
-    assert (model.kernel, model.degree, model.C) == ("poly", 2, 0.5)
-    assert model.gamma == pytest.approx(1 / 81)
+    (point,) = PAPER_SVM.param_grid(n_features=81)
+    pipeline = PAPER_SVM.pipeline(81).set_params(**{k: v for k, (v,) in point.items()})
+    model = pipeline.steps[-1][1]
+    assert (model.kernel, model.degree, model.C, model.coef0) == ("poly", 2, 0.5, 0.0)
+    assert model.gamma == 1 / 81  # gamma = 1/n_features, the very float the paper's SVC had

@@ -5,6 +5,7 @@ register the result as a candidate."""
 from __future__ import annotations
 
 import shutil
+from dataclasses import replace
 from datetime import UTC, datetime
 
 import numpy as np
@@ -15,10 +16,11 @@ from backend.storage.archive import import_archive
 from backend.storage.queries import archive_by_id
 from worker.context import JobContext
 from worker.db_data import frame_data, labelled_videos
-from worker.grid import GridBackend, grid_select
+from worker.grid import GridBackend
 from worker.jobs.common import gold_evaluation, reload, started_by
 from worker.registration import register, store_path
 from worker.training.cli import DEFAULT_SPEC
+from worker.training.cross_validation import select
 from worker.training.estimators import SPECS, ModelSpec
 from worker.training.publish import publish
 from worker.training.selection import evaluate
@@ -34,8 +36,7 @@ def spec_for(params: RetrainParams) -> ModelSpec:
         unknown = set(params.grid) - set(spec.grid)
         if unknown:
             raise ValueError(f"invalid job parameter grid: {sorted(unknown)} not in {spec.name}")
-        spec = ModelSpec(spec.name, spec.family, {**spec.grid, **params.grid}, spec.feature_set,
-                         spec.description, spec.fixed)  # fmt: skip
+        spec = replace(spec, grid={**spec.grid, **params.grid})
     return spec
 
 
@@ -76,12 +77,9 @@ def run(context: JobContext) -> dict:
     trainer = SklearnTrainer(spec)
     n_configs = len(spec.configurations())
     context.progress(0.05, f"grid search: {n_configs} configurations on {backend.description}")
-
-    def on_config(done: int, total: int) -> None:
-        context.progress(0.05 + 0.6 * done / total, f"grid search: {done}/{total} configurations")
-
-    selected = grid_select(trainer, data, np.arange(len(data.names)), backend, params.n_inner,
-                           params.stride, on_config=on_config)  # fmt: skip
+    with backend.active():
+        selected = select(trainer, data, np.arange(len(data.names)), params.n_inner, params.stride)
+    context.progress(0.65, f"grid search: {n_configs}/{n_configs} configurations")
     context.progress(0.7, f"selected {selected.params}; threshold {selected.threshold:.3f}, "
                      f"delay {selected.delay_s * 1000:.0f} ms; exporting ONNX")  # fmt: skip
     version = params.version or (

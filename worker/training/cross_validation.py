@@ -13,17 +13,17 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-from sklearn.metrics import average_precision_score
 
 from vigil.classes import Decision
 from worker.training.data import FrameData
+from worker.training.detector import fit_on, jsonable, pooled_average_precision_of
 from worker.training.selection import (
     StreamScores,
     choose_operating_point,
     evaluate_folds,
 )
 from worker.training.splits import grouped_folds
-from worker.training.trainers import Trainer
+from worker.training.trainers import SklearnTrainer, Trainer
 
 
 @dataclass
@@ -39,7 +39,7 @@ class Selected:
 
 
 def _oof_scores(
-    trainer: Trainer, data: FrameData, sequences: np.ndarray, params: dict, folds, stride: int
+    trainer, data: FrameData, sequences: np.ndarray, params: dict, folds, stride: int
 ) -> StreamScores:
     mask = data.frames_of(sequences)
     scores = np.zeros((int(mask.sum()), len(data.classes)))
@@ -58,33 +58,42 @@ def select(
     n_inner: int = 4,
     stride: int = 2,
     seed: int = 0,
-    refit: bool = True,
     progress=None,
+    n_jobs: int | None = None,
 ) -> Selected:
-    """Grid search + threshold + delay using only `sequences`, then (optionally) refit on them."""
+    """Grid search + threshold + delay using only `sequences`, then a refit on them.
+
+    scikit-learn families: EmergencyDetector (GridSearchCV, on the active joblib backend).
+    Window models (TemporalTrainer) have one configuration: its inner out-of-fold scores choose
+    threshold and delay the same way."""
     start = time.perf_counter()
     sequences = np.sort(np.asarray(sequences))
-    folds = grouped_folds(data.is_positive_sequence[sequences], n_inner, seed)
-    e = data.classes.index(Decision.EMERGENCY)
-    best, grid_scores = None, []
-    for params in trainer.configurations():
-        oof = _oof_scores(trainer, data, sequences, params, folds, stride)
-        target = data.target[data.frames_of(sequences)]
-        ok = (target >= 0) & data.usable[data.frames_of(sequences)]
-        ap = float(average_precision_score(target[ok] == e, oof.scores[ok, e]))
-        grid_scores.append({"params": _jsonable(params), "average_precision": ap})
-        if best is None or ap > best[0]:
-            best = (ap, params, oof)
+    if isinstance(trainer, SklearnTrainer):
+        detector = fit_on(trainer.detector(data.mode.value, n_inner, stride, n_jobs), data,
+                          sequences)  # fmt: skip
         if progress is not None:
-            progress.update(1)
-    _, params, oof = best
-    target = data.target[data.frames_of(sequences)]
+            progress.update(len(detector.grid_scores_))
+        return Selected(
+            detector.best_params_, detector.threshold_, detector.delay_s_,
+            detector.grid_scores_, detector.delay_sweep_,
+            StreamScores(data, sequences, detector.oof_scores_), detector.model_,
+            time.perf_counter() - start,
+        )  # fmt: skip
+    (params,) = trainer.configurations()
+    folds = grouped_folds(data.is_positive_sequence[sequences], n_inner, seed)
+    oof = _oof_scores(trainer, data, sequences, params, folds, stride)
+    if progress is not None:
+        progress.update(1)
+    mask = data.frames_of(sequences)
+    target = data.target[mask]
+    e = data.classes.index(Decision.EMERGENCY)
+    ap = pooled_average_precision_of(np.where(data.usable[mask], target, -1), oof.scores, e)
     labelled = target >= 0
-    rule = getattr(trainer, "operating_point", "youden")
     threshold, delay_s, sweep = choose_operating_point(
-        oof, oof.scores[labelled], target[labelled], rule
+        oof, oof.scores[labelled], target[labelled], trainer.operating_point
     )
-    fitted = trainer.fit(data, sequences, params, 1) if refit else None
+    fitted = trainer.fit(data, sequences, params, 1)
+    grid_scores = [{"params": jsonable(params), "average_precision": ap}]
     return Selected(
         params, threshold, delay_s, grid_scores, sweep, oof, fitted, time.perf_counter() - start
     )
@@ -123,7 +132,3 @@ def cross_validate(
     )
     cv.seconds = time.perf_counter() - start
     return cv
-
-
-def _jsonable(params: dict) -> dict:
-    return {k: (list(v) if isinstance(v, tuple) else v) for k, v in params.items()}

@@ -1,8 +1,16 @@
-"""The model families with their four-hyperparameter grids, and the paper's SVM configuration."""
+"""The model families as scikit-learn pipelines, their grids, and the paper's SVM configuration.
+
+A family is a pipeline factory (FAMILIES); a ModelSpec names a family, a feature set and a grid
+of that family's hyperparameters. Grid keys are the model step's parameter names, except
+`gamma_times_1_over_n` (SVM): the paper's gamma is 1/n_features, and since n_features is fixed by
+the feature set, the grid carries SVC's gamma as `gamma_times_1_over_n / n_features`, the very
+value (same float division) the SVC was built with before.
+"""
 
 from __future__ import annotations
 
 import itertools
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -14,10 +22,53 @@ from sklearn.preprocessing import StandardScaler
 from sklearn.svm import SVC
 
 
+def _svm(seed: int) -> Pipeline:
+    return Pipeline([("scale", StandardScaler()), ("model", SVC(kernel="poly", cache_size=500))])
+
+
+def _mlp(seed: int) -> Pipeline:
+    model = MLPClassifier(max_iter=80, early_stopping=True, n_iter_no_change=8, random_state=seed)
+    return Pipeline([("scale", StandardScaler()), ("model", model)])
+
+
+# Trees need no scaling. Without it the ONNX graph compares the very same float32 inputs with the
+# split values; with it, ONNX's float32 scaler rounds differently from scikit-learn's and a value
+# next to a split can land on the other side.
+def _rf(seed: int) -> Pipeline:
+    model = RandomForestClassifier(class_weight="balanced_subsample", n_jobs=2, random_state=seed)
+    return Pipeline([("model", model)])
+
+
+def _gbt(seed: int) -> Pipeline:
+    return Pipeline(
+        [("model", HistGradientBoostingClassifier(early_stopping=False, random_state=seed))]
+    )
+
+
+#: family -> pipeline factory (seed -> unfitted pipeline holding the family's constants).
+FAMILIES: dict[str, Callable[[int], Pipeline]] = {
+    "svm": _svm,
+    "mlp": _mlp,
+    "rf": _rf,
+    "gbt": _gbt,
+}
+
+
+def pipeline_params(params: dict[str, Any], n_features: int) -> dict[str, Any]:
+    """A configuration (grid keys) as the pipeline's parameters."""
+    out = {}
+    for key, value in params.items():
+        if key == "gamma_times_1_over_n":
+            out["model__gamma"] = value / n_features
+        else:
+            out[f"model__{key}"] = value
+    return out
+
+
 @dataclass(frozen=True)
 class ModelSpec:
     name: str
-    family: str  # svm, mlp, rf
+    family: str  # a key of FAMILIES
     grid: dict[str, list[Any]]
     feature_set: str = "full"
     description: str = ""
@@ -26,63 +77,27 @@ class ModelSpec:
     operating_point: str = "event"
 
     def configurations(self) -> list[dict[str, Any]]:
+        """Every point of the grid, the last key varying fastest (the order grids are reported
+        and ties are broken in)."""
         keys = list(self.grid)
         return [
             dict(zip(keys, values, strict=True))
             for values in itertools.product(*self.grid.values())
         ]
 
-    def build(self, params: dict[str, Any], n_features: int, seed: int = 0) -> Pipeline:
-        params = {**self.fixed, **params}
-        if self.family == "svm":
-            gamma = params["gamma_times_1_over_n"] / n_features
-            model = SVC(
-                kernel="poly",
-                degree=params["degree"],
-                C=params["C"],
-                gamma=gamma,
-                coef0=params.get("coef0", 0.0),
-                class_weight=params.get("class_weight"),
-                cache_size=500,
-            )
-        elif self.family == "mlp":
-            model = MLPClassifier(
-                hidden_layer_sizes=params["hidden_layer_sizes"],
-                alpha=params["alpha"],
-                learning_rate_init=params["learning_rate_init"],
-                activation=params["activation"],
-                max_iter=80,
-                early_stopping=True,
-                n_iter_no_change=8,
-                random_state=seed,
-            )
-        elif self.family == "rf":
-            model = RandomForestClassifier(
-                n_estimators=params["n_estimators"],
-                max_depth=params["max_depth"],
-                min_samples_leaf=params["min_samples_leaf"],
-                max_features=params["max_features"],
-                class_weight="balanced_subsample",
-                n_jobs=2,
-                random_state=seed,
-            )
-        elif self.family == "gbt":
-            model = HistGradientBoostingClassifier(
-                max_iter=params["max_iter"],
-                learning_rate=params["learning_rate"],
-                max_leaf_nodes=params["max_leaf_nodes"],
-                l2_regularization=params["l2_regularization"],
-                early_stopping=False,
-                random_state=seed,
-            )
-        else:
-            raise ValueError(f"unknown family {self.family!r}")
-        if self.family in ("rf", "gbt"):
-            # Trees need no scaling. Without it the ONNX graph compares the very same float32
-            # inputs with the split values; with it, ONNX's float32 scaler rounds differently
-            # from scikit-learn's and a value next to a split can land on the other side.
-            return Pipeline([("model", model)])
-        return Pipeline([("scale", StandardScaler()), ("model", model)])
+    def pipeline(self, n_features: int, seed: int = 0) -> Pipeline:
+        """The family's unfitted pipeline with the spec's fixed parameters set."""
+        if self.family not in FAMILIES:
+            raise ValueError(f"unknown family {self.family!r}; known: {', '.join(FAMILIES)}")
+        return FAMILIES[self.family](seed).set_params(**pipeline_params(self.fixed, n_features))
+
+    def param_grid(self, n_features: int) -> list[dict[str, list[Any]]]:
+        """The grid as GridSearchCV's param_grid: one single-point grid per configuration, so
+        candidates keep the order of `configurations()`."""
+        return [
+            {key: [value] for key, value in pipeline_params(params, n_features).items()}
+            for params in self.configurations()
+        ]
 
 
 def positive_scores(pipeline: Pipeline, features: np.ndarray) -> np.ndarray:

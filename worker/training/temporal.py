@@ -76,7 +76,10 @@ class TemporalTrainer:
             threads,
             seed,
         )
-        self.columns_ = FEATURE_SETS[feature_set]
+
+    @property
+    def columns(self) -> np.ndarray:
+        return FEATURE_SETS[self.feature_set]
 
     def configurations(self) -> list[dict[str, Any]]:
         return [
@@ -89,7 +92,7 @@ class TemporalTrainer:
         ]
 
     def _inputs(self, data: FrameData) -> tuple[torch.Tensor, np.ndarray]:
-        features = torch.from_numpy(np.ascontiguousarray(data.features[:, self.columns_]))
+        features = torch.from_numpy(np.ascontiguousarray(data.features[:, self.columns]))
         return features, window_index(data.group, self.window)
 
     def fit(self, data: FrameData, sequences: np.ndarray, params: dict, stride: int = 1):
@@ -141,7 +144,7 @@ class TemporalTrainer:
 
     def to_onnx(self, fitted, data: FrameData) -> bytes:
         buffer = io.BytesIO()
-        example = torch.zeros(1, self.window, len(self.columns_))
+        example = torch.zeros(1, self.window, len(self.columns))
         torch.onnx.export(
             _Probabilities(fitted).eval(),
             (example,),
