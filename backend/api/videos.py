@@ -111,7 +111,7 @@ def get_frames(
         default=None, ge=0, le=MAX_DB_INT, description="last frame index (inclusive)"
     ),
 ) -> list[FrameOut]:
-    _video(session, user, video_id)
+    video = _video(session, user, video_id)
     last = start + MAX_FRAMES_PER_REQUEST - 1 if end is None else end
     if last < start:
         raise HTTPException(status.HTTP_422_UNPROCESSABLE_ENTITY, "end must not be before start")
@@ -120,5 +120,5 @@ def get_frames(
             status.HTTP_422_UNPROCESSABLE_ENTITY,
             f"at most {MAX_FRAMES_PER_REQUEST} frames per request",
         )
-    frames = frames_between(session, video_id, start, last)
+    frames = frames_between(session, video, start, last)
     return [_frame_out(f) for f in frames]
