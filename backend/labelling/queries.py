@@ -5,7 +5,7 @@ from __future__ import annotations
 from collections.abc import Iterable
 
 import numpy as np
-from sqlalchemy import ColumnElement, func, select
+from sqlalchemy import ColumnElement, Row, func, select
 from sqlalchemy.orm import Session
 
 from backend.models.annotations import AnnotationSegment, SegmentSource, SegmentStatus
@@ -163,11 +163,16 @@ def frame_keypoints(session: Session, video: Video, index: int) -> bytes | None:
     )
 
 
-def frames_between(session: Session, video: Video, first: int, last: int) -> list[Frame]:
-    """The video's frames first..last (inclusive), in order."""
+TIMELINE_COLUMNS = (Frame.index, Frame.ts, Frame.seq, Frame.keypoints, Frame.depth, Frame.floor,
+                    Frame.decision, Frame.scores, Frame.model_version, Frame.threshold,
+                    Frame.delay_ms, Frame.shadow_decision, Frame.shadow_model_version)  # fmt: skip
+
+
+def frames_between(session: Session, video: Video, first: int, last: int) -> list[Row]:
+    """The video's frames first..last (inclusive), in order: rows of TIMELINE_COLUMNS."""
     return list(
-        session.scalars(
-            select(Frame)
+        session.execute(
+            select(*TIMELINE_COLUMNS)
             .where(*of_video(session, video), Frame.index >= first, Frame.index <= last)
             .order_by(Frame.index)
         )

@@ -11,10 +11,13 @@ planner keeps the (video_id, index) index it picks today.
 
 from __future__ import annotations
 
-from sqlalchemy import ColumnElement
+from collections.abc import Sequence
+
+from sqlalchemy import ColumnElement, Row
 from sqlalchemy.orm import Session
 
 from backend.models.videos import Frame, Video
+from vigil.skeleton import N_FLOOR, N_KEYPOINTS, decode_many
 
 
 def prunes(session: Session) -> bool:
@@ -31,3 +34,27 @@ def of_video(session: Session, video: Video) -> list[ColumnElement[bool]]:
     if first is not None and last is not None and prunes(session):
         clauses.append(Frame.ts.between(first, last))
     return clauses
+
+
+def json_frames(rows: Sequence[Row]) -> list[dict]:
+    """Frame rows (any columns; keypoints, depth and floor as stored blobs) as the API's JSON
+    values, decoded once for all rows: keypoints (25, 3) lists, depth and floor lists with None
+    for unknown (JSON has no NaN), None where the blob is None. The same values as
+    vigil.skeleton's decode_keypoints(...).tolist(), depth_to_json and floor_to_json per frame,
+    without a pydantic model per frame (a replay has 600 and more)."""
+    if not rows:
+        return []
+    names = rows[0]._fields
+    out = [dict(zip(names, row, strict=True)) for row in rows]
+    if "keypoints" in names:
+        blobs = [frame["keypoints"] for frame in out]
+        points = decode_many(blobs, N_KEYPOINTS * 3).reshape(len(out), N_KEYPOINTS, 3).tolist()
+        for frame, value in zip(out, points, strict=True):
+            frame["keypoints"] = value
+    for name, width in (("depth", N_KEYPOINTS), ("floor", N_FLOOR)):
+        if name in names:
+            blobs = [frame[name] for frame in out]
+            values = decode_many(blobs, width).tolist()
+            for frame, blob, value in zip(out, blobs, values, strict=True):
+                frame[name] = None if blob is None else [None if v != v else v for v in value]
+    return out
