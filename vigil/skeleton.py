@@ -122,9 +122,10 @@ def decode_many(blobs: Sequence[bytes | None], width: int) -> np.ndarray:
     out = np.full((len(blobs), width), np.nan, np.float32)
     present = [i for i, blob in enumerate(blobs) if blob is not None]
     if present:
-        values = np.frombuffer(b"".join(blobs[i] for i in present), dtype="<f4")
-        if values.size != len(present) * width:
+        size = width * 4
+        if any(len(blobs[i]) != size for i in present):
             raise ValueError(f"a stored blob is not {width} float32 values")
+        values = np.frombuffer(b"".join(blobs[i] for i in present), dtype="<f4")
         out[present] = values.reshape(len(present), width)
     return out
 
