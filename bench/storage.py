@@ -87,7 +87,8 @@ def load_history(url: str, frames: int, robots: int, days: float, now: float) ->
         with transaction(factory) as session:
             video = Video(name=f"hist-transport-{k}", source="robot", generated=True,
                           mode="walking", fps=10.0, robot_id=f"hist-{robot}",
-                          frame_count=VIDEO_FRAMES)  # fmt: skip
+                          frame_count=VIDEO_FRAMES, first_frame_ts=t0,
+                          last_frame_ts=t0 + (VIDEO_FRAMES - 1) * 0.1)  # fmt: skip
             session.add(video)
             session.flush()
             kp, depth, floor = blobs[robot]

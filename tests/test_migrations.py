@@ -238,3 +238,52 @@ def test_0009_merges_the_double_urfd_import_without_losing_what_people_made(
         assert job.params["video_ids"] == [kept["fall-01"], 999]
         assert job.result["training_videos"] == ["fall-01", only_copy, "urfd/other"]
     engine.dispose()
+
+
+# --- 0012_video_frame_range: the range filled from the frames already stored -----------------
+
+
+def test_0012_fills_each_video_frame_range_from_its_frames(empty_database_url):
+    from sqlalchemy import text
+
+    url = empty_database_url
+    upgrade(url, "0011_frame_storage")
+    engine = make_engine(url)
+    try:
+        with engine.begin() as connection:
+            for name in ("with-frames", "without-frames"):
+                connection.execute(
+                    text("INSERT INTO videos (name, source, generated, mode, fps, split, "
+                         "frame_count, rgb_frame_offset, created_at) VALUES (:n, 'urfd', false, "
+                         "'walking', 30, 'train', 3, 0, CURRENT_TIMESTAMP)"), {"n": name}
+                )  # fmt: skip
+            video_id = connection.execute(
+                text("SELECT id FROM videos WHERE name = 'with-frames'")
+            ).scalar_one()
+            for index, ts in enumerate([1_700_000_000.5, 2.25, 1_700_000_100.0]):
+                connection.execute(
+                    text('INSERT INTO frames (video_id, "index", ts, keypoints) '
+                         "VALUES (:v, :i, :t, :k)"),
+                    {"v": video_id, "i": index, "t": ts, "k": b"\0" * 300},
+                )  # fmt: skip
+        upgrade(url)
+        with engine.connect() as connection:
+            ranges = dict(
+                (name, (first, last))
+                for name, first, last in connection.execute(
+                    text("SELECT name, first_frame_ts, last_frame_ts FROM videos")
+                )
+            )
+        assert ranges == {"with-frames": (2.25, 1_700_000_100.0), "without-frames": (None, None)}
+    finally:
+        engine.dispose()
+    downgrade(url, "0011_frame_storage")
+    assert "first_frame_ts" not in {c["name"] for c in inspect_columns(url, "videos")}
+
+
+def inspect_columns(url: str, table: str) -> list[dict]:
+    engine = make_engine(url)
+    try:
+        return inspect(engine).get_columns(table)
+    finally:
+        engine.dispose()

@@ -3,6 +3,7 @@ and, where the depth camera's pose over the floor is known, the body's height ab
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -112,6 +113,21 @@ def encode_floor(floor: np.ndarray) -> bytes | None:
 
 def decode_floor(blob: bytes | None) -> np.ndarray:
     return no_floor() if blob is None else np.frombuffer(blob, dtype="<f4").copy()
+
+
+def decode_many(blobs: Sequence[bytes | None], width: int) -> np.ndarray:
+    """(n, width) float32 from blobs of `width` little-endian float32 each (keypoints: 75,
+    depth: 25, floor: 3), a NaN row for None: one decode for a whole recording, the same
+    values as decoding each blob."""
+    out = np.full((len(blobs), width), np.nan, np.float32)
+    present = [i for i, blob in enumerate(blobs) if blob is not None]
+    if present:
+        size = width * 4
+        if any(len(blobs[i]) != size for i in present):
+            raise ValueError(f"a stored blob is not {width} float32 values")
+        values = np.frombuffer(b"".join(blobs[i] for i in present), dtype="<f4")
+        out[present] = values.reshape(len(present), width)
+    return out
 
 
 def floor_to_json(blob: bytes | None) -> list[float | None] | None:

@@ -18,14 +18,10 @@ from sqlalchemy.orm import Session
 from backend.labelling.taxonomy import load_taxonomy, taxonomy_versions
 from backend.models.annotations import AnnotationSegment, SegmentStatus
 from backend.models.videos import Frame, Split, Video
+from backend.storage.frame_reads import of_video
 from vigil.classes import MODE_CLASSES, Decision, TransportMode
 from vigil.observation import Observation
-from vigil.skeleton import (
-    SkeletonFrame,
-    decode_depth,
-    decode_floor,
-    decode_keypoints,
-)
+from vigil.skeleton import N_FLOOR, N_KEYPOINTS, SkeletonFrame, decode_many
 from vigil.taxonomy import DEFAULT_TAXONOMY
 from worker.training.data import FrameData, sequence_arrays
 
@@ -63,6 +59,22 @@ def labelled_videos(
     return list(session.scalars(query))
 
 
+def accepted_segments(session: Session, video_ids: list[int]) -> dict[int, list[AnnotationSegment]]:
+    """Accepted segments of the videos (one query per 500 videos), per video in id order."""
+    out: dict[int, list[AnnotationSegment]] = {}
+    for start in range(0, len(video_ids), 500):
+        for seg in session.scalars(
+            select(AnnotationSegment)
+            .where(
+                AnnotationSegment.video_id.in_(video_ids[start : start + 500]),
+                AnnotationSegment.status == SegmentStatus.ACCEPTED,
+            )
+            .order_by(AnnotationSegment.video_id, AnnotationSegment.id)
+        ):
+            out.setdefault(seg.video_id, []).append(seg)
+    return out
+
+
 def frame_data(
     session: Session, videos: list[Video], mode: TransportMode, feature_set: str = "full"
 ) -> FrameData:
@@ -75,48 +87,40 @@ def frame_data(
         raise ValueError("no labelled recordings to build a data set from")
     classes = MODE_CLASSES[TransportMode(mode)]
     decisions = label_decisions(session, mode)
+    segments_of = accepted_segments(session, [v.id for v in videos])
     digest = hashlib.sha256()
     feats, targets, groups, times, usable, positive, generated = [], [], [], [], [], [], False
     recordings = []
     for i, video in enumerate(videos):
         rows = session.execute(
             select(Frame.index, Frame.ts, Frame.keypoints, Frame.depth, Frame.floor)
-            .where(Frame.video_id == video.id)
+            .where(*of_video(session, video))
             .order_by(Frame.index)
         ).all()
         if not rows:
             raise ValueError(f"video {video.name} has no frames")
-        keypoints = np.stack([decode_keypoints(r.keypoints) for r in rows])
-        has_depth = any(r.depth is not None for r in rows)
-        depth = (
-            np.stack([decode_depth(r.depth) if r.depth is not None else
-                      np.full(keypoints.shape[1], np.nan, np.float32) for r in rows])
-            if has_depth else None
-        )  # fmt: skip
-        floor = np.stack([decode_floor(r.floor) for r in rows])
-        ts = np.array([r.ts for r in rows], np.float64)
+        indices, stamps, kp_blobs, depth_blobs, floor_blobs = zip(*rows, strict=True)
+        keypoints = decode_many(kp_blobs, N_KEYPOINTS * 3).reshape(len(rows), N_KEYPOINTS, 3)
+        has_depth = any(blob is not None for blob in depth_blobs)
+        depth = decode_many(depth_blobs, N_KEYPOINTS) if has_depth else None
+        floor = decode_many(floor_blobs, N_FLOOR)
+        ts = np.array(stamps, np.float64)
         ts = ts - ts[0]
         no_depth = np.full(keypoints.shape[1], np.nan, np.float32)
+        seen_any = (keypoints[:, :, 2] > 0).any(axis=1)
         observations = tuple(
             Observation(
                 float(ts[j]),
                 [SkeletonFrame(keypoints[j], depth[j] if depth is not None else no_depth,
                                float(ts[j]), floor[j])]
-                if (keypoints[j, :, 2] > 0).any() else [],
+                if seen_any[j] else [],
                 j,
             )
             for j in range(len(rows))
         )  # fmt: skip
-        index_of = {r.index: j for j, r in enumerate(rows)}
+        index_of = {index: j for j, index in enumerate(indices)}
         target = np.full(len(rows), -1, np.int64)
-        segments = session.scalars(
-            select(AnnotationSegment)
-            .where(
-                AnnotationSegment.video_id == video.id,
-                AnnotationSegment.status == SegmentStatus.ACCEPTED,
-            )
-            .order_by(AnnotationSegment.id)
-        ).all()
+        segments = segments_of.get(video.id, [])
         for seg in segments:
             decision = decisions.get((seg.taxonomy_version, seg.label_key))
             if decision is None:

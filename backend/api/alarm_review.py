@@ -5,6 +5,7 @@ from __future__ import annotations
 from datetime import UTC, datetime, timedelta
 
 from fastapi import APIRouter, HTTPException, Query, Response, status
+from pydantic_core import to_json
 
 from backend import wards
 from backend.alarm_review import feedback, queries
@@ -15,18 +16,17 @@ from backend.alarm_review.schemas import (
     AlarmReplayOut,
     FatigueOut,
     HandoverOut,
-    ReplayFrameOut,
     ReviewItemOut,
 )
 from backend.alarms import queries as alarm_queries
 from backend.alarms.schemas import AlarmOut
 from backend.api.downloads import attachment
 from backend.deps import CurrentUser, SessionDep
-from backend.models import Frame, Video
+from backend.models import Video
 from backend.models._types import utcnow
 from backend.models.alarms import AlarmKind, Verdict
 from backend.models.users import User
-from vigil.skeleton import decode_keypoints, depth_to_json
+from backend.storage.frame_reads import json_frames
 
 router = APIRouter(prefix="/api", tags=["alarm review"])
 
@@ -43,40 +43,31 @@ def _ward_of(user: User, ward: str | None) -> str | None:
     return ward
 
 
-def _replay_frame(frame: Frame) -> ReplayFrameOut:
-    depth = depth_to_json(frame.depth)
-    return ReplayFrameOut(
-        seq=frame.seq,
-        index=frame.index,
-        ts=frame.ts,
-        keypoints=decode_keypoints(frame.keypoints).tolist(),
-        depth=depth,
-        decision=frame.decision,
-        scores=frame.scores or {},
-        model_version=frame.model_version,
-    )
-
-
-@router.get("/alarms/{alarm_id}/replay")
+@router.get("/alarms/{alarm_id}/replay", response_model=AlarmReplayOut)
 def alarm_replay(
     alarm_id: int,
     session: SessionDep,
     user: CurrentUser,
     before_s: float = Query(default=5.0, ge=0, le=60, description="seconds before the alarm"),
     after_s: float = Query(default=5.0, ge=0, le=60, description="seconds after the alarm"),
-) -> AlarmReplayOut:
+) -> Response:
+    # AlarmReplayOut, encoded without a pydantic model per frame (backend.storage.frame_reads:
+    # 600 frames and more; serialisation was most of the time of a replay).
     alarm = alarm_queries.get_visible(session, user, alarm_id)
     if alarm is None:
         raise HTTPException(status.HTTP_404_NOT_FOUND, f"alarm {alarm_id} not found")
-    frames = queries.frames_around(session, alarm, before_s, after_s)
+    frames = json_frames(queries.frames_around(session, alarm, before_s, after_s))
+    for frame in frames:
+        frame["scores"] = frame["scores"] or {}
     video = session.get(Video, alarm.video_id) if alarm.video_id is not None else None
-    return AlarmReplayOut(
-        alarm=AlarmOut.model_validate(alarm),
-        before_s=before_s,
-        after_s=after_s,
-        generated=bool(video and video.generated),
-        frames=[_replay_frame(f) for f in frames],
-    )
+    payload = {
+        "alarm": AlarmOut.model_validate(alarm).model_dump(mode="json"),
+        "before_s": before_s,
+        "after_s": after_s,
+        "generated": bool(video and video.generated),
+        "frames": frames,
+    }
+    return Response(to_json(payload), media_type="application/json")
 
 
 @router.get("/alarm-history")

@@ -1,14 +1,15 @@
 from datetime import datetime
 
-from fastapi import APIRouter, HTTPException, Query, status
+from fastapi import APIRouter, HTTPException, Query, Response, status
 from pydantic import BaseModel, ConfigDict
+from pydantic_core import to_json
 
 from backend import wards
 from backend.deps import MAX_DB_INT, CurrentUser, DbId, SessionDep
 from backend.labelling.queries import frames_between, videos_matching
-from backend.models.videos import Frame, Split, Video
+from backend.models.videos import Split, Video
+from backend.storage.frame_reads import json_frames
 from vigil.classes import Decision, TransportMode
-from vigil.skeleton import decode_keypoints, depth_to_json, floor_to_json
 
 router = APIRouter(prefix="/api/videos", tags=["videos"])
 
@@ -82,26 +83,7 @@ def get_video(video_id: DbId, session: SessionDep, user: CurrentUser) -> VideoOu
     return _video_out(_video(session, user, video_id))
 
 
-def _frame_out(frame: Frame) -> FrameOut:
-    depth = depth_to_json(frame.depth)
-    return FrameOut(
-        index=frame.index,
-        ts=frame.ts,
-        seq=frame.seq,
-        keypoints=decode_keypoints(frame.keypoints).tolist(),
-        depth=depth,
-        floor=floor_to_json(frame.floor),
-        decision=frame.decision,
-        scores=frame.scores,
-        model_version=frame.model_version,
-        threshold=frame.threshold,
-        delay_ms=frame.delay_ms,
-        shadow_decision=frame.shadow_decision,
-        shadow_model_version=frame.shadow_model_version,
-    )
-
-
-@router.get("/{video_id}/frames")
+@router.get("/{video_id}/frames", response_model=list[FrameOut])
 def get_frames(
     video_id: DbId,
     session: SessionDep,
@@ -110,8 +92,9 @@ def get_frames(
     end: int | None = Query(
         default=None, ge=0, le=MAX_DB_INT, description="last frame index (inclusive)"
     ),
-) -> list[FrameOut]:
-    _video(session, user, video_id)
+) -> Response:
+    # list[FrameOut], encoded without a pydantic model per frame (backend.storage.frame_reads).
+    video = _video(session, user, video_id)
     last = start + MAX_FRAMES_PER_REQUEST - 1 if end is None else end
     if last < start:
         raise HTTPException(status.HTTP_422_UNPROCESSABLE_ENTITY, "end must not be before start")
@@ -120,5 +103,5 @@ def get_frames(
             status.HTTP_422_UNPROCESSABLE_ENTITY,
             f"at most {MAX_FRAMES_PER_REQUEST} frames per request",
         )
-    frames = frames_between(session, video_id, start, last)
-    return [_frame_out(f) for f in frames]
+    frames = json_frames(frames_between(session, video, start, last))
+    return Response(to_json(frames), media_type="application/json")

@@ -14,7 +14,7 @@ from backend.ingest.bulk import insert_frame_rows
 from backend.ingest.bulk_update import update_rows
 from backend.models.alarms import Alarm, AlarmKind, AlarmState
 from backend.models.robots import Robot, Transport
-from backend.models.videos import Video
+from backend.models.videos import Video, widened
 from vigil.classes import Decision, TransportMode
 
 ALARM_KIND_OF_DECISION = {Decision.EMERGENCY: AlarmKind.EMERGENCY, Decision.PAUSE: AlarmKind.PAUSE}
@@ -56,6 +56,14 @@ class VideoState:
     name: str
     frame_count: int
     initial_count: int = 0
+    first_frame_ts: float | None = None
+    last_frame_ts: float | None = None
+
+    def cover(self, first_ts: float, last_ts: float) -> None:
+        """Widen the frame time range (Video.cover, written back with frame_count)."""
+        self.first_frame_ts, self.last_frame_ts = widened(
+            self.first_frame_ts, self.last_frame_ts, first_ts, last_ts
+        )
 
 
 @dataclass
@@ -107,10 +115,12 @@ class IngestContext:
         names = {video_name(robot_id, tid) for robot_id, tid in streams} - self.videos.keys()
         if names:
             for row in session.execute(
-                select(Video.id, Video.name, Video.frame_count).where(Video.name.in_(names))
-            ):
+                select(Video.id, Video.name, Video.frame_count, Video.first_frame_ts,
+                       Video.last_frame_ts).where(Video.name.in_(names))
+            ):  # fmt: skip
                 self.videos[row.name] = VideoState(row.id, row.name, row.frame_count,
-                                                   row.frame_count)  # fmt: skip
+                                                   row.frame_count, row.first_frame_ts,
+                                                   row.last_frame_ts)  # fmt: skip
         alarming = robot_ids if alarming_robots is None else alarming_robots & robot_ids
         if alarming:
             for alarm in session.scalars(
@@ -136,8 +146,10 @@ class IngestContext:
             v for v in self.videos.values()
             if isinstance(v, VideoState) and v.frame_count != v.initial_count
         ]  # fmt: skip
-        update_rows(session, Video.__table__, ("id", "frame_count"),
-                    [(v.id, v.frame_count) for v in videos])  # fmt: skip
+        update_rows(session, Video.__table__,
+                    ("id", "frame_count", "first_frame_ts", "last_frame_ts"),
+                    [(v.id, v.frame_count, v.first_frame_ts, v.last_frame_ts)
+                     for v in videos])  # fmt: skip
         for video in videos:
             video.initial_count = video.frame_count
         transports = [
@@ -161,7 +173,8 @@ class IngestContext:
             for key, t in self.transports.items()
         }  # fmt: skip
         videos = {
-            key: VideoState(v.id, v.name, v.frame_count, v.frame_count)
+            key: VideoState(v.id, v.name, v.frame_count, v.frame_count, v.first_frame_ts,
+                            v.last_frame_ts)
             if isinstance(v, Video) else v
             for key, v in self.videos.items()
         }  # fmt: skip

@@ -224,6 +224,7 @@ def store_frames(
         )
         pending.add(frame.seq)
         video.frame_count += 1
+        video.cover(frame.ts, frame.ts)
         kind = ALARM_KIND_OF_DECISION.get(frame.decision)
         if kind is not None:
             evidence = DecisionEvidence(

@@ -50,7 +50,7 @@ def _per_frame(session: Session, video: Video, statuses) -> list[str | None]:
 def export_csv(session: Session, video: Video, statuses=(SegmentStatus.ACCEPTED,)) -> str:
     taxonomy = load_taxonomy(session)
     labels = _per_frame(session, video, statuses)
-    timestamps = frame_timestamps(session, video.id)
+    timestamps = frame_timestamps(session, video)
     out = io.StringIO()
     writer = csv.writer(out, lineterminator="\n")
     writer.writerow(CSV_COLUMNS)
@@ -70,7 +70,7 @@ def _number(value: float) -> float | None:
 
 def export_json(session: Session, video: Video, statuses=(SegmentStatus.ACCEPTED,)) -> dict:
     indices, keypoints, depth, floor = video_frames(session, video)
-    timestamps = frame_timestamps(session, video.id)
+    timestamps = frame_timestamps(session, video)
     segments = _segments(session, video, statuses)
     names = usernames(
         session, [s.annotator_id for s in segments] + [s.reviewer_id for s in segments]

@@ -17,6 +17,7 @@ from sqlalchemy import select
 from sqlalchemy.orm import Session
 
 from backend.models.videos import Frame, Video
+from backend.storage.frame_reads import of_video
 from vigil.classes import Decision
 from vigil.skeleton import (
     N_KEYPOINTS,
@@ -93,7 +94,7 @@ class LaneComputer:
 def _stored_lane(session: Session, video: Video) -> Lane | None:
     rows = session.execute(
         select(Frame.index, Frame.scores, Frame.model_version, Frame.threshold).where(
-            Frame.video_id == video.id, Frame.scores.is_not(None)
+            *of_video(session, video), Frame.scores.is_not(None)
         )
     ).all()
     if not rows:
@@ -118,7 +119,7 @@ def _stored_lane(session: Session, video: Video) -> Lane | None:
 def _computed_lane(session: Session, video: Video, classifier) -> Lane:
     rows = session.execute(
         select(Frame.index, Frame.ts, Frame.keypoints, Frame.depth, Frame.floor)
-        .where(Frame.video_id == video.id)
+        .where(*of_video(session, video))
         .order_by(Frame.index)
     ).all()
     classifier.reset()

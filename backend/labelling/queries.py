@@ -5,13 +5,14 @@ from __future__ import annotations
 from collections.abc import Iterable
 
 import numpy as np
-from sqlalchemy import ColumnElement, func, select
+from sqlalchemy import ColumnElement, Row, func, select
 from sqlalchemy.orm import Session
 
 from backend.models.annotations import AnnotationSegment, SegmentSource, SegmentStatus
 from backend.models.taxonomy import TaxonomyLabel
 from backend.models.users import User
 from backend.models.videos import Frame, Split, Video
+from backend.storage.frame_reads import of_video
 from vigil.classes import TransportMode
 from vigil.skeleton import N_FLOOR, N_KEYPOINTS, decode_depth, decode_floor, decode_keypoints
 
@@ -61,7 +62,7 @@ def video_frames(
     unknown."""
     rows = session.execute(
         select(Frame.index, Frame.keypoints, Frame.depth, Frame.floor)
-        .where(Frame.video_id == video.id)
+        .where(*of_video(session, video))
         .order_by(Frame.index)
     ).all()
     indices = np.array([r[0] for r in rows], np.int64)
@@ -74,9 +75,9 @@ def video_frames(
     return indices, keypoints, depth, floor
 
 
-def frame_timestamps(session: Session, video_id: int) -> dict[int, float]:
+def frame_timestamps(session: Session, video: Video) -> dict[int, float]:
     return dict(
-        session.execute(select(Frame.index, Frame.ts).where(Frame.video_id == video_id)).all()
+        session.execute(select(Frame.index, Frame.ts).where(*of_video(session, video))).all()
     )
 
 
@@ -156,18 +157,23 @@ def video_modes(session: Session, video_ids: Iterable[int]) -> dict[int, Transpo
     )
 
 
-def frame_keypoints(session: Session, video_id: int, index: int) -> bytes | None:
+def frame_keypoints(session: Session, video: Video, index: int) -> bytes | None:
     return session.scalar(
-        select(Frame.keypoints).where(Frame.video_id == video_id, Frame.index == index)
+        select(Frame.keypoints).where(*of_video(session, video), Frame.index == index)
     )
 
 
-def frames_between(session: Session, video_id: int, first: int, last: int) -> list[Frame]:
-    """The video's frames first..last (inclusive), in order."""
+TIMELINE_COLUMNS = (Frame.index, Frame.ts, Frame.seq, Frame.keypoints, Frame.depth, Frame.floor,
+                    Frame.decision, Frame.scores, Frame.model_version, Frame.threshold,
+                    Frame.delay_ms, Frame.shadow_decision, Frame.shadow_model_version)  # fmt: skip
+
+
+def frames_between(session: Session, video: Video, first: int, last: int) -> list[Row]:
+    """The video's frames first..last (inclusive), in order: rows of TIMELINE_COLUMNS."""
     return list(
-        session.scalars(
-            select(Frame)
-            .where(Frame.video_id == video_id, Frame.index >= first, Frame.index <= last)
+        session.execute(
+            select(*TIMELINE_COLUMNS)
+            .where(*of_video(session, video), Frame.index >= first, Frame.index <= last)
             .order_by(Frame.index)
         )
     )

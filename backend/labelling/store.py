@@ -35,9 +35,12 @@ def add_video(
     indices = list(range(len(keypoints))) if indices is None else [int(i) for i in indices]
     if indices and not 0 <= min(indices) <= max(indices) < MAX_FRAMES:
         raise LabellingError(f"frames: frame numbers must lie in 0..{MAX_FRAMES - 1}")
-    if not np.isfinite(np.asarray(timestamps, dtype=np.float64)).all():
+    stamps = np.asarray(timestamps, dtype=np.float64)
+    if not np.isfinite(stamps).all():
         raise LabellingError("frames: every timestamp must be a finite number")
     video.frame_count = (max(indices) + 1) if indices else 0
+    if stamps.size:
+        video.cover(float(stamps.min()), float(stamps.max()))
     session.add(video)
     session.flush()
     rows = []

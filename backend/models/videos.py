@@ -55,6 +55,28 @@ class Video(Base):
     # Clip frame = skeleton frame index + offset (clamped to the clip); URFD keypoints lag by 1.
     rgb_frame_offset: Mapped[int] = mapped_column(default=0, server_default="0")
     created_at: Mapped[datetime] = mapped_column(UTCDateTime, default=utcnow)
+    # Smallest and largest ts of the video's frames (None: not known, e.g. no frames yet).
+    # Every writer of frames widens it (`cover`) in the same transaction; reads by video add
+    # `ts BETWEEN` these so that PostgreSQL reads only the day partitions that hold the video
+    # (`backend.storage.frame_reads`). Retention only removes frames: the range stays a bound.
+    first_frame_ts: Mapped[float | None] = mapped_column()
+    last_frame_ts: Mapped[float | None] = mapped_column()
+
+    def cover(self, first_ts: float, last_ts: float) -> None:
+        """Widen the frame time range to include [first_ts, last_ts]."""
+        self.first_frame_ts, self.last_frame_ts = widened(
+            self.first_frame_ts, self.last_frame_ts, first_ts, last_ts
+        )
+
+
+def widened(
+    first: float | None, last: float | None, new_first: float, new_last: float
+) -> tuple[float, float]:
+    """The range [first, last] (None: empty) widened to include [new_first, new_last]."""
+    return (
+        new_first if first is None else min(first, new_first),
+        new_last if last is None else max(last, new_last),
+    )
 
 
 class Frame(Base):

@@ -186,6 +186,8 @@ def import_archive(session: Session, archive: FrameArchive) -> Video:
                 if row[name] is not None:
                     row[name] = json.loads(row[name])
         session.execute(insert(Frame), data)
+        stamps = [row["ts"] for row in data]
+        video.cover(min(stamps), max(stamps))
     has_segments = session.scalar(
         select(AnnotationSegment.id).where(AnnotationSegment.video_id == video.id).limit(1)
     )

@@ -61,7 +61,7 @@ def rgb_frame(
     number = max(frame + video.rgb_frame_offset, 0)
     picture = crop(services.labelling.rgb_frames.get(video.rgb_path, number), video.rgb_crop)
     if blur:
-        blob = frame_keypoints(session, video.id, frame)
+        blob = frame_keypoints(session, video, frame)
         keypoints = decode_keypoints(blob) if blob is not None else None
         height, width = picture.shape[:2]
         scale = (

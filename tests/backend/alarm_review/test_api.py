@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 import time
 
+import numpy as np
 from sqlalchemy import select
 
 from backend.db import transaction
@@ -100,3 +101,44 @@ def test_review_endpoints_check_role_and_ward(client, make_account, robot):
                      headers=nurse_b.headers)  # fmt: skip
     assert bad.status_code == 422 and "until" in bad.json()["detail"]
     assert client.get("/api/alarm-history").status_code == 401
+
+
+def test_replay_json_is_what_the_response_models_give(client, make_account, session_factory):
+    """The replay is encoded without a model per frame: the same JSON as AlarmReplayOut of the
+    frames decoded one by one (depth with unknown points, frames without depth)."""
+    from backend.alarm_review.schemas import AlarmReplayOut, ReplayFrameOut
+    from backend.alarms.schemas import AlarmOut
+    from backend.models import Alarm, Frame
+    from tests.backend.alarm_review.factories import alarm, robot_with_frames
+    from vigil.skeleton import decode_keypoints, depth_to_json, encode_depth
+
+    engineer = make_account(Role.ENGINEER, ward=None, username="eng")
+    with transaction(session_factory) as session:
+        video = robot_with_frames(session)
+        depth = np.linspace(1, 3, 25).astype(np.float32)
+        depth[4] = np.nan
+        for row in session.scalars(select(Frame).where(Frame.index % 3 == 0)):
+            row.depth = encode_depth(depth)
+        alarm_id = alarm(session, video).id
+    response = client.get(f"/api/alarms/{alarm_id}/replay?before_s=2&after_s=1",
+                          headers=engineer.headers)  # fmt: skip
+    with session_factory() as session:
+        row = session.get(Alarm, alarm_id)
+        frames = session.scalars(
+            select(Frame)
+            .where(Frame.ts >= row.first_frame_ts - 2, Frame.ts <= row.last_frame_ts + 1)
+            .order_by(Frame.ts)
+        ).all()
+        expected = AlarmReplayOut(
+            alarm=AlarmOut.model_validate(row), before_s=2, after_s=1, generated=False,
+            frames=[ReplayFrameOut(seq=f.seq, index=f.index, ts=f.ts,
+                                   keypoints=decode_keypoints(f.keypoints).tolist(),
+                                   depth=depth_to_json(f.depth), decision=f.decision,
+                                   scores=f.scores or {}, model_version=f.model_version)
+                    for f in frames],
+        )  # fmt: skip
+    assert response.status_code == 200
+    assert response.headers["content-type"] == "application/json"
+    assert len(frames) == 47 and any(f.depth is None for f in frames)
+    assert response.json() == expected.model_dump(mode="json")
+    assert AlarmReplayOut.model_validate_json(response.content) == expected

@@ -73,6 +73,8 @@ def robot_video(
              '{"normal": 0.9, "emergency": 0.1}', "m-1", 0.5, 300, None, None, None)
         )  # fmt: skip
     insert_frame_rows(session, rows)
+    if times:
+        video.cover(min(times), max(times))  # as every writer of frames does
     return video
 
 

@@ -49,10 +49,14 @@ def test_parquet_round_trip_is_bit_identical(database_url, session_factory, tmp_
     with transaction(session_factory) as session:  # retention dropped the frames and labels
         session.execute(delete(Frame).where(Frame.video_id == video_id))
         session.execute(delete(AnnotationSegment).where(AnnotationSegment.video_id == video_id))
+        dropped = session.get(Video, video_id)
+        dropped.first_frame_ts = dropped.last_frame_ts = None  # a range the import must restore
     with transaction(session_factory) as session:
         archive.import_archive(session, session.get(FrameArchive, archive_id))
     with transaction(session_factory) as session:
         assert stored(session, video_id) == original
+        back = session.get(Video, video_id)
+        assert (back.first_frame_ts, back.last_frame_ts) == (f.NOW - 90, f.NOW - 90 + 39 / 7)
         query = select(AnnotationSegment).where(AnnotationSegment.video_id == video_id)
         segments = session.scalars(query).all()
         assert [(s.first_frame, s.last_frame, s.label_key) for s in segments] == [

@@ -5,34 +5,16 @@ replaces a whole old day by its kept frames and drops the rest, never a table-wi
 
 from __future__ import annotations
 
-from collections.abc import Iterator
-
 import psycopg
 import pytest
 from sqlalchemy import func, select, text
 
-from backend.db import make_engine, make_session_factory, transaction
-from backend.migrate import upgrade
+from backend.db import transaction
 from backend.models import Frame
 from backend.storage import partitions
 from backend.storage.policy import DAY_S
 from backend.storage.retention import run_retention
 from tests.backend.storage import factories as f
-from tests.conftest import create_throwaway_database
-
-
-@pytest.fixture
-def pg_factory() -> Iterator:
-    url, drop = create_throwaway_database("vigil_partitions")
-    engine = None
-    try:
-        upgrade(url)
-        engine = make_engine(url)
-        yield make_session_factory(engine)
-    finally:
-        if engine is not None:
-            engine.dispose()
-        drop()
 
 
 def rows_in(session, table: str) -> int:
