@@ -13,7 +13,8 @@ lets it run `--minutes` (60), then reads the ward board as the demo nurse would:
   log lines that warn about floor measures (issue 17: the demo runs models its robots can feed).
 
 Counts and order, not speed: run it under `nice`. The skeletons are GENERATED
-(vigil.synthetic); the models are trained on URFD (real data).
+(vigil.synthetic); the models are trained on URFD (real data) plus GENERATED walking
+transports (`train-default --with-generated`) and gated on URFD's gold set.
 
     python -m bench.demo_hour [--minutes 60] [--out bench/results/demo_hour.json]
 """
@@ -350,7 +351,7 @@ def main(argv: list[str] | None = None) -> int:
     result = {
         "benchmark": "demo_hour",
         "data": "GENERATED transports (vigil.synthetic) from make run's simulated fleet; models "
-        "trained and gated on URFD (real data)",
+        "trained on URFD (real data) plus GENERATED walking transports, gated on URFD's gold set",
         "started_at": started_at,
         "setup_s": round(setup_s, 1),
         "board_read_at": read_at,
