@@ -46,7 +46,7 @@ GENERATED_REPEATS = 2
 GENERATED_SEED = 5000  # apart from bench/demo_lookalikes.py's seeds and the fleet's
 
 
-def training_data(urfd_dir: Path | None, with_generated: bool, feature_set: str = "full"):
+def training_data(urfd_dir: Path | None, with_generated: bool, repeats: int | None = None):
     """URFD (real), or URFD plus GENERATED walking transports (depth removed, so the model needs
     what a URFD model needs); (data, the manifest's metrics)."""
     data = from_urfd(urfd_dir)
@@ -57,7 +57,7 @@ def training_data(urfd_dir: Path | None, with_generated: bool, feature_set: str 
         from worker.training.generated import generated_frames
 
         generated = generated_frames(
-            TransportMode.WALKING, GENERATED_REPEATS, GENERATED_SEED, depth=False
+            TransportMode.WALKING, repeats or GENERATED_REPEATS, GENERATED_SEED, depth=False
         )
         data = concatenate(data, generated)
         metrics = {
@@ -70,9 +70,11 @@ def training_data(urfd_dir: Path | None, with_generated: bool, feature_set: str 
     return data, metrics
 
 
-def train_default(out: Path, urfd_dir: Path | None, with_generated: bool = False) -> None:
+def train_default(
+    out: Path, urfd_dir: Path | None, with_generated: bool = False, repeats: int | None = None
+) -> None:
     start = time.perf_counter()
-    data, metrics = training_data(urfd_dir, with_generated)
+    data, metrics = training_data(urfd_dir, with_generated, repeats)
     trainer = SklearnTrainer(DEFAULT_SPEC)
     with threadpool_limits(limits=1):
         selected = select(trainer, data, np.arange(len(data.names)), n_inner=5, stride=2)
@@ -133,6 +135,8 @@ def main(argv: list[str] | None = None) -> int:
     default.add_argument("--out", type=Path, required=True, help="model directory to write")
     default.add_argument("--with-generated", action="store_true",
                          help="add GENERATED walking transports (make run)")  # fmt: skip
+    default.add_argument("--generated-repeats", type=int, default=None,
+                         help="transports per generated event")  # fmt: skip
     full = sub.add_parser("train", help="evaluate, retrain and export all models with reports")
     full.add_argument("--out", type=Path, required=True, help="output directory")
     full.add_argument(
@@ -143,7 +147,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     try:
         if args.command == "train-default":
-            train_default(args.out, args.urfd_dir, args.with_generated)
+            train_default(args.out, args.urfd_dir, args.with_generated, args.generated_repeats)
         elif args.command == "train":
             if args.folds < 2:
                 raise ValueError("--folds must be at least 2")
