@@ -265,8 +265,12 @@ class RobotAgent:
                     if started is None:
                         started, first_ts = time.monotonic(), observation.timestamp
                     due = started + (observation.timestamp - first_ts) / speed
-                    if (delay := due - time.monotonic()) > 0:
-                        await asyncio.sleep(delay)
+                    # Always yield, even when behind real time (a loaded machine, several
+                    # robots in one process): a generated transport is made already, so without
+                    # this await the link (frames, heartbeats, acks) would not run until the
+                    # transport ended, and the backend would see a stalled stream and an
+                    # offline robot on every transport.
+                    await asyncio.sleep(max(due - time.monotonic(), 0))
                 elif self.frames % 50 == 0:
                     await asyncio.sleep(0)  # let the link breathe when running flat out
                 self.pipeline.process(observation)

@@ -108,26 +108,25 @@ KEYPOINTS_SPEC = ModelSpec(
 DEMO_ENGINEER = "engineer"
 
 
-def train_keypoints(out: Path, urfd_dir: Path | None = None) -> None:
-    """Train KEYPOINTS_SPEC on URFD as train-default trains the default model (real data)."""
+def train_keypoints(out: Path, urfd_dir: Path | None = None, with_generated: bool = False) -> None:
+    """Train KEYPOINTS_SPEC on URFD as train-default trains the default model (real data; with
+    `with_generated` plus GENERATED walking transports, as train-default --with-generated)."""
     import time
 
     import numpy as np
     from threadpoolctl import threadpool_limits
 
+    from worker.training.cli import training_data
     from worker.training.cross_validation import select as select_model
-    from worker.training.data import from_urfd
     from worker.training.publish import publish
     from worker.training.trainers import SklearnTrainer
 
     start = time.perf_counter()
-    data = from_urfd(urfd_dir)
+    data, metrics = training_data(urfd_dir, with_generated)
     trainer = SklearnTrainer(KEYPOINTS_SPEC)
     with threadpool_limits(limits=1):
         selected = select_model(trainer, data, np.arange(len(data.names)), n_inner=5, stride=3)
-    manifest = publish(trainer, selected, data, out, metrics={
-        "dataset": "urfd", "note": "threshold and delay chosen on 5-fold OOF scores",
-    })  # fmt: skip
+    manifest = publish(trainer, selected, data, out, metrics=metrics)
     print(f"wrote {out} ({manifest.name}, inputs {manifest.inputs}, threshold "
           f"{manifest.threshold:.3f}, delay {manifest.delay_ms} ms) in "
           f"{time.perf_counter() - start:.1f} s")  # fmt: skip
@@ -264,6 +263,8 @@ def main(argv: list[str] | None = None) -> int:
     commands = parser.add_subparsers(dest="command", required=True)
     train = commands.add_parser("train-keypoints", help="train the keypoints-only walking model")
     train.add_argument("--out", type=Path, required=True)
+    train.add_argument("--with-generated", action="store_true",
+                       help="add GENERATED walking transports (make run)")  # fmt: skip
     demo = commands.add_parser("demo", help="URFD split, both models registered and promoted")
     demo.add_argument("--floor-model", type=Path, required=True)
     demo.add_argument("--keypoints-model", type=Path, required=True)
@@ -273,7 +274,7 @@ def main(argv: list[str] | None = None) -> int:
     demo.add_argument("--timeout", type=float, default=20.0)
     args = parser.parse_args(argv)
     if args.command == "train-keypoints":
-        train_keypoints(args.out, args.urfd_dir)
+        train_keypoints(args.out, args.urfd_dir, args.with_generated)
         return 0
     from vigil.model_file import read_manifest
 

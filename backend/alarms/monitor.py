@@ -3,6 +3,10 @@
 - raises technical alarms for transports under way whose robot fell silent (robot offline) or
   whose frame stream stopped while the robot still talks (stream stalled), one per outage; a
   robot whose messages wait in the frame writer (storage stalled) is neither;
+- clears (resolves, as the system, transition `clear`) such an alarm, open or acknowledged,
+  once its cause ended: the robot talks again, frames flow again, or the transport ended.
+  Technical alarms are not latching (IEC 60601-1-8 lets a technical alarm end with its
+  condition); the alarm and its audit trail stay in the history and the shift handover;
 - escalates an open Emergency not acknowledged within the ward's escalation time, and moves
   one still unacknowledged an escalation time after the last level to "missed: needs review";
 - re-alarms an acknowledged alarm not resolved within `realarm_minutes`.
@@ -23,11 +27,14 @@ from sqlalchemy.orm import Session, sessionmaker
 from backend.alarms import queries, service
 from backend.models._types import utcnow
 from backend.models.alarms import Alarm, AlarmKind, AlarmState
+from backend.models.robots import Robot, Transport
 from backend.realtime.hub import Viewer
 from backend.settings import Settings
 from backend.unit_of_work import Effects, UnitOfWork, unit_of_work
 
 log = logging.getLogger(__name__)
+#: The technical alarms the monitor raises, and clears once their cause ended.
+OUTAGE_KINDS = (AlarmKind.ROBOT_OFFLINE, AlarmKind.STREAM_STALLED)
 
 
 class AlarmMonitor:
@@ -79,6 +86,7 @@ class AlarmMonitor:
         """One pass in one unit of work; the alarm service registers each change on it."""
         with unit_of_work(self._session_factory) as unit:
             session = unit.session
+            self._cleared(session, now)
             self._technical(session, now)
             self._escalations(session, now, viewers or [])
             self._realarms(session, now)
@@ -111,6 +119,41 @@ class AlarmMonitor:
             log.warning("%s: robot %s, transport %s", kind.value, robot.id, transport.id)
             raised.append(alarm)
         return raised
+
+    def _cleared(self, session: Session, now: datetime) -> list[Alarm]:
+        """Clear the robot_offline / stream_stalled alarms whose cause ended."""
+        reasons = {
+            alarm.id: reason
+            for alarm, robot, transport in queries.unresolved_outages(session, OUTAGE_KINDS)
+            if (reason := self._outage_over(alarm, robot, transport, now)) is not None
+        }
+        claimed = queries.claim(session, list(reasons))
+        return [service.clear(session, a, now, reasons[a.id]) for a in claimed
+                if a.state in (AlarmState.OPEN, AlarmState.ACKNOWLEDGED)]  # fmt: skip
+
+    def _outage_over(
+        self, alarm: Alarm, robot: Robot, transport: Transport | None, now: datetime
+    ) -> str | None:
+        """Why this robot_offline / stream_stalled alarm's cause ended, or None if it did not.
+        Only what the robot sent after the alarm was raised counts."""
+        settings = self._settings
+        if transport is not None and transport.ended_at is not None:
+            return "cleared: transport ended"
+
+        def recent(at: datetime | None, within_s: float) -> bool:
+            return (
+                at is not None and at > alarm.raised_at and now - at <= timedelta(seconds=within_s)
+            )
+
+        frames = recent(transport.last_frame_at if transport else None,
+                        settings.stream_stall_seconds)  # fmt: skip
+        if frames:
+            return "cleared: frames flowing again"
+        if alarm.kind == AlarmKind.ROBOT_OFFLINE and recent(
+            robot.last_seen_at, settings.robot_offline_seconds
+        ):
+            return "cleared: robot talking again"
+        return None
 
     def _escalations(self, session: Session, now: datetime, viewers: list[Viewer]) -> list[Alarm]:
         def due(alarm: Alarm) -> bool:

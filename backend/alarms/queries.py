@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Collection, Sequence
 from datetime import datetime
 
 from sqlalchemy import func, select
@@ -85,6 +85,23 @@ def active_transports(session: Session) -> Sequence[tuple[Transport, Robot]]:
         .join(Robot, Robot.id == Transport.robot_id)
         .where(Transport.ended_at.is_(None))
     ).all()
+
+
+def unresolved_outages(
+    session: Session, kinds: Collection[AlarmKind]
+) -> Sequence[tuple[Alarm, Robot, Transport | None]]:
+    """Unresolved technical alarms of `kinds` (robot offline, stream stalled) with their robot
+    and transport: what the monitor checks for a cause that ended."""
+    return (
+        session.execute(
+            select(Alarm, Robot, Transport)
+            .join(Robot, Robot.id == Alarm.robot_id)
+            .outerjoin(Transport, Transport.id == Alarm.transport_id)
+            .where(Alarm.kind.in_(list(kinds)), Alarm.state != AlarmState.RESOLVED)
+        )
+        .unique()
+        .all()
+    )
 
 
 def latest_of_kind(

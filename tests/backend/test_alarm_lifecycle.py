@@ -168,6 +168,91 @@ def test_stalled_stream_then_offline_robot_raise_one_technical_alarm_each(
     assert tick(client, now + timedelta(seconds=60)) == []
 
 
+def clears(session_factory, alarm_id: int) -> list[tuple[str | None, str, str | None]]:
+    with session_factory() as session:
+        rows = session.scalars(
+            select(AlarmEvent)
+            .where(AlarmEvent.alarm_id == alarm_id, AlarmEvent.action == "clear")
+            .order_by(AlarmEvent.id)
+        )
+        return [(e.from_state, e.to_state, e.comment) for e in rows]
+
+
+def test_technical_alarms_clear_themselves_when_their_cause_ends(
+    client, robot, make_account, session_factory
+):
+    """robot_offline and stream_stalled are not latching: the monitor resolves them (transition
+    `clear`, actor system, no verdict) once the robot talks again, frames flow again or the
+    transport ended; an acknowledged one too. They stay in the history and the handover."""
+    nurse = make_account(Role.NURSE, ward="ward-a", username="olga")
+    stream(client, robot, ROBOT_TOKEN, "t-1", frame(0, "normal", "t-1"), end=False)
+    now = utcnow()
+    (stalled,) = tick(client, now + timedelta(seconds=6))
+    (offline,) = tick(client, now + timedelta(seconds=11))
+    assert (stalled["kind"], offline["kind"]) == ("stream_stalled", "robot_offline")
+    # Still silent: nothing clears, however often the monitor looks.
+    assert tick(client, now + timedelta(seconds=20)) == []
+    response = client.post(f"/api/alarms/{offline['id']}/acknowledge", headers=nurse.headers)
+    assert response.status_code == 200, response.text
+
+    with client.websocket_connect("/ws/browser", headers=nurse.headers) as browser:
+        browser.receive_json()  # the snapshot
+        # The robot talks again (hello, heartbeat) but sends no frame: offline clears, the
+        # stream is still stalled.
+        with client.websocket_connect("/ws/robot") as ws:
+            ws.send_text(Hello(robot_id=robot, token=ROBOT_TOKEN).model_dump_json())
+            ws.receive_text()
+            ws.send_text(Heartbeat(ts=2.0).model_dump_json())
+            ws.send_text(FrameBatch(frames=[frame(0, "normal", "t-1")]).model_dump_json())  # replay
+            assert json.loads(ws.receive_text())["type"] == "ack"
+        changed = tick(client, utcnow())
+        assert [(a["id"], a["state"]) for a in changed] == [(offline["id"], "resolved")]
+        assert browser.receive_json()["alarm"]["state"] == "resolved"
+        assert clears(session_factory, offline["id"]) == [
+            ("acknowledged", "resolved", "cleared: robot talking again")
+        ]
+        # Frames flow again: the stalled stream clears.
+        stream(client, robot, ROBOT_TOKEN, "t-1", frame(1, "normal", "t-1"), end=False)
+        changed = tick(client, utcnow())
+        assert [(a["id"], a["state"]) for a in changed] == [(stalled["id"], "resolved")]
+        assert clears(session_factory, stalled["id"]) == [
+            ("open", "resolved", "cleared: frames flowing again")
+        ]
+    assert tick(client, utcnow()) == []  # cleared once
+
+    # A new outage raises a new alarm; the transport's normal end clears it.
+    later = utcnow() + timedelta(seconds=6)
+    (again,) = tick(client, later)
+    assert again["kind"] == "stream_stalled" and again["id"] not in (stalled["id"], offline["id"])
+    with client.websocket_connect("/ws/robot") as ws:
+        ws.send_text(Hello(robot_id=robot, token=ROBOT_TOKEN).model_dump_json())
+        ws.receive_text()
+        ws.send_text(TransportEnd(transport_id="t-1", ts=3.0).model_dump_json())
+        ws.send_text(FrameBatch(frames=[frame(1, "normal", "t-1")]).model_dump_json())  # replay
+        assert json.loads(ws.receive_text())["type"] == "ack"
+    changed = tick(client, later)
+    assert [(a["id"], a["state"]) for a in changed] == [(again["id"], "resolved")]
+    assert clears(session_factory, again["id"]) == [
+        ("open", "resolved", "cleared: transport ended")
+    ]
+    for alarm_id in (stalled["id"], offline["id"], again["id"]):
+        actions = [e[0] for e in events(session_factory, alarm_id)]
+        assert actions[0] == "raise" and actions[-1] == "clear"
+        with session_factory() as session:
+            alarm = session.get(Alarm, alarm_id)
+            assert alarm.verdict is None and alarm.resolved_by_id is None
+
+    # The nurse still finds them: the history and the shift handover list them, resolved.
+    history = client.get("/api/alarms", params={"state": "resolved"}, headers=nurse.headers)
+    assert history.status_code == 200, history.text
+    assert {a["id"] for a in history.json()} == {stalled["id"], offline["id"], again["id"]}
+    handover = client.get("/api/handover", headers=nurse.headers).json()
+    rows = {(r["section"], r["alarm"]["id"]) for r in handover["alarms"]}
+    assert rows == {("resolved", stalled["id"]), ("resolved", offline["id"]),
+                    ("resolved", again["id"])}  # fmt: skip
+    assert handover["fatigue"]["technical"] == 3
+
+
 def test_resolve_verdicts_illegal_transitions_and_audit(
     client, robot, make_account, session_factory
 ):
@@ -294,9 +379,11 @@ def test_missed_emergency_is_latched_says_its_transport_ended_and_counts_in_the_
     assert handover.status_code == 200, handover.text
     body = handover.json()
     assert body["counts"]["missed"] == 1 and body["counts"]["escalated"] == 1
+    # The robot_offline alarm of the silent robot cleared itself once the robot talked again
+    # and the transport ended; the missed Emergency stays latched.
     assert body["per_robot"] == [{
-        "robot_id": robot, "alarms": 2, "open": 1, "missed": 1, "acknowledged_unresolved": 0,
-        "resolved": 0, "escalated": 1, "ever_missed": 1,
+        "robot_id": robot, "alarms": 2, "open": 0, "missed": 1, "acknowledged_unresolved": 0,
+        "resolved": 1, "escalated": 1, "ever_missed": 1,
     }]  # fmt: skip
     rows = [(r["section"], r["alarm"]["id"]) for r in body["alarms"]]
     assert ("missed", alarm.id) in rows and len(rows) == 2

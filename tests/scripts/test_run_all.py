@@ -47,3 +47,30 @@ def test_without_var_dir_the_settings_keep_their_own_defaults(monkeypatch):
     assert module.VAR == module.ROOT / "var"
     module.use_var_dir()
     assert "VIGIL_DATABASE_URL" not in os.environ  # a .env file may still set it
+
+
+def test_the_demo_models_must_be_trained_with_the_generated_walking_transports(tmp_path):
+    """make run's robots stream GENERATED patients: a model trained on URFD alone (an older
+    var/models) is trained again, with --with-generated; one trained so is kept."""
+    from tests.robot_agent.tiny_model import upright_model_bytes
+    from vigil.classes import Decision, TransportMode
+    from vigil.features import FEATURE_VERSION
+    from vigil.model_file import ModelManifest, write_model
+    from vigil.taxonomy import DEFAULT_TAXONOMY
+
+    def write(directory, dataset: str):
+        manifest = ModelManifest(
+            version=f"m-{dataset}", name="m", mode=TransportMode.WALKING,
+            classes=[Decision.NORMAL, Decision.EMERGENCY], feature_version=FEATURE_VERSION,
+            feature_set="pose", taxonomy_version=DEFAULT_TAXONOMY.version, threshold=0.5,
+            delay_ms=200, metrics={"dataset": dataset}, training_data_sha256="0" * 64,
+            generated_data=dataset != "urfd", sha256="0" * 64,
+        )  # fmt: skip
+        write_model(directory, upright_model_bytes(), manifest)
+        return directory
+
+    urfd_only = write(tmp_path / "urfd", "urfd")
+    demo = write(tmp_path / "demo", "urfd+generated")
+    assert run_all.model_is_current(urfd_only) and not run_all.model_is_current(urfd_only, True)
+    assert run_all.model_is_current(demo, demo=True)
+    assert not run_all.model_is_current(tmp_path / "missing", demo=True)

@@ -96,3 +96,24 @@ def test_bystanders_are_people_in_view_and_detections_are_shuffled():
         generate_transport("walking", n_people=6)
     with pytest.raises(ValueError, match="not possible when wheelchair"):
         generate_transport("wheelchair", events=["kneeling"])
+
+
+def test_lying_down_deliberately_is_on_a_bed_not_on_the_floor():
+    """A look-alike must not be the real thing: lying down deliberately (a bed, a couch) puts the
+    body clearly above the floor, unlike the end of a fall (the floor measures say so: mean
+    keypoint height and share of keypoints near the floor). It once used a 0.15 m "bed", floor
+    level, and the demo's model rightly alarmed on it."""
+    lying, fallen = [], []
+    for seed in range(6):
+        transport = generate_transport(
+            "walking", seed=seed, duration_s=20, events=["lying_down_deliberately", "fall"],
+            n_people=1,
+        )  # fmt: skip
+        floor = transport.patient_sequence().floor
+        labels = np.array(transport.labels)
+        lying.append(np.nanmedian(floor[labels == "lying_down_deliberately"][-15:], axis=0))
+        fallen.append(np.nanmedian(floor[labels == "lying_on_floor"], axis=0))
+    lying, fallen = np.array(lying), np.array(fallen)
+    assert (lying[:, 1] > 0.45).all(), lying  # mean height above the floor, metres
+    assert (lying[:, 2] < 0.3).all(), lying  # share of keypoints near the floor
+    assert (fallen[:, 1] < 0.3).all() and (fallen[:, 2] > 0.5).all(), fallen

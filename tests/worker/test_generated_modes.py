@@ -51,3 +51,40 @@ def test_wheelchair_mode_trains_end_to_end_with_three_classes(tmp_path):
     predicted = [c.decision for c in out]
     emergency = [p for p, g in zip(predicted, truth, strict=True) if g == Decision.EMERGENCY]
     assert emergency.count(Decision.EMERGENCY) > len(emergency) / 2  # the slump is recognised
+
+
+def test_generated_walking_frames_without_depth_join_real_data_and_say_generated(tmp_path):
+    """make run's demo model: URFD plus GENERATED walking transports (worker.training.cli
+    training_data). Depth is removed from the generated frames, so `has_depth` cannot tell them
+    from URFD's and the model needs keypoints and floor measures only, as a URFD model; the
+    concatenation renumbers the sequences, keeps the recordings and is marked generated."""
+    from dataclasses import replace
+
+    from vigil.features import FEATURE_NAMES
+    from worker.training.data import concatenate
+
+    generated = generated_frames(TransportMode.WALKING, repeats=1, seed=7, depth=False)
+    assert np.isnan(np.array([f.depth for r in generated.recordings for o in r
+                              for f in o.people])).all()  # fmt: skip
+    assert generated.features[:, FEATURE_NAMES.index("has_depth")].max() == 0
+    assert generated.features[generated.usable, FEATURE_NAMES.index("has_floor")].min() == 1
+    with_depth = generated_frames(TransportMode.WALKING, repeats=1, seed=7)
+    assert with_depth.features[with_depth.usable, FEATURE_NAMES.index("has_depth")].mean() > 0.9
+
+    real = replace(generated, generated=False, names=[f"real-{n}" for n in generated.names])
+    both = concatenate(real, generated)
+    assert both.generated and not real.generated
+    assert both.names == real.names + generated.names
+    assert np.array_equal(
+        both.group, np.concatenate([real.group, generated.group + len(real.names)])
+    )
+    assert len(both.recordings) == len(both.names) == both.group.max() + 1
+    assert both.data_sha256 not in (real.data_sha256, generated.data_sha256)
+
+    spec = ModelSpec("rf-tiny", "rf", {"n_estimators": [10], "max_depth": [6],
+                                       "min_samples_leaf": [5], "max_features": [0.3]})  # fmt: skip
+    trainer = SklearnTrainer(spec)
+    selected = select(trainer, both, np.arange(len(both.names)), n_inner=3, stride=3)
+    manifest = publish(trainer, selected, both, tmp_path / "demo")
+    assert manifest.generated_data
+    assert list(manifest.inputs) == ["keypoints", "floor"]

@@ -241,7 +241,10 @@ def _lying_down_deliberately(b: Builder) -> None:
     home = b.last
     sit = pose(home, b.scale, pelvis_h=0.45, hip_flex_r=1.5, hip_flex_l=1.5, knee_r=1.5,
                 knee_l=1.5, pitch=0.15, sh_flex_r=0.4, sh_flex_l=0.4)  # fmt: skip
-    bed = b.rng.choice([0.15, 0.45])
+    # On a bed or couch: a hospital bed's mattress is 0.45-0.8 m above the floor, so the pelvis
+    # rests 0.55-0.8 m up (absolute, not scaled with the body). Lying lower than that is lying on
+    # the floor, which looks like (and is labelled as) the end of a fall.
+    bed = b.rng.uniform(0.55, 0.8) / b.scale
     lie = pose(home, b.scale, pelvis_h=float(bed), roll=1.45 * b.rng.choice([-1.0, 1.0]),
                 hip_flex_r=0.3, hip_flex_l=0.2, knee_r=0.3, sh_flex_r=0.3)  # fmt: skip
     b.move("lying_down_deliberately", sit, b.rng.uniform(1.5, 2.2))

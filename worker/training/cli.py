@@ -1,6 +1,7 @@
 """vigil-train: train, evaluate and export detection models.
 
   python -m worker.training.cli train-default --out DIR   # the default walking model, < 1 min
+      [--with-generated]   # URFD plus GENERATED walking transports (make run's demo robots)
   python -m worker.training.cli train --out DIR [--models svm-paper,svm,mlp,rf,gbt,tcn]
       [--mode walking|wheelchair|combined]   # wheelchair/combined train on GENERATED data
 
@@ -38,19 +39,46 @@ DEFAULT_SPEC = ModelSpec(
 )
 
 
-def train_default(out: Path, urfd_dir: Path | None) -> None:
-    start = time.perf_counter()
+#: `--with-generated`: GENERATED walking and rollator transports added to URFD for `make run`'s
+#: demo model, whose robots stream generated patients: every event of the generator once per
+#: repeat (turning, lying on a bed, sitting down, bending, stumbling, falls...), 8 s each.
+GENERATED_REPEATS = 2
+GENERATED_SEED = 5000  # apart from bench/demo_lookalikes.py's seeds and the fleet's
+
+
+def training_data(urfd_dir: Path | None, with_generated: bool, repeats: int | None = None):
+    """URFD (real), or URFD plus GENERATED walking transports (depth removed, so the model needs
+    what a URFD model needs); (data, the manifest's metrics)."""
     data = from_urfd(urfd_dir)
+    metrics = {"dataset": "urfd", "note": "threshold and delay chosen on 5-fold OOF scores"}
+    if with_generated:
+        from vigil.classes import TransportMode
+        from worker.training.data import concatenate
+        from worker.training.generated import generated_frames
+
+        generated = generated_frames(
+            TransportMode.WALKING, repeats or GENERATED_REPEATS, GENERATED_SEED, depth=False
+        )
+        data = concatenate(data, generated)
+        metrics = {
+            "dataset": "urfd+generated",
+            "generated_sequences": len(generated.names),
+            "note": "URFD (real) plus GENERATED walking/rollator transports (vigil.synthetic, "
+            "look-alikes and falls URFD lacks) for make run's simulated robots; threshold and "
+            "delay chosen on 5-fold OOF scores of both; gate on the URFD gold set",
+        }
+    return data, metrics
+
+
+def train_default(
+    out: Path, urfd_dir: Path | None, with_generated: bool = False, repeats: int | None = None
+) -> None:
+    start = time.perf_counter()
+    data, metrics = training_data(urfd_dir, with_generated, repeats)
     trainer = SklearnTrainer(DEFAULT_SPEC)
     with threadpool_limits(limits=1):
         selected = select(trainer, data, np.arange(len(data.names)), n_inner=5, stride=2)
-    manifest = publish(
-        trainer,
-        selected,
-        data,
-        out,
-        metrics={"dataset": "urfd", "note": "threshold and delay chosen on 5-fold OOF scores"},
-    )
+    manifest = publish(trainer, selected, data, out, metrics=metrics)
     print(
         f"wrote {out} ({manifest.name}, threshold {manifest.threshold:.3f}, "
         f"delay {manifest.delay_ms} ms) in {time.perf_counter() - start:.1f} s"
@@ -105,6 +133,10 @@ def main(argv: list[str] | None = None) -> int:
     sub = parser.add_subparsers(dest="command", required=True)
     default = sub.add_parser("train-default", help="train the default walking model (fast)")
     default.add_argument("--out", type=Path, required=True, help="model directory to write")
+    default.add_argument("--with-generated", action="store_true",
+                         help="add GENERATED walking transports (make run)")  # fmt: skip
+    default.add_argument("--generated-repeats", type=int, default=None,
+                         help="transports per generated event")  # fmt: skip
     full = sub.add_parser("train", help="evaluate, retrain and export all models with reports")
     full.add_argument("--out", type=Path, required=True, help="output directory")
     full.add_argument(
@@ -115,7 +147,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     try:
         if args.command == "train-default":
-            train_default(args.out, args.urfd_dir)
+            train_default(args.out, args.urfd_dir, args.with_generated, args.generated_repeats)
         elif args.command == "train":
             if args.folds < 2:
                 raise ValueError("--folds must be at least 2")

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import hashlib
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -77,6 +78,38 @@ def with_emergency_lead(data: FrameData, lead_s: float) -> FrameData:
             early = (index < k) & (times >= times[k] - lead_s - TIME_EPSILON) & (target == normal)
             fit[rows.start + index[early]] = e
     return replace(data, training_target=fit)
+
+
+def concatenate(*parts: FrameData) -> FrameData:
+    """Several FrameData of one mode as one (sequence indices renumbered, recordings kept). The
+    result is `generated` if any part is: every figure from it must say so."""
+    if len({part.mode for part in parts}) != 1:
+        raise ValueError("FrameData of different modes cannot be concatenated")
+    if any(part.training_target is not None for part in parts):
+        raise ValueError("concatenate the labelled data first, then apply with_emergency_lead")
+    groups, offset = [], 0
+    for part in parts:
+        groups.append(part.group + offset)
+        offset += len(part.names)
+    digest = hashlib.sha256("+".join(part.data_sha256 for part in parts).encode()).hexdigest()
+    recordings = (
+        tuple(r for part in parts for r in part.recordings)  # type: ignore[union-attr]
+        if all(part.recordings is not None for part in parts)
+        else None
+    )
+    return FrameData(
+        names=[name for part in parts for name in part.names],
+        is_positive_sequence=np.concatenate([part.is_positive_sequence for part in parts]),
+        features=np.concatenate([part.features for part in parts]),
+        target=np.concatenate([part.target for part in parts]),
+        group=np.concatenate(groups),
+        timestamps=np.concatenate([part.timestamps for part in parts]),
+        usable=np.concatenate([part.usable for part in parts]),
+        mode=parts[0].mode,
+        data_sha256=digest,
+        generated=any(part.generated for part in parts),
+        recordings=recordings,
+    )
 
 
 def sequence_arrays(

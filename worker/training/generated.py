@@ -1,5 +1,7 @@
 """FrameData from GENERATED transports (vigil.synthetic) for the wheelchair and combined modes,
-which URFD cannot provide. Every figure computed from it is labelled generated."""
+which URFD cannot provide, and the walking situations URFD lacks (turning, lying on a bed,
+stumbling, a rollator: `make run`'s demo model, `worker.training.cli train-default
+--with-generated`). Every figure and model made from it is labelled generated."""
 
 from __future__ import annotations
 
@@ -54,8 +56,11 @@ DEFAULT_REPEATS = {TransportMode.WHEELCHAIR: 4, TransportMode.COMBINED: 2, Trans
 
 
 def generated_frames(
-    mode: TransportMode | str, repeats: int | None = None, seed: int = 0
+    mode: TransportMode | str, repeats: int | None = None, seed: int = 0, depth: bool = True
 ) -> FrameData:
+    """depth False: the frames carry no depth at the keypoints (their floor measures stay, made
+    by the generator's camera), as URFD's: a model trained on both cannot tell them apart by
+    `has_depth`, and needs the inputs a URFD model needs (keypoints, floor)."""
     mode = TransportMode(mode)
     repeats = repeats or DEFAULT_REPEATS[mode]
     classes = MODE_CLASSES[mode]
@@ -65,12 +70,14 @@ def generated_frames(
     recordings = []
     digest = hashlib.sha256()
     for i, transport in enumerate(transports):
-        keypoints, depth, usable, floor = patient_arrays(transport)
+        keypoints, depths, usable, floor = patient_arrays(transport)
+        if not depth:
+            depths = np.full_like(depths, np.nan)
         timestamps = np.arange(transport.n_frames) / transport.fps
         # The patient alone in view (the bystanders are the tracker's part: bench-robot).
         observations = tuple(
             Observation(
-                float(ts), [SkeletonFrame(keypoints[t], depth[t], float(ts), floor[t])]
+                float(ts), [SkeletonFrame(keypoints[t], depths[t], float(ts), floor[t])]
                 if usable[t] else [], t,
             )
             for t, ts in enumerate(timestamps)
