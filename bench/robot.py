@@ -4,8 +4,8 @@
   patient tracking, depth sampling from a real 16-bit URFD depth image, features, ONNX
   inference, threshold rule and delay filter, FrameRecord check and the outbox write (SQLite
   file on disk). Data: REAL URFD keypoints (every fall and ADL sequence), each frame paired
-  with a real URFD depth PNG; model: the default walking model `make run` trains (URFD and
-  GENERATED walking transports).
+  with a real URFD depth PNG; model: the default walking model in var/models
+  (`make run`'s, trained on URFD and GENERATED walking transports; trained on URFD if absent).
 - sustained_hz: frames per second through the whole loop (replay source + pipeline) flat out.
 - mediapipe_fps: robot_agent.sources.mediapipe_video on the shared URFD clip
   video/fall-01-cam0.mp4 (RGB half, model_complexity 1, confidences 0.3), reading plus pose
@@ -54,8 +54,8 @@ def ensure_model() -> Path:
     from scripts.run_all import default_model_is_current
 
     if not default_model_is_current():
-        print("training the default walking model (URFD + GENERATED transports; none yet, "
-              "or older features)", flush=True)  # fmt: skip
+        print("training the default walking model on URFD (none yet, or older features)",
+              flush=True)  # fmt: skip
         subprocess.run([sys.executable, "-m", "worker.training.cli", "train-default", "--out",
                         str(MODEL_DIR)], cwd=REPO, check=True)  # fmt: skip
     return MODEL_DIR
