@@ -9,7 +9,7 @@ from sklearn.utils.estimator_checks import check_estimator
 
 from worker.training.cross_validation import select
 from worker.training.data import from_urfd
-from worker.training.detector import EmergencyDetector, fit_on
+from worker.training.detector import EmergencyDetector, InnerCrossValidation, WinnerScores, fit_on
 from worker.training.estimators import FAMILIES, ModelSpec
 from worker.training.trainers import SklearnTrainer
 
@@ -150,3 +150,29 @@ def test_select_uses_the_detector_and_its_pooled_out_of_fold_scores(data, fitted
     assert (selected.threshold, selected.delay_s) == (detector.threshold_, detector.delay_s_)
     np.testing.assert_array_equal(selected.oof.scores, detector.oof_scores_)
     assert len(selected.oof.scores) == int(data.frames_of(sequences).sum())
+
+
+def test_the_winners_inner_cross_validation_runs_once(data, fitted, monkeypatch):
+    """The search's own out-of-fold scores of the winner are kept: one inner cross-validation
+    per configuration, none again for the winner (GridSearchCV's refit ran it twice)."""
+    fits = []
+    original = InnerCrossValidation.fit
+
+    def counting_fit(self, X, y, fit_target=None):
+        fits.append(self.get_params(deep=True)["estimator__model__max_iter"])
+        return original(self, X, y, fit_target)
+
+    monkeypatch.setattr(InnerCrossValidation, "fit", counting_fit)
+    detector = fit_on(clone(fitted[0]), data, np.arange(len(NAMES)))
+    assert sorted(fits) == sorted(c["max_iter"] for c in TINY_GBT.configurations())
+    np.testing.assert_array_equal(detector.oof_scores_, fitted[0].oof_scores_)
+
+
+def test_a_search_in_other_processes_recomputes_the_same_winner_scores(data, fitted, monkeypatch):
+    """When the scorer ran elsewhere (Dask, loky) it kept nothing here: the winner's inner
+    cross-validation runs again, to exactly the scores the search computed."""
+    monkeypatch.setattr(WinnerScores, "scores_of", lambda self, params: None)
+    detector = fit_on(clone(fitted[0]), data, np.arange(len(NAMES)))
+    assert detector.best_params_ == fitted[0].best_params_
+    np.testing.assert_array_equal(detector.oof_scores_, fitted[0].oof_scores_)
+    assert (detector.threshold_, detector.delay_s_) == (fitted[0].threshold_, fitted[0].delay_s_)

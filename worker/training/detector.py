@@ -12,6 +12,11 @@ express a pooled one, so GridSearchCV's unit of evaluation is a configuration's 
 cross-validation (`InnerCrossValidation`, one split holding every row), whose score is the pooled
 average precision. GridSearchCV dispatches one task per configuration, on whatever joblib backend
 is active (worker.grid.GridBackend: Dask when VIGIL_DASK_SCHEDULER is set).
+
+GridSearchCV does not refit: the winner's inner out-of-fold scores are those its search task
+computed (`WinnerScores` keeps the best configuration's scores when the search runs in this
+process), so the winner's inner cross-validation runs once. Only when the search ran in other
+processes (Dask, loky) is it run again here, with the same folds and seeds, to the same scores.
 """
 
 from __future__ import annotations
@@ -73,6 +78,29 @@ def pooled_average_precision_of(y: np.ndarray, scores: np.ndarray, positive: int
 def pooled_average_precision(estimator: InnerCrossValidation, X, y) -> float:
     """GridSearchCV's scorer: the pooled out-of-fold average precision the fit computed."""
     return estimator.average_precision_
+
+
+class WinnerScores:
+    """GridSearchCV's scorer that also keeps the out-of-fold scores of the best configuration
+    it has scored (the first of equals, as GridSearchCV's `best_index_` picks), keyed by its
+    grid parameters. Scorers that run in other processes keep nothing here."""
+
+    def __init__(self, keys: list[str]) -> None:
+        self.keys = keys
+        self.best: tuple[float, dict, np.ndarray] | None = None
+
+    def __call__(self, estimator: InnerCrossValidation, X, y) -> float:
+        score = pooled_average_precision(estimator, X, y)
+        if self.best is None or score > self.best[0]:
+            params = estimator.get_params(deep=True)
+            self.best = (score, {k: params[k] for k in self.keys}, estimator.oof_scores_)
+        return score
+
+    def scores_of(self, params: dict) -> np.ndarray | None:
+        """The kept out-of-fold scores if they are those of `params`, else None."""
+        if self.best is not None and self.best[1] == params:
+            return self.best[2]
+        return None
 
 
 class EmergencyDetector(ClassifierMixin, BaseEstimator):
@@ -156,19 +184,23 @@ class EmergencyDetector(ClassifierMixin, BaseEstimator):
             for inner_train, inner_test in grouped_folds(is_positive, self.n_inner, self.seed)
         ]
         n_features = len(self.columns_)
+        inner_cv = InnerCrossValidation(spec.pipeline(n_features, self.seed), folds, e)
+        param_grid = [
+            {f"estimator__{key}": values for key, values in point.items()}
+            for point in spec.param_grid(n_features)
+        ]
+        scorer = WinnerScores(sorted({key for point in param_grid for key in point}))
         search = GridSearchCV(
-            InnerCrossValidation(spec.pipeline(n_features, self.seed), folds, e),
-            [
-                {f"estimator__{key}": values for key, values in point.items()}
-                for point in spec.param_grid(n_features)
-            ],
-            scoring=pooled_average_precision,
+            inner_cv,
+            param_grid,
+            scoring=scorer,
             cv=[(everything, everything)],
-            refit=True,
+            refit=False,
             n_jobs=self.n_jobs,
             error_score="raise",
         )
-        search.fit(features, np.where(usable, y, -1), fit_target=fit_target)
+        scored_y = np.where(usable, y, -1)
+        search.fit(features, scored_y, fit_target=fit_target)
         configurations = spec.configurations()
         self.cv_results_ = search.cv_results_
         self.best_params_ = configurations[search.best_index_]
@@ -178,7 +210,10 @@ class EmergencyDetector(ClassifierMixin, BaseEstimator):
                 configurations, search.cv_results_["mean_test_score"], strict=True
             )
         ]
-        self.oof_scores_ = search.best_estimator_.oof_scores_
+        winner = clone(inner_cv).set_params(**search.best_params_)
+        self.oof_scores_ = scorer.scores_of(search.best_params_)
+        if self.oof_scores_ is None:  # the search ran in other processes
+            self.oof_scores_ = winner.fit(features, scored_y, fit_target=fit_target).oof_scores_
 
         frames = FrameData(
             names=[str(s) for s in sequence_ids],
@@ -196,9 +231,7 @@ class EmergencyDetector(ClassifierMixin, BaseEstimator):
         self.threshold_, self.delay_s_, self.delay_sweep_ = choose_operating_point(
             stream, self.oof_scores_[labelled], y[labelled], spec.operating_point
         )
-        self.model_ = clone(search.best_estimator_.estimator).fit(
-            features[trainable], fit_target[trainable]
-        )
+        self.model_ = clone(winner.estimator).fit(features[trainable], fit_target[trainable])
         self.seconds_ = time.perf_counter() - start
         return self
 
