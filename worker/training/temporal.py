@@ -2,6 +2,10 @@
 
 Input: (batch, window, n_features) raw features; the standardisation learned on the training
 frames is part of the network, so the ONNX graph takes the extractor's output as it is.
+
+`TemporalClassifier` is the scikit-learn estimator (fit(X, y, groups) returns self, learns
+`model_`); `TemporalTrainer` is its Trainer (worker.training.trainers) for cross-validation,
+scoring and export.
 """
 
 from __future__ import annotations
@@ -11,11 +15,13 @@ from typing import Any
 
 import numpy as np
 import torch
+from sklearn.base import BaseEstimator, ClassifierMixin
+from sklearn.utils.multiclass import check_classification_targets
+from sklearn.utils.validation import check_is_fitted, validate_data
 from torch import nn
 
 from vigil.features import FEATURE_SETS, window_index
 from worker.training.data import FrameData
-from worker.training.trainers import training_rows
 
 
 class TemporalCNN(nn.Module):
@@ -49,8 +55,110 @@ class _Probabilities(nn.Module):
         return torch.softmax(self.model(windows), dim=1)
 
 
+class TemporalClassifier(ClassifierMixin, BaseEstimator):
+    """TemporalCNN as a scikit-learn classifier of frames in their streams.
+
+    fit(X, y, groups): X (n, n_features) per-frame features of whole streams in time order,
+    y each frame's class index (< 0: not trained on, still a window's context), groups each
+    frame's stream (None: one stream). Every `stride`-th trainable frame is trained on.
+    `n_classes` fixes the number of outputs (a transport mode's classes, present or not in y;
+    None: the classes in y).
+    predict_proba(X, groups) scores each frame on its last `window` frames of its stream.
+    Learned: `model_` (TemporalCNN, eval mode), `classes_`, `n_features_in_`.
+    """
+
+    def __init__(
+        self,
+        window: int = 24,
+        channels: int = 48,
+        epochs: int = 10,
+        dropout: float = 0.2,
+        learning_rate: float = 2e-3,
+        weight_decay: float = 1e-3,
+        batch_size: int = 256,
+        stride: int = 2,
+        n_classes: int | None = None,
+        threads: int = 1,
+        seed: int = 0,
+    ) -> None:
+        self.n_classes = n_classes
+        self.window, self.channels, self.epochs, self.dropout = window, channels, epochs, dropout
+        self.learning_rate, self.weight_decay = learning_rate, weight_decay
+        self.batch_size, self.stride, self.threads, self.seed = batch_size, stride, threads, seed
+
+    def fit(self, X, y, groups=None):
+        X, y = validate_data(self, X, y, dtype=np.float32)
+        check_classification_targets(y)
+        y = np.asarray(y).astype(np.int64)
+        trained = y >= 0
+        if not trained.any():
+            raise ValueError("y has no frame to train on (every class index is negative)")
+        self.classes_ = np.arange(self.n_classes or int(y.max()) + 1)
+        if len(self.classes_) < 2:
+            raise ValueError("y holds one class: a classifier needs at least two classes")
+        torch.manual_seed(self.seed)
+        torch.set_num_threads(self.threads)
+        features = torch.from_numpy(np.ascontiguousarray(X))
+        index = window_index(_streams(groups, len(X)), self.window)
+        rows = np.flatnonzero(trained)[:: self.stride]
+        target = torch.from_numpy(y[rows])
+        n_classes = len(self.classes_)
+        model = TemporalCNN(features.shape[1], n_classes, self.channels, self.dropout)
+        train_frames = features[rows]
+        model.mean.copy_(train_frames.mean(dim=0))
+        model.std.copy_(train_frames.std(dim=0).nan_to_num(1.0).clamp_min(1e-3))
+        counts = torch.bincount(target, minlength=n_classes).float().clamp_min(1)
+        loss_fn = nn.CrossEntropyLoss(weight=counts.sum() / (len(counts) * counts))
+        optimiser = torch.optim.AdamW(
+            model.parameters(), lr=self.learning_rate, weight_decay=self.weight_decay
+        )
+        steps = self.epochs * int(np.ceil(len(rows) / self.batch_size))
+        schedule = torch.optim.lr_scheduler.OneCycleLR(
+            optimiser, self.learning_rate, total_steps=max(steps, 1)
+        )
+        generator = torch.Generator().manual_seed(self.seed)
+        index_t = torch.from_numpy(index[rows])
+        model.train()
+        for _ in range(self.epochs):
+            for batch in torch.randperm(len(rows), generator=generator).split(self.batch_size):
+                windows = features[index_t[batch]]
+                loss = loss_fn(model(windows), target[batch])
+                optimiser.zero_grad()
+                loss.backward()
+                optimiser.step()
+                schedule.step()
+        self.model_ = model.eval()
+        return self
+
+    def windows(self, X, groups=None) -> np.ndarray:
+        """(n, window, n_features) the network's input for each frame."""
+        check_is_fitted(self, "model_")
+        X = validate_data(self, X, dtype=np.float32, reset=False)
+        return X[window_index(_streams(groups, len(X)), self.window)]
+
+    def predict_proba(self, X, groups=None) -> np.ndarray:
+        check_is_fitted(self, "model_")
+        X = validate_data(self, X, dtype=np.float32, reset=False)
+        features = torch.from_numpy(np.ascontiguousarray(X))
+        index = window_index(_streams(groups, len(X)), self.window)
+        out = []
+        with torch.no_grad():
+            for batch in torch.from_numpy(index).split(2048):
+                out.append(torch.softmax(self.model_(features[batch]), dim=1).numpy())
+        return np.concatenate(out) if out else np.zeros((0, len(self.classes_)))
+
+    def predict(self, X, groups=None) -> np.ndarray:
+        scores = self.predict_proba(X, groups)
+        return self.classes_[np.argmax(scores, axis=1)]
+
+
+def _streams(groups, n: int) -> np.ndarray:
+    return np.zeros(n, np.int64) if groups is None else np.asarray(groups)
+
+
 class TemporalTrainer:
-    """Trainer protocol (see trainers.py) for TemporalCNN; one measured configuration."""
+    """Trainer protocol (see trainers.py) for TemporalClassifier; one measured configuration
+    (`fitted` is a fitted TemporalClassifier)."""
 
     operating_point = "event"  # see worker.training.selection.choose_operating_point
 
@@ -91,62 +199,32 @@ class TemporalTrainer:
             }
         ]
 
-    def _inputs(self, data: FrameData) -> tuple[torch.Tensor, np.ndarray]:
-        features = torch.from_numpy(np.ascontiguousarray(data.features[:, self.columns]))
-        return features, window_index(data.group, self.window)
+    def classifier(self, params: dict, stride: int, n_classes: int) -> TemporalClassifier:
+        return TemporalClassifier(
+            **params, learning_rate=self.learning_rate, weight_decay=self.weight_decay,
+            batch_size=self.batch_size, stride=stride, n_classes=n_classes, threads=self.threads,
+            seed=self.seed,
+        )  # fmt: skip
+
+    def _frames(self, data: FrameData, sequences: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        mask = data.frames_of(sequences)
+        return data.features[mask][:, self.columns], data.group[mask]
 
     def fit(self, data: FrameData, sequences: np.ndarray, params: dict, stride: int = 1):
-        torch.manual_seed(self.seed)
-        torch.set_num_threads(self.threads)
-        features, index = self._inputs(data)
+        mask = data.frames_of(sequences)
+        X, groups = self._frames(data, sequences)
         # 30 frames/s are redundant for a window model: every other frame is plenty.
-        rows = training_rows(data, sequences, max(stride, 2))
-        target = torch.from_numpy(data.fit_target[rows].astype(np.int64))
-        model = TemporalCNN(
-            features.shape[1], len(data.classes), params["channels"], params["dropout"]
-        )
-        train_frames = features[rows]
-        model.mean.copy_(train_frames.mean(dim=0))
-        model.std.copy_(train_frames.std(dim=0).clamp_min(1e-3))
-        counts = torch.bincount(target, minlength=len(data.classes)).float().clamp_min(1)
-        loss_fn = nn.CrossEntropyLoss(weight=counts.sum() / (len(counts) * counts))
-        optimiser = torch.optim.AdamW(
-            model.parameters(), lr=self.learning_rate, weight_decay=self.weight_decay
-        )
-        steps = params["epochs"] * int(np.ceil(len(rows) / self.batch_size))
-        schedule = torch.optim.lr_scheduler.OneCycleLR(
-            optimiser, self.learning_rate, total_steps=steps
-        )
-        generator = torch.Generator().manual_seed(self.seed)
-        index_t = torch.from_numpy(index[rows])
-        model.train()
-        for _ in range(params["epochs"]):
-            for batch in torch.randperm(len(rows), generator=generator).split(self.batch_size):
-                windows = features[index_t[batch]]
-                loss = loss_fn(model(windows), target[batch])
-                optimiser.zero_grad()
-                loss.backward()
-                optimiser.step()
-                schedule.step()
-        model.eval()
-        return model
+        target = np.where(data.trainable[mask], data.fit_target[mask], -1)
+        return self.classifier(params, max(stride, 2), len(data.classes)).fit(X, target, groups)
 
-    def _predict(self, model: TemporalCNN, features, index_rows) -> np.ndarray:
-        out = []
-        with torch.no_grad():
-            for batch in torch.from_numpy(index_rows).split(2048):
-                out.append(torch.softmax(model(features[batch]), dim=1).numpy())
-        return np.concatenate(out) if out else np.zeros((0, 2))
+    def score(self, fitted: TemporalClassifier, data: FrameData, sequences: np.ndarray):
+        return fitted.predict_proba(*self._frames(data, sequences))
 
-    def score(self, fitted, data: FrameData, sequences: np.ndarray) -> np.ndarray:
-        features, index = self._inputs(data)
-        return self._predict(fitted, features, index[data.frames_of(sequences)])
-
-    def to_onnx(self, fitted, data: FrameData) -> bytes:
+    def to_onnx(self, fitted: TemporalClassifier, data: FrameData) -> bytes:
         buffer = io.BytesIO()
         example = torch.zeros(1, self.window, len(self.columns))
         torch.onnx.export(
-            _Probabilities(fitted).eval(),
+            _Probabilities(fitted.model_).eval(),
             (example,),
             buffer,
             input_names=["windows"],
@@ -156,8 +234,8 @@ class TemporalTrainer:
         )
         return buffer.getvalue()
 
-    def reference(self, fitted, data: FrameData, n: int = 256):
-        features, index = self._inputs(data)
+    def reference(self, fitted: TemporalClassifier, data: FrameData, n: int = 256):
+        X, groups = data.features[:, self.columns], data.group
         rows = np.flatnonzero(data.trainable)
         rows = rows[np.linspace(0, len(rows) - 1, min(n, len(rows))).astype(int)]
-        return features[index[rows]].numpy(), self._predict(fitted, features, index[rows])
+        return fitted.windows(X, groups)[rows], fitted.predict_proba(X, groups)[rows]

@@ -24,12 +24,6 @@ class Trainer(Protocol):
     def reference(self, fitted: Any, data: FrameData, n: int) -> tuple[np.ndarray, np.ndarray]: ...
 
 
-def training_rows(data: FrameData, sequences: np.ndarray, stride: int) -> np.ndarray:
-    """Trainable frames of the sequences, every `stride`-th (30 frames/s are very redundant)."""
-    rows = np.flatnonzero(data.frames_of(sequences) & data.trainable)
-    return rows[::stride]
-
-
 class SklearnTrainer:
     """A ModelSpec's models: selected and fitted by EmergencyDetector, scored and exported here
     (`fitted` is the detector's `model_`, a pipeline over the spec's feature columns)."""
