@@ -10,6 +10,12 @@ ingest path, not detection quality. Per run:
 - frames_lost: frames sent but not in the database after the run; duplicates: rows beyond one per
   (robot, seq). Each robot also re-sends its first batch at the end (a reconnect replay), which
   must not create duplicates.
+
+Like the real agent (robot_agent/outbox.py), each robot numbers its frames after the welcome's
+last_seq (from 0 on an empty database), so a run over a database an earlier run already wrote
+to (bench.storage) sends new sequence numbers: the backend acknowledges a number it already has
+but neither stores nor alarms on it. frames_lost and duplicates count only the sequence numbers
+this run sent.
 """
 
 from __future__ import annotations
@@ -56,6 +62,7 @@ _FRAME = (
 @dataclass
 class RobotStats:
     robot_id: str
+    first_seq: int = 0  # the welcome's last_seq + 1: this run's frames are first_seq and up
     sent_at: dict[int, float] = field(default_factory=dict)
     emergency_at: dict[int, float] = field(default_factory=dict)
     ack_latency_ms: list[tuple[float, float]] = field(default_factory=list)  # (sent at, ms)
@@ -83,7 +90,13 @@ async def robot_client(
 ) -> None:  # fmt: skip
     async with connect(url + "/ws/robot", max_size=None, compression=None) as ws:
         await ws.send(json.dumps({"type": "hello", "robot_id": robot_id, "token": token}))
-        json.loads(await ws.recv())
+        welcome = json.loads(await ws.recv())
+        if welcome.get("type") != "welcome":
+            raise RuntimeError(f"{robot_id}: expected a welcome, got {welcome!r:.200}")
+        # Number after what the backend already has, as the agent does: a number at or below
+        # last_seq would be acknowledged as a duplicate and dropped (no row, no alarm).
+        last_seq = welcome["last_seq"]
+        stats.first_seq = 0 if last_seq is None else last_seq + 1
         transport = f"{robot_id}-t"
         await ws.send(
             json.dumps({"type": "transport_start", "transport_id": transport, "mode": "walking",
@@ -108,7 +121,7 @@ async def robot_client(
                 stats.acked.set()
 
         receiver = asyncio.create_task(receive())
-        seq = 0
+        seq = stats.first_seq
         offset = int(robot_id.rsplit("-", 1)[1]) * 7
         period = 1 / config.hz if config.hz else 0
         next_at = time.perf_counter()
@@ -150,7 +163,7 @@ async def robot_client(
                     next_at = time.perf_counter()
             else:
                 await asyncio.sleep(0)
-        # Drain: wait for every frame to be acknowledged, then replay the first batch.
+        # Drain: wait for every frame to be acknowledged, then replay this run's first batch.
         deadline = time.perf_counter() + 15
         while stats.unacked and time.perf_counter() < deadline:
             stats.acked.clear()
@@ -252,15 +265,21 @@ def _prepare_database(kind: str, workdir: Path, robots: int) -> tuple[str, calla
     return url, drop
 
 
-def _stored(url: str) -> tuple[int, int]:
+def _stored(url: str, seq_ranges: dict[str, tuple[int, int]]) -> tuple[int, int]:
+    """Rows and distinct (robot, seq) in the database within each robot's sequence range of
+    this run (first, last sent): an earlier run's frames on the same database are not counted."""
     engine = make_engine(url)
+    rows = distinct = 0
+    query = text(
+        "SELECT count(*), count(DISTINCT seq) FROM frames "
+        "WHERE robot_id = :robot AND seq BETWEEN :first AND :last"
+    )
     with engine.connect() as connection:
-        rows, distinct = connection.execute(
-            text(
-                "SELECT count(*), count(DISTINCT robot_id || ':' || seq) FROM frames "
-                "WHERE robot_id LIKE 'bench-%'"
-            )
-        ).one()
+        for robot_id, (first, last) in seq_ranges.items():
+            params = {"robot": robot_id, "first": first, "last": last}
+            n, d = connection.execute(query, params).one()
+            rows += n
+            distinct += d
     engine.dispose()
     return rows, distinct
 
@@ -334,6 +353,8 @@ async def _drive(server: BackendProcess, config: RunConfig, nurse_token: str) ->
         "emergencies_sent": emergencies,
         "emergencies_pushed": len(alarm_latency),
         "unacked_after_drain": sum(len(s.unacked) for s in stats),
+        # Per robot, the first and last sequence number this run sent (for _stored).
+        "seq_ranges": {s.robot_id: (s.first_seq, max(s.sent_at)) for s in stats if s.sent_at},
     }
 
 
@@ -354,7 +375,7 @@ def run(config: RunConfig, workdir: Path) -> dict:
         with BackendProcess(env, log_path=log, workers=config.workers) as server:
             nurse_token = create_access_token(SECRET, 1, 60)
             measured = asyncio.run(_drive(server, config, nurse_token))
-        rows, distinct = _stored(url)
+        rows, distinct = _stored(url, measured["seq_ranges"])
     finally:
         drop()
     result = {

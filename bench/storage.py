@@ -154,10 +154,12 @@ def ingest_run(url: str, config: ingest.RunConfig, workdir: Path, during=None) -
         measured = asyncio.run(ingest._drive(server, config, token))
         if thread is not None:
             thread.join()
-    rows, distinct = ingest._stored(url)
+    rows, distinct = ingest._stored(url, measured["seq_ranges"])  # this run's frames only
     return {"ack_p50_ms": measured["ack_p50_ms"], "ack_p99_ms": measured["ack_p99_ms"],
             "alarm_p50_ms": measured["alarm_p50_ms"], "alarm_p99_ms": measured["alarm_p99_ms"],
             "frames_per_s": measured["frames_per_s"], "frames_sent": measured["sent"],
+            "emergencies_sent": measured["emergencies_sent"],
+            "emergencies_pushed": measured["emergencies_pushed"],
             "frames_lost": measured["sent"] - distinct, "duplicates": rows - distinct,
             "server_cpu_percent": measured["server_cpu_percent"],
             "load_average_1min": measured["load_average"], **extra}  # fmt: skip
