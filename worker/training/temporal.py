@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 import torch
-from sklearn.base import BaseEstimator, ClassifierMixin
+from sklearn.base import BaseEstimator, ClassifierMixin, clone
 from sklearn.utils.multiclass import check_classification_targets
 from sklearn.utils.validation import check_is_fitted, validate_data
 from torch import nn
@@ -162,49 +162,24 @@ class TemporalTrainer:
 
     operating_point = "event"  # see worker.training.selection.choose_operating_point
 
-    def __init__(
-        self,
-        name: str = "tcn",
-        window: int = 24,
-        channels: int = 48,
-        epochs: int = 10,
-        dropout: float = 0.2,
-        learning_rate: float = 2e-3,
-        weight_decay: float = 1e-3,
-        batch_size: int = 256,
-        feature_set: str = "full",
-        threads: int = 1,
-        seed: int = 0,
-    ) -> None:
-        self.name, self.window, self.channels, self.epochs = name, window, channels, epochs
-        self.dropout, self.learning_rate, self.weight_decay = dropout, learning_rate, weight_decay
-        self.batch_size, self.feature_set, self.threads, self.seed = (
-            batch_size,
-            feature_set,
-            threads,
-            seed,
-        )
+    #: The classifier parameters that make its one configuration (reported like a grid point).
+    CONFIGURATION = ("window", "channels", "epochs", "dropout")
+
+    def __init__(self, name: str = "tcn", feature_set: str = "full", **classifier_params) -> None:
+        self.name, self.feature_set = name, feature_set
+        self.template = TemporalClassifier(**classifier_params)
+        self.window = self.template.window
 
     @property
     def columns(self) -> np.ndarray:
         return FEATURE_SETS[self.feature_set]
 
     def configurations(self) -> list[dict[str, Any]]:
-        return [
-            {
-                "window": self.window,
-                "channels": self.channels,
-                "epochs": self.epochs,
-                "dropout": self.dropout,
-            }
-        ]
+        params = self.template.get_params()
+        return [{key: params[key] for key in self.CONFIGURATION}]
 
     def classifier(self, params: dict, stride: int, n_classes: int) -> TemporalClassifier:
-        return TemporalClassifier(
-            **params, learning_rate=self.learning_rate, weight_decay=self.weight_decay,
-            batch_size=self.batch_size, stride=stride, n_classes=n_classes, threads=self.threads,
-            seed=self.seed,
-        )  # fmt: skip
+        return clone(self.template).set_params(**params, stride=stride, n_classes=n_classes)
 
     def _frames(self, data: FrameData, sequences: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         mask = data.frames_of(sequences)
