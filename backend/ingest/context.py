@@ -79,7 +79,8 @@ class IngestContext:
     transports: dict[str, TransportState | Transport | None] = field(default_factory=dict)
     videos: dict[str, VideoState | Video] = field(default_factory=dict)
     rows: list[tuple] = field(default_factory=list)  # laid out as bulk.FRAME_COLUMNS
-    pending_seqs: dict[str, set[int]] = field(default_factory=dict)
+    # robot id -> seq -> capture time of the frames gathered and not inserted yet
+    pending_seqs: dict[str, dict[int, float]] = field(default_factory=dict)
     open_alarms: dict[tuple[str, str, AlarmKind], Alarm] = field(default_factory=dict)
 
     def preload(

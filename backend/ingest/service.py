@@ -3,6 +3,7 @@ that robot decisions raise. The caller commits; acknowledgements go out only aft
 
 from __future__ import annotations
 
+import logging
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
@@ -30,6 +31,8 @@ from backend.security import robot_token_matches
 from backend.unit_of_work import publish_alarm
 from vigil.classes import TransportMode
 from vigil.protocol import DetectionStatus, Hello, TransportEnd, TransportStart
+
+log = logging.getLogger(__name__)
 
 DEFAULT_FPS = 30.0  # a robot transport whose transport_start gave no frame rate
 
@@ -162,19 +165,27 @@ class IngestResult:
     duplicates: int
     alarms: list[Alarm] = field(default_factory=list)
     new_alarm_ids: set[int] = field(default_factory=set)
+    # Duplicates whose capture time differs from the stored frame's: a sequence number used
+    # again for another frame (a sender that did not renumber after the welcome's last_seq).
+    reused: int = 0
+
+
+#: Capture times closer than this are one frame sent again (floats through JSON and the column).
+SAME_FRAME_TS_S = 1e-3
 
 
 def _existing_seqs(
     session: Session, robot: Robot | RobotState, seqs: list[int], context: IngestContext
-) -> set[int]:
-    pending = context.pending_seqs.setdefault(robot.id, set())
+) -> dict[int, float]:
+    """seq -> capture time of the frames of `seqs` already stored or gathered."""
+    pending = context.pending_seqs.setdefault(robot.id, {})
     # robot.last_seq is the highest stored sequence number (kept in the same transaction as
     # the rows), so a batch entirely above it cannot hold a stored frame: skip the query.
     if robot.last_seq is not None and min(seqs) <= robot.last_seq:
-        stored = session.scalars(
-            select(Frame.seq).where(Frame.robot_id == robot.id, Frame.seq.in_(seqs))
+        stored = session.execute(
+            select(Frame.seq, Frame.ts).where(Frame.robot_id == robot.id, Frame.seq.in_(seqs))
         ).all()
-        return pending | set(stored)
+        return dict(stored) | pending
     return pending
 
 
@@ -194,10 +205,19 @@ def store_frames(
     seqs = [f.seq for f in frames]
     existing = _existing_seqs(session, robot, seqs, context)
     fresh: dict[int, ReceivedFrame] = {}
+    reused: list[ReceivedFrame] = []
     for frame in frames:
         if frame.seq not in existing:
             fresh.setdefault(frame.seq, frame)
+        elif abs(existing[frame.seq] - frame.ts) > SAME_FRAME_TS_S:
+            reused.append(frame)
     duplicates = len(frames) - len(fresh)
+    if reused:
+        log.warning(
+            "robot %s sent %d frames under sequence numbers it had already used for other "
+            "frames (seq %d..%d); they are not stored, and their Emergency or Pause decisions "
+            "still raise alarms", robot.id, len(reused), reused[0].seq, reused[-1].seq,
+        )  # fmt: skip
 
     now = utcnow()
     videos: dict[str | None, Video] = {}
@@ -211,7 +231,10 @@ def store_frames(
         transport = context.transport(session, key)
         if transport is not None and transport.robot_id != robot.id:
             raise TransportNotOwned(key)
-    for frame in sorted(fresh.values(), key=lambda f: f.seq):
+    # A frame under a reused sequence number is not stored (the stored one stays), but a fall
+    # it reports must still reach the nurse: its decision raises or updates the alarm.
+    alarming_reused = [f for f in reused if f.decision in ALARM_KIND_OF_DECISION]
+    for frame in sorted([*fresh.values(), *alarming_reused], key=lambda f: f.seq):
         key = frame.transport_id
         transport = context.transport(session, key)
         video = videos.get(key)
@@ -219,12 +242,14 @@ def store_frames(
             video = videos[key] = _video_for(session, robot, transport, context)
             if transport is not None:
                 transport.last_frame_at = now
-        rows.append(
-            (video.id, video.frame_count, frame.ts, robot.id, frame.seq) + frame[ROW_TAIL_START:]
-        )
-        pending.add(frame.seq)
-        video.frame_count += 1
-        video.cover(frame.ts, frame.ts)
+        if fresh.get(frame.seq) is frame:
+            rows.append(
+                (video.id, video.frame_count, frame.ts, robot.id, frame.seq)
+                + frame[ROW_TAIL_START:]
+            )
+            pending[frame.seq] = frame.ts
+            video.frame_count += 1
+            video.cover(frame.ts, frame.ts)
         kind = ALARM_KIND_OF_DECISION.get(frame.decision)
         if kind is not None:
             evidence = DecisionEvidence(
@@ -254,7 +279,7 @@ def store_frames(
         robot.last_seq = highest
     robot.last_seen_at = now
     unique_alarms = list({a.id: a for a in alarms.values()}.values())
-    return IngestResult(highest, stored, duplicates, unique_alarms, new_alarm_ids)
+    return IngestResult(highest, stored, duplicates, unique_alarms, new_alarm_ids, len(reused))
 
 
 def degraded_details(message: DetectionStatus) -> dict:

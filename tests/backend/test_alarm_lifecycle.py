@@ -363,10 +363,11 @@ def test_missed_emergency_is_latched_says_its_transport_ended_and_counts_in_the_
         with client.websocket_connect("/ws/robot") as ws:
             ws.send_text(Hello(robot_id=robot, token=ROBOT_TOKEN).model_dump_json())
             ws.receive_text()
-            ws.send_text(FrameBatch(frames=[frame(1, "emergency", "t-m")]).model_dump_json())
+            later = frame(1, "emergency", "t-m")
+            ws.send_text(FrameBatch(frames=[later]).model_dump_json())
             assert json.loads(ws.receive_text())["type"] == "ack"
             ws.send_text(TransportEnd(transport_id="t-m", ts=2.0).model_dump_json())
-            ws.send_text(FrameBatch(frames=[frame(1, "emergency", "t-m")]).model_dump_json())
+            ws.send_text(FrameBatch(frames=[later]).model_dump_json())  # sent again
             assert json.loads(ws.receive_text())["type"] == "ack"
         pushed = [browser.receive_json()["alarm"] for _ in range(3)]
         pushed = [a for a in pushed if a["id"] == alarm.id]

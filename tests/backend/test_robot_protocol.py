@@ -389,3 +389,42 @@ def test_frames_written_by_another_replica_meanwhile_are_neither_duplicated_nor_
         rows = session.execute(select(Frame.seq, Frame.index).order_by(Frame.seq)).all()
     assert [seq for seq, _ in rows] == [0, 1, 2, 3, 4, 5]
     assert sorted(index for _, index in rows) == [0, 1, 2, 3, 4, 5]
+
+
+def test_an_emergency_under_a_reused_sequence_number_still_raises_its_alarm(
+    client, robot, session_factory
+):
+    """A sender that numbers from 0 again (it ignored the welcome's last_seq) reuses sequence
+    numbers: those frames are not stored over the stored ones, but a fall they report must
+    still reach the nurse. The same frames sent again (same capture times) change nothing."""
+    from backend.models import Alarm
+
+    def at(seq: int, ts: float, decision: str = "normal"):
+        return frame(seq, decision).model_copy(update={"ts": ts})
+
+    def emergencies() -> list[tuple[int, int | None]]:
+        with session_factory() as session:
+            return session.execute(
+                select(Alarm.decision_count, Alarm.last_seq).where(Alarm.kind == "emergency")
+            ).all()
+
+    with client.websocket_connect("/ws/robot") as ws:
+        hello(ws, robot, ROBOT_TOKEN)
+        ws.send_text(
+            protocol.TransportStart(transport_id="t-1", mode="walking", ts=0.0).model_dump_json()
+        )
+        stored = [at(s, 1000.0 + s) for s in range(4)]
+        ws.send_text(FrameBatch(frames=stored).model_dump_json())
+        assert json.loads(ws.receive_text()) == {"type": "ack", "seq": 3}
+        # the same frames again, one of them now carrying another decision: a resend
+        resend = [*stored[:2], stored[2].model_copy(update={"decision": "emergency"})]
+        ws.send_text(FrameBatch(frames=resend).model_dump_json())
+        json.loads(ws.receive_text())
+        assert emergencies() == []
+        # seq 2 used again for a later frame that reports a fall
+        ws.send_text(FrameBatch(frames=[at(2, 2000.0, "emergency")]).model_dump_json())
+        json.loads(ws.receive_text())
+        assert emergencies() == [(1, 2)]
+    with session_factory() as session:
+        rows = session.execute(select(Frame.seq, Frame.ts, Frame.decision).order_by(Frame.seq))
+        assert [(s, ts, d) for s, ts, d in rows] == [(s, 1000.0 + s, "normal") for s in range(4)]
