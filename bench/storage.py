@@ -304,6 +304,7 @@ def retention_under_load(url: str, config: ingest.RunConfig, workdir: Path, now:
         "partitions_replaced": len(result["partitions_dropped"]),
         "retention_seconds": timing["seconds"],
         "retention_process_cpu_seconds": timing["cpu_seconds"],
+        "sqlite_chunk_write_hold_ms": result.get("chunk_hold_ms"),
         "measurement_window_s": config.seconds,
         "retention_finished_inside_window": timing["seconds"] + config.seconds * 0.1 + 8
         < config.seconds + 2,

@@ -79,6 +79,7 @@ class Tally:
     by_day: dict[str, dict[str, int]] = field(default_factory=dict)
     partitions_dropped: list[str] = field(default_factory=list)
     disk_bytes_freed: int = 0
+    chunk_holds_ms: list[float] = field(default_factory=list)  # SQLite: each chunk's write hold
 
     def merge(self, other: Tally) -> None:
         self.dropped += other.dropped
@@ -195,7 +196,8 @@ def run_retention(
     return {"summary": message, "run_id": run_id, "dry_run": dry_run, "cutoff_ts": facts.cutoff,
             "dropped_frames": tally.dropped, "dropped_bytes": tally.dropped_bytes,
             "kept": dict(tally.kept), "partitions_dropped": tally.partitions_dropped,
-            "disk_bytes_freed": tally.disk_bytes_freed}  # fmt: skip
+            "disk_bytes_freed": tally.disk_bytes_freed,
+            "chunk_hold_ms": _holds(tally.chunk_holds_ms)}  # fmt: skip
 
 
 def _fill(record: RetentionRun, tally: Tally) -> None:
@@ -231,7 +233,7 @@ def _chunked(
     adaptive = delete and vacuum  # SQLite: the write lock is the whole database's
     total = max(1, _count_candidates(factory, facts.cutoff, table))
     seen, after = 0, 0
-    holds: list[float] = []
+    holds = tally.chunk_holds_ms
     while True:
         with factory() as session:  # a read: no write lock (WAL)
             rows = queries.candidate_chunk(session, facts.cutoff, after, sizer.rows, table)
@@ -263,9 +265,17 @@ def _chunked(
     if delete and vacuum:
         _incremental_vacuum(factory, 0)  # what the chunks did not give back yet
     if holds:
-        ordered = sorted(holds)
-        log.info("retention: %d chunks, write hold p50 %.1f ms, max %.1f ms, last size %d",
-                 len(holds), ordered[len(ordered) // 2], ordered[-1], sizer.rows)  # fmt: skip
+        log.info("retention: %s, last chunk size %d", _holds(holds), sizer.rows)
+
+
+def _holds(holds: list[float]) -> dict:
+    """The chunks' write-lock holds: count, p50, p99 and max in ms."""
+    if not holds:
+        return {"chunks": 0}
+    ordered = sorted(holds)
+    pick = lambda q: round(ordered[min(len(ordered) - 1, int(q * len(ordered)))], 1)  # noqa: E731
+    return {"chunks": len(ordered), "p50_ms": pick(0.5), "p99_ms": pick(0.99),
+            "max_ms": round(ordered[-1], 1)}  # fmt: skip
 
 
 def _columns(rows) -> tuple[np.ndarray, ...]:
