@@ -33,6 +33,7 @@ from pathlib import Path
 
 import numpy as np
 from sqlalchemy import create_engine, text
+from sqlalchemy.exc import DBAPIError
 from websockets.asyncio.client import connect
 
 from backend.db import make_engine, make_session_factory, transaction
@@ -246,8 +247,17 @@ def _prepare_database(kind: str, workdir: Path, robots: int) -> tuple[str, calla
         url = PG_ADMIN_URL.rsplit("/", 1)[0] + f"/{name}"
 
         def drop() -> None:
-            with admin.connect() as connection:
-                connection.execute(text(f'DROP DATABASE IF EXISTS "{name}" WITH (FORCE)'))
+            # FORCE ends the other sessions but gives up if they take more than 5 s to go (a
+            # busy machine, a backend still shutting down): try again before leaving it behind.
+            for attempt in range(4):
+                try:
+                    with admin.connect() as connection:
+                        connection.execute(text(f'DROP DATABASE IF EXISTS "{name}" WITH (FORCE)'))
+                    break
+                except DBAPIError:  # ObjectInUse
+                    if attempt == 3:
+                        raise
+                    time.sleep(3)
             admin.dispose()
 
     upgrade(url)

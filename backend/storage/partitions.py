@@ -6,16 +6,16 @@ created yet, a robot clock that stepped, imported recordings whose ts counts fro
 is ever refused. Creating a day partition moves that day's rows out of the default partition in
 the same transaction, so a partition can always be created later.
 
-Retention never runs a DELETE on the whole table: a day that is entirely older than the cutoff is
-replaced by a new table holding only the frames the policy keeps (indexes built before the swap,
-a CHECK constraint matching the bounds so ATTACH needs no scan), then the old partition is
-detached and dropped. Only the default partition is deleted from, in bounded chunks.
+Retention never runs a DELETE on the whole table, and never detaches a partition: a day that is
+entirely older than the cutoff is truncated and given back its kept frames in one transaction
+that locks only that day's partition (backend/storage/retention.py says why: DETACH and ATTACH
+lock the parent that every ingest insert needs). Only the default partition is deleted from, in
+bounded chunks.
 """
 
 from __future__ import annotations
 
 import time
-import uuid
 from datetime import UTC, datetime
 
 from sqlalchemy import Connection, text
@@ -125,18 +125,6 @@ def _new_table_like_frames(connection: Connection, name: str, day: int) -> None:
     )
 
 
-def _build_indexes(connection: Connection, name: str) -> None:
-    """The parent's indexes, built before ATTACH (which then only links them)."""
-    tag = uuid.uuid4().hex[:6]  # the table is renamed after the swap: names stay unique
-    for index_name, kind, columns in INDEXES:
-        unique = "UNIQUE " if kind in ("PRIMARY KEY", "UNIQUE") else ""
-        connection.execute(
-            text(
-                f"CREATE {unique}INDEX {name[6:]}_{tag}_{index_name} ON {name} {columns}"
-            )  # fmt: skip
-        )
-
-
 def create_day_partition(connection: Connection, day: int) -> str:
     """Create and attach the partition of `day`, moving its rows out of the default partition
     (in the caller's transaction)."""
@@ -168,36 +156,6 @@ def ensure_ahead(connection: Connection, ahead_days: int, now: float | None = No
     return ensure_partitions(connection, range(first - 1, first + ahead_days + 1))
 
 
-def replace_day_keeping(
-    connection: Connection, day: int, kept_ids: list[int], lock_timeout_ms: int = 2000
-) -> int:
-    """Swap the day's partition for one holding only `kept_ids`; returns the bytes freed. The
-    caller holds a SHARE lock on the old partition (no frame arrives between the choice of
-    kept ids and the swap) and commits; the parent is locked only for DETACH + ATTACH."""
-    old = partition_name(day)
-    new = f"frames_k{old[8:]}"
-    low, high = bounds(day)
-    before = connection.execute(text(f"SELECT pg_total_relation_size('{old}')")).scalar_one()
-    _new_table_like_frames(connection, new, day)
-    if kept_ids:
-        connection.execute(
-            text(
-                f"INSERT INTO {new} ({COLUMNS}) SELECT {COLUMNS} FROM {old} WHERE id = ANY(:ids)"
-            ),  # fmt: skip
-            {"ids": kept_ids},
-        )
-    _build_indexes(connection, new)
-    after = connection.execute(text(f"SELECT pg_total_relation_size('{new}')")).scalar_one()
-    connection.execute(text(f"SET LOCAL lock_timeout = {int(lock_timeout_ms)}"))
-    connection.execute(text(f"ALTER TABLE frames DETACH PARTITION {old}"))
-    connection.execute(
-        text(f"ALTER TABLE frames ATTACH PARTITION {new} FOR VALUES FROM ({low!r}) TO ({high!r})")
-    )
-    connection.execute(text(f"DROP TABLE {old}"))
-    connection.execute(text(f"ALTER TABLE {new} RENAME TO {old}"))
-    return int(before) - int(after)
-
-
 def partition_sizes(connection: Connection) -> dict[str, int]:
     """Bytes on disk (table, TOAST and indexes) of every partition of frames."""
     rows = connection.execute(
@@ -213,8 +171,7 @@ def partition_sizes(connection: Connection) -> dict[str, int]:
 def include_object(obj, name, type_, reflected, compare_to) -> bool:
     """Alembic comparison filter for a PostgreSQL database: the day partitions are not tables
     of the models, and frames' unique keys there carry ts (the partition key) by design."""
-    if type_ == "table" and name and (name.startswith(("frames_p", "frames_k"))
-                                      or name == DEFAULT_PARTITION):  # fmt: skip
+    if type_ == "table" and name and (name.startswith("frames_p") or name == DEFAULT_PARTITION):
         return False
     table = getattr(obj, "table", None)
     return not (type_ in ("unique_constraint", "index") and getattr(table, "name", "") == "frames")

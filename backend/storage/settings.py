@@ -37,7 +37,14 @@ class StorageSettings(BaseSettings):
     retention_chunk_rows: int = Field(
         default=2000,
         ge=1,
-        description="SQLite: frames deleted per transaction (each holds the write lock briefly)",
+        description="SQLite: frames checked in the first delete chunk; the next chunks adapt "
+        "to retention_chunk_hold_ms",
+    )
+    retention_chunk_hold_ms: float = Field(
+        default=30,
+        gt=0,
+        description="SQLite: how long one delete chunk (the delete, then the incremental vacuum) "
+        "may hold the write lock; the chunk size grows or shrinks to keep near it",
     )
     retention_chunk_pause_ms: float = Field(
         default=20, ge=0, description="SQLite: pause between delete chunks (lets ingest commit)"

@@ -4,6 +4,7 @@ predicts exactly what the run then drops."""
 
 from __future__ import annotations
 
+import numpy as np
 from sqlalchemy import func, select
 
 from backend.db import transaction
@@ -100,3 +101,58 @@ def test_downsampled_copy_keeps_every_step_th_frame_for_more_days(database_url, 
     # Past the downsampled copy's days it goes too.
     later = f.NOW + 61 * DAY_S
     assert run_retention(session_factory, settings, now=later)["dropped_frames"] == 10
+
+
+def _reasons_both_ways(facts: policy.PolicyFacts, frames: list[tuple]) -> tuple[list, list]:
+    """(row by row `reason`, vectorised `reasons` decoded) of (video, robot, ts, index) rows."""
+    video_ids, robot_ids, ts, index = (list(c) for c in zip(*frames, strict=True))
+    codes = facts.reasons(np.array(video_ids), robot_ids, np.array(ts), np.array(index))
+    return [facts.reason(*frame) for frame in frames], [policy.REASON_CODES[c] for c in codes]
+
+
+def test_vectorised_reasons_equal_row_by_row_on_crafted_facts():
+    """`PolicyFacts.reasons` (numpy, what the runs use) gives exactly `reason` for every frame:
+    alarm windows (edges, merged, another robot's), labelled / split / lineage videos, imported
+    frames, the cutoff's midnight, and the downsampled copy's step and horizon."""
+    rule = RetentionPolicy(days=30, alarm_before_s=60, alarm_after_s=30, downsample_fps=1.0,
+                           downsample_days=5)  # fmt: skip
+    now = f.NOW
+    windows = policy.alarm_intervals(
+        [("r1", OLD_DAY + 100, OLD_DAY + 110, 0.0), ("r1", OLD_DAY + 150, None, OLD_DAY + 150),
+         ("r1", None, None, OLD_DAY + 5000), ("r2", f.CUTOFF_DAY - 10, f.CUTOFF_DAY - 5, 0.0)],
+        rule,
+    )  # fmt: skip
+    facts = policy.PolicyFacts(rule, now, {7: policy.LABELLED, 8: policy.SPLIT, 9: policy.LINEAGE},
+                               windows, {1: 10, 2: 3, 7: 10})  # fmt: skip
+    cutoff = facts.cutoff
+    edges = [OLD_DAY + 40 - 1e-9, OLD_DAY + 40, OLD_DAY + 140, OLD_DAY + 180, OLD_DAY + 180.001,
+             OLD_DAY + 4940, OLD_DAY + 5030, OLD_DAY + 5030.5, cutoff - 0.1, cutoff - 1e-6,
+             cutoff, cutoff + 0.1, cutoff - 70, cutoff - 75, cutoff - 35,
+             rule.downsample_until(now) - 0.1, rule.downsample_until(now), now]  # fmt: skip
+    rng = np.random.default_rng(3)
+    times = edges + list(rng.uniform(OLD_DAY - 7 * DAY_S, now, 3000))
+    times += list(OLD_DAY + rng.uniform(0, 6000, 2000))  # dense around r1's alarms
+    frames = []
+    for k, ts in enumerate(times):
+        robot = [None, "r1", "r2", "r3"][k % 4]
+        video = [1, 2, 3, 7, 8, 9][k % 6]
+        frames.append((video, robot, float(ts), int(rng.integers(0, 40))))
+    by_row, vectorised = _reasons_both_ways(facts, frames)
+    assert vectorised == by_row
+    assert set(by_row) == {None, *policy.REASON_CODES[1:]}  # every reason is exercised
+    # The midnight of the cutoff's day: the last moment before it goes, midnight itself stays.
+    midnight = [(1, "r3", cutoff - 1e-6, 7), (1, "r3", cutoff, 7)]  # not a 10th frame
+    assert _reasons_both_ways(facts, midnight) == ([None, policy.RECENT], [None, policy.RECENT])
+    # No facts at all, and no frames.
+    bare = policy.PolicyFacts(RetentionPolicy(), now, {}, {}, {})
+    assert _reasons_both_ways(bare, frames[:50])[1] == _reasons_both_ways(bare, frames[:50])[0]
+    assert len(bare.reasons(np.zeros(0), [], np.zeros(0), np.zeros(0))) == 0
+
+
+def test_vectorised_reasons_equal_row_by_row_on_stored_frames(database_url, session_factory):
+    with transaction(session_factory) as session:
+        crafted(session)
+        before = f.frame_rows(session)
+        facts = queries.policy_facts(session, RetentionPolicy(days=30), f.NOW)
+    by_row, vectorised = _reasons_both_ways(facts, list(before.values()))
+    assert vectorised == by_row
