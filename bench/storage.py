@@ -14,12 +14,11 @@ Per database (PostgreSQL, SQLite), with GENERATED history (transports of generat
 - a retention run (policy defaults: 30 days, alarm windows, labels) while the robots stream, in
   a process of its own (as the worker runs it; in the bench process it would starve the
   simulated robots): ack p99, frames lost, every frame the policy keeps checked by id
-  afterwards, the retention process's CPU seconds. The robots of that run start their seqs
-  at 0 again on a database holding the earlier run's frames (same robot ids): until they pass
-  the earlier last seq, each batch runs the ingest's duplicate check
-  (`backend.ingest.service._existing_seqs`), a frames query without a ts bound that plans
-  over every partition, so it waits while retention holds a day partition's TRUNCATE lock
-  (as a real robot's reconnect replay would);
+  afterwards, the retention process's CPU seconds. The robots of that run number their frames
+  after the welcome's last_seq, as the robot agent does, so their batches skip the ingest's
+  duplicate check (`backend.ingest.service._existing_seqs`: a frames query without a ts bound,
+  which plans over every partition and so waits while retention holds a day partition's
+  TRUNCATE lock; only a batch holding a seq at or below the stored last seq runs it);
 - space: bytes after retention against before - dropped x bytes per frame (+ frames ingested).
 Sizes are parameters (--pg-frames, --sqlite-frames); the JSON says what was run.
 """
