@@ -21,6 +21,7 @@ from collections.abc import AsyncIterator, Awaitable, Callable, Iterable, Iterat
 from contextlib import asynccontextmanager, contextmanager
 from typing import TYPE_CHECKING, Protocol
 
+from sqlalchemy import Connection
 from sqlalchemy.orm import Session, sessionmaker
 from starlette.concurrency import run_in_threadpool
 
@@ -196,6 +197,19 @@ def transaction(factory: sessionmaker[Session]) -> Iterator[Session]:
     with unit_of_work(factory) as unit:
         yield unit.session
     unit.run_after_commit_sync()
+
+
+@contextmanager
+def savepoint(connection: Connection) -> Iterator[None]:
+    """A step of the current transaction that an error undoes alone: the transaction stays
+    usable (a lock not taken within its lock_timeout can be tried again)."""
+    nested = connection.begin_nested()
+    try:
+        yield
+    except BaseException:
+        nested.rollback()
+        raise
+    nested.commit()
 
 
 def of(session: Session) -> UnitOfWork | None:

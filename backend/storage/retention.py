@@ -39,6 +39,7 @@ from backend.db import transaction
 from backend.models.storage import RetentionRun, RetentionRunStatus
 from backend.storage import partitions, queries
 from backend.storage.policy import DAY_S, DROPPED_CODE, REASON_CODES, PolicyFacts, RetentionPolicy
+from backend.unit_of_work import savepoint
 from vigil.states import StateMachine
 
 log = logging.getLogger(__name__)
@@ -329,18 +330,15 @@ def lock_partition(connection: Connection, name: str, mode: str) -> None:
     savepoint (a try that times out leaves the transaction usable), with a growing pause
     between tries; raises OperationalError when the last try fails."""
     for attempt in range(LOCK_TRIES):
-        savepoint = connection.begin_nested()
         try:
-            connection.execute(text(f"SET LOCAL lock_timeout = {LOCK_TIMEOUT_MS}"))
-            connection.execute(text(f"LOCK TABLE {name} IN {mode} MODE"))
+            with savepoint(connection):
+                connection.execute(text(f"SET LOCAL lock_timeout = {LOCK_TIMEOUT_MS}"))
+                connection.execute(text(f"LOCK TABLE {name} IN {mode} MODE"))
+            return
         except OperationalError:
-            savepoint.rollback()
             if attempt == LOCK_TRIES - 1:
                 raise
             time.sleep(min(LOCK_BACKOFF_MAX_S, 0.02 * 1.5**attempt))
-            continue
-        savepoint.commit()
-        return
 
 
 def _trim_day(factory: sessionmaker[Session], facts: PolicyFacts, name: str) -> Tally:

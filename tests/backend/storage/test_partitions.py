@@ -7,11 +7,13 @@ insert would wait for."""
 
 from __future__ import annotations
 
+import threading
 import time
 
 import psycopg
 import pytest
 from sqlalchemy import func, select, text
+from sqlalchemy.exc import OperationalError
 
 from backend.db import transaction
 from backend.models import Frame
@@ -145,3 +147,33 @@ def test_retention_trims_attached_partitions_without_blocking_an_insert(pg_facto
     assert result["kept"] == {"alarm_window": 101, "labelled": 50}
     assert result["partitions_dropped"] == [partitions.partition_name(old)]
     assert result["disk_bytes_freed"] > 0
+
+
+def test_a_partition_lock_waits_in_short_tries_and_leaves_the_transaction_usable(
+    pg_factory, monkeypatch
+):
+    """lock_partition never queues behind a holder for long: each try gives up after its
+    lock_timeout inside a savepoint, so the transaction goes on, and it gets the lock once the
+    holder lets go; when the holder never does, it raises after its last try."""
+    day = partitions.today() + 1
+    name = partitions.partition_name(day)
+    url = pg_factory.kw["bind"].url.render_as_string(hide_password=False).replace("+psycopg", "")
+    with psycopg.connect(url) as holder:
+        holder.execute(f"LOCK TABLE {name} IN ACCESS EXCLUSIVE MODE")  # held until commit
+        with pytest.raises(OperationalError), pg_factory() as session:
+            monkeypatch.setattr(retention, "LOCK_TRIES", 3)
+            connection = session.connection()
+            try:
+                retention.lock_partition(connection, name, "SHARE")
+            finally:
+                assert connection.execute(text("SELECT 1")).scalar_one() == 1  # still usable
+        monkeypatch.setattr(retention, "LOCK_TRIES", 40)
+        release = threading.Timer(0.3, holder.commit)
+        release.start()
+        started = time.perf_counter()
+        with pg_factory() as session:
+            retention.lock_partition(session.connection(), name, "SHARE")
+            waited = time.perf_counter() - started
+            assert session.execute(text("SELECT count(*) FROM " + name)).scalar_one() == 0
+        release.join()
+    assert 0.25 < waited < 5
