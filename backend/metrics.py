@@ -76,3 +76,13 @@ class Metrics:
         real = next((r for r in summary.runs if not r.dry_run and r.status == "done"), None)
         self.retention_last_dropped.set(real.dropped_frames if real else 0)
         self.storage_archives.set(summary.archives)
+
+
+def summary_ms(values: list[float], count_key: str = "n") -> dict:
+    """Count, p50, p99 and max (ms, nearest rank) of measured durations."""
+    if not values:
+        return {count_key: 0}
+    ordered = sorted(values)
+    pick = lambda q: round(ordered[min(len(ordered) - 1, int(q * len(ordered)))], 1)  # noqa: E731
+    return {count_key: len(ordered), "p50_ms": pick(0.5), "p99_ms": pick(0.99),
+            "max_ms": round(ordered[-1], 1)}  # fmt: skip

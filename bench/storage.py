@@ -42,6 +42,7 @@ from sqlalchemy import text
 
 from backend.db import make_engine, make_session_factory, transaction
 from backend.ingest.bulk import insert_frame_rows
+from backend.metrics import summary_ms
 from backend.models import Alarm, AlarmKind, AnnotationSegment, Robot, SegmentStatus, Video
 from backend.models.alarms import PRIORITY_OF_KIND
 from backend.process import BackendProcess
@@ -56,15 +57,6 @@ from vigil.skeleton import encode_depth, encode_floor, encode_keypoints
 
 RESULTS = Path(__file__).resolve().parent / "results" / "storage.json"
 VIDEO_FRAMES = 3000  # a 5-minute transport at 10 Hz
-
-
-def _percentiles(values: list[float]) -> dict:
-    if not values:
-        return {"n": 0}
-    ordered = sorted(values)
-    pick = lambda q: round(ordered[min(len(ordered) - 1, int(q * len(ordered)))], 1)  # noqa: E731
-    return {"n": len(values), "p50_ms": pick(0.5), "p99_ms": pick(0.99),
-            "max_ms": round(ordered[-1], 1)}  # fmt: skip
 
 
 def load_history(url: str, frames: int, robots: int, days: float, now: float) -> dict:
@@ -200,7 +192,7 @@ def reads(server: BackendProcess, url: str, samples: int) -> dict:
                                   params={"start": start, "end": start + 299})  # fmt: skip
             timeline.append((time.perf_counter() - t) * 1000)
             assert response.status_code == 200 and len(response.json()) == 300
-    return {"alarm_replay": _percentiles(replay), "labelling_timeline": _percentiles(timeline)}
+    return {"alarm_replay": summary_ms(replay), "labelling_timeline": summary_ms(timeline)}
 
 
 def training_export(url: str) -> dict:

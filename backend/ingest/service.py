@@ -165,9 +165,6 @@ class IngestResult:
     duplicates: int
     alarms: list[Alarm] = field(default_factory=list)
     new_alarm_ids: set[int] = field(default_factory=set)
-    # Duplicates whose capture time differs from the stored frame's: a sequence number used
-    # again for another frame (a sender that did not renumber after the welcome's last_seq).
-    reused: int = 0
 
 
 #: Capture times closer than this are one frame sent again (floats through JSON and the column).
@@ -205,7 +202,7 @@ def store_frames(
     seqs = [f.seq for f in frames]
     existing = _existing_seqs(session, robot, seqs, context)
     fresh: dict[int, ReceivedFrame] = {}
-    reused: list[ReceivedFrame] = []
+    reused: list[ReceivedFrame] = []  # a number used again for another frame (capture time)
     for frame in frames:
         if frame.seq not in existing:
             fresh.setdefault(frame.seq, frame)
@@ -279,7 +276,7 @@ def store_frames(
         robot.last_seq = highest
     robot.last_seen_at = now
     unique_alarms = list({a.id: a for a in alarms.values()}.values())
-    return IngestResult(highest, stored, duplicates, unique_alarms, new_alarm_ids, len(reused))
+    return IngestResult(highest, stored, duplicates, unique_alarms, new_alarm_ids)
 
 
 def degraded_details(message: DetectionStatus) -> dict:

@@ -157,13 +157,10 @@ class PolicyFacts:
         decide(robots == None, NOT_ROBOT)  # noqa: E711 - elementwise comparison
         decide(ts >= self.cutoff, RECENT)
         if self.protected_videos:
-            keys = np.fromiter(self.protected_videos, dtype=np.int64)
-            order = np.argsort(keys)
-            keys = keys[order]
-            values = np.array([_CODE[self.protected_videos[k]] for k in keys], dtype=np.int8)
-            slot = np.minimum(np.searchsorted(keys, video_ids), len(keys) - 1)
-            hit = (keys[slot] == video_ids) & undecided
-            codes[hit] = values[slot[hit]]
+            protected = {video: _CODE[r] for video, r in self.protected_videos.items()}
+            values, hit = _per_video(protected, video_ids, np.int8)
+            hit &= undecided
+            codes[hit] = values[hit]
             undecided[hit] = False
         if self.windows and undecided.any():
             covered = np.zeros(n, dtype=bool)
@@ -183,16 +180,19 @@ class PolicyFacts:
         if self.policy.downsample_fps > 0 and undecided.any():
             steps = np.ones(n, dtype=np.int64)
             if self.video_steps:
-                keys = np.fromiter(self.video_steps, dtype=np.int64)
-                order = np.argsort(keys)
-                keys = keys[order]
-                values = np.array([self.video_steps[k] for k in keys], dtype=np.int64)
-                slot = np.minimum(np.searchsorted(keys, video_ids), len(keys) - 1)
-                hit = keys[slot] == video_ids
-                steps[hit] = values[slot[hit]]
+                values, hit = _per_video(self.video_steps, video_ids, np.int64)
+                steps[hit] = values[hit]
             later = ts >= self.policy.downsample_until(self.now)
             decide(later & (index % steps == 0), DOWNSAMPLED)
         return codes
+
+
+def _per_video(mapping: dict[int, int], video_ids: np.ndarray, dtype) -> tuple[np.ndarray, ...]:
+    """Per frame, `mapping`'s value for its video (where it has one) and whether it has one."""
+    keys = np.array(sorted(mapping), dtype=np.int64)
+    values = np.array([mapping[k] for k in keys], dtype=dtype)
+    slot = np.minimum(np.searchsorted(keys, video_ids), len(keys) - 1)
+    return values[slot], keys[slot] == video_ids
 
 
 def downsample_step(video_fps: float, downsample_fps: float) -> int:

@@ -36,6 +36,7 @@ from sqlalchemy.exc import OperationalError
 from sqlalchemy.orm import Session, sessionmaker
 
 from backend.db import transaction
+from backend.metrics import summary_ms
 from backend.models.storage import RetentionRun, RetentionRunStatus
 from backend.storage import partitions, queries
 from backend.storage.policy import DAY_S, DROPPED_CODE, REASON_CODES, PolicyFacts, RetentionPolicy
@@ -198,7 +199,7 @@ def run_retention(
             "dropped_frames": tally.dropped, "dropped_bytes": tally.dropped_bytes,
             "kept": dict(tally.kept), "partitions_dropped": tally.partitions_dropped,
             "disk_bytes_freed": tally.disk_bytes_freed,
-            "chunk_hold_ms": _holds(tally.chunk_holds_ms)}  # fmt: skip
+            "chunk_hold_ms": summary_ms(tally.chunk_holds_ms, "chunks")}  # fmt: skip
 
 
 def _fill(record: RetentionRun, tally: Tally) -> None:
@@ -266,17 +267,7 @@ def _chunked(
     if delete and vacuum:
         _incremental_vacuum(factory, 0)  # what the chunks did not give back yet
     if holds:
-        log.info("retention: %s, last chunk size %d", _holds(holds), sizer.rows)
-
-
-def _holds(holds: list[float]) -> dict:
-    """The chunks' write-lock holds: count, p50, p99 and max in ms."""
-    if not holds:
-        return {"chunks": 0}
-    ordered = sorted(holds)
-    pick = lambda q: round(ordered[min(len(ordered) - 1, int(q * len(ordered)))], 1)  # noqa: E731
-    return {"chunks": len(ordered), "p50_ms": pick(0.5), "p99_ms": pick(0.99),
-            "max_ms": round(ordered[-1], 1)}  # fmt: skip
+        log.info("retention: %s, last chunk size %d", summary_ms(holds, "chunks"), sizer.rows)
 
 
 def _columns(rows) -> tuple[np.ndarray, ...]:
