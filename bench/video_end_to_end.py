@@ -11,7 +11,10 @@ Models: trained here on URFD without fall-01, so that the clip is held out (work
 cross_validation.select + publish as `train-default` does it; the spec's grid, 3 inner folds,
 one thread), and given to the agent as a local model (`--model-dir`), not through the registry:
 
-- gbt-keypoints (feature set "keypoints": no floor measures): the model the goal is judged on;
+- every keypoints-only spec (feature set "keypoints": no floor measures, what a robot with a
+  plain camera can feed); the goal is judged on the best keypoints-only model of the benchmark
+  of record (`best_keypoints_only` in bench/results/detection_urfd.json, chosen there on URFD's
+  cross-validation, never on this clip);
 - gbt (feature set "full": needs floor measures, which plain video does not give): run the same
   way and reported as it is (alarms of every kind, the agent's warnings), not judged.
 
@@ -90,13 +93,23 @@ DEPTH_HALF = (0, 0, 320, 240)
 VIDEO_TO_OFFICIAL = 1
 EMERGENCY_LABELS = (0, 1)  # URFD: 0 falling / in between, 1 lying on the ground
 GOAL_S = 1.0
-GOAL_MODEL = "gbt-keypoints"
-MODELS = ("gbt-keypoints", "gbt")
+DETECTION_RESULTS = REPO / "bench" / "results" / "detection_urfd.json"
 ROBOT_TIMEOUT_S = 180
 DECISION_LINE = re.compile(r"transport (\S+) frame (\d+): EMERGENCY\b")
 
 
 # --- pure helpers (tests/bench/test_video_end_to_end.py) ------------------------------------
+def judged_and_run_models(detection: dict, specs: dict) -> tuple[str, tuple[str, ...]]:
+    """(the spec the goal is judged on, every spec to run): the benchmark of record's best
+    keypoints-only model, every keypoints-only spec, and gbt."""
+    keypoints_only = tuple(name for name, spec in specs.items() if spec.feature_set == "keypoints")
+    judged = detection["best_keypoints_only"]
+    if judged not in keypoints_only:
+        raise ValueError(f"{DETECTION_RESULTS.name}: best_keypoints_only {judged!r} is no "
+                         f"keypoints-only spec ({', '.join(keypoints_only)})")  # fmt: skip
+    return judged, (*keypoints_only, "gbt")
+
+
 def official_frame(video_index: int) -> int:
     """The official URFD frame number shown by the clip's 0-based frame `video_index`."""
     return video_index + VIDEO_TO_OFFICIAL
@@ -709,10 +722,13 @@ def main(argv: list[str] | None = None) -> int:
         },
     }
     print(json.dumps(result, indent=2), flush=True)
+    from worker.training.estimators import SPECS
+
+    goal_model, specs = judged_and_run_models(json.loads(DETECTION_RESULTS.read_text()), SPECS)
     models_dir = Path(tempfile.mkdtemp(prefix="vigil-bench-video-models-"))
     try:
         models = {}
-        for spec in MODELS:
+        for spec in specs:
             models[spec] = train_held_out(spec, models_dir / spec, args.inner_folds)
             print(f"trained {models[spec]['version']} in {models[spec]['training_s']} s",
                   flush=True)  # fmt: skip
@@ -720,18 +736,20 @@ def main(argv: list[str] | None = None) -> int:
             spec: {k: v for k, v in model.items() if k != "dir"} for spec, model in models.items()
         }
         result["runs"] = {}
-        for spec in MODELS:
+        for spec in specs:
             result["runs"][spec] = measure_run(models[spec], label_index, fps)
             print(json.dumps(result["runs"][spec], indent=2), flush=True)
     finally:
         shutil.rmtree(models_dir, ignore_errors=True)
-    judged = result["runs"][GOAL_MODEL]
+    judged = result["runs"][goal_model]
     result["diagnostics"] = {
         "missing_share": urfd_missing_shares(judged["missing_share_at_label"]),
     }
     result["goal"] = {
         "what": "an Emergency alarm within 1 s of the first Emergency-labelled frame "
-        "(label_to_alarm_s = time_to_alarm_s + lag_at_alarm_s + delivery_s), model " + GOAL_MODEL,
+        "(label_to_alarm_s = time_to_alarm_s + lag_at_alarm_s + delivery_s), model "
+        + goal_model
+        + " (the best keypoints-only model of bench/results/detection_urfd.json)",
         "max_s": GOAL_S,
         "model": judged["model"],
         "time_to_alarm_s": judged["time_to_alarm_s"],

@@ -11,6 +11,7 @@ from bench.video_end_to_end import (
     goal_met,
     has_person,
     index_from_timestamp,
+    judged_and_run_models,
     label_to_alarm,
     labels_of,
     lag_behind_real_time,
@@ -153,3 +154,13 @@ def test_robot_pace_reads_the_agents_transport_end_line(tmp_path, caplog):
     assert pace["frame_path_mean_ms"] == 25.0 and pace["frame_path_max_ms"] == 25.0
     assert pace["process_cpu_ms_per_frame"] == 75.0
     assert robot_pace([(0.0, "something else")])["behind_source_pace_max_s"] is None
+
+
+def test_goal_is_judged_on_the_benchmarks_best_keypoints_only_model():
+    from worker.training.estimators import SPECS
+
+    judged, specs = judged_and_run_models({"best_keypoints_only": "rf-keypoints"}, SPECS)
+    assert judged == "rf-keypoints"
+    assert set(specs) == {"gbt-keypoints", "rf-keypoints", "gbt"}
+    with pytest.raises(ValueError, match="best_keypoints_only 'gbt' is no keypoints-only spec"):
+        judged_and_run_models({"best_keypoints_only": "gbt"}, SPECS)

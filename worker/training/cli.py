@@ -101,7 +101,7 @@ def make_trainers(names: list[str]):
     return trainers
 
 
-ALL_MODELS = "svm-paper,svm,mlp,rf,gbt,gbt-keypoints,tcn"
+ALL_MODELS = "svm-paper,svm,mlp,rf,gbt,gbt-keypoints,rf-keypoints,tcn"
 MULTI = "mlp,rf,tcn"
 
 

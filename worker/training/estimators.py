@@ -170,4 +170,14 @@ GBT_KEYPOINTS = ModelSpec(
     description="Gradient-boosted trees without floor measures, for robots whose depth camera "
     "has no calibrated mount",
 )
-SPECS: dict[str, ModelSpec] = {s.name: s for s in (PAPER_SVM, SVM, MLP, RF, GBT, GBT_KEYPOINTS)}
+RF_KEYPOINTS = ModelSpec(
+    name="rf-keypoints",
+    family="rf",
+    grid=RF.grid,
+    feature_set="keypoints",
+    description="Random forest without floor measures, for robots whose depth camera has no "
+    "calibrated mount",
+)
+SPECS: dict[str, ModelSpec] = {
+    s.name: s for s in (PAPER_SVM, SVM, MLP, RF, GBT, GBT_KEYPOINTS, RF_KEYPOINTS)
+}
