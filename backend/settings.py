@@ -108,6 +108,11 @@ class Settings(StorageSettings):
         default=5.0,
         description="no frame for this long during a transport raises a technical alarm",
     )
+    patient_unseen_seconds: float = Field(
+        default=5.0,
+        description="frames flow but none shows the patient for this long during a transport: "
+        "technical alarm patient_not_seen (cleared when the patient is seen again)",
+    )
     robot_offline_seconds: float = Field(
         default=10.0,
         description="no message from a robot for this long during a transport: robot offline",

@@ -1,10 +1,13 @@
 """The alarm monitor: a task in the backend lifespan that, every `monitor_interval_s`,
 
-- raises technical alarms for transports under way whose robot fell silent (robot offline) or
-  whose frame stream stopped while the robot still talks (stream stalled), one per outage; a
-  robot whose messages wait in the frame writer (storage stalled) is neither;
+- raises technical alarms for transports under way whose robot fell silent (robot offline),
+  whose frame stream stopped while the robot still talks (stream stalled), or whose frames flow
+  but have not shown the patient for `patient_unseen_seconds` (patient not seen: the robot lost
+  its patient, or never found them), one per outage; a robot whose messages wait in the frame
+  writer (storage stalled) is none of them;
 - clears (resolves, as the system, transition `clear`) such an alarm, open or acknowledged,
-  once its cause ended: the robot talks again, frames flow again, or the transport ended.
+  once its cause ended: the robot talks again, frames flow again, the patient is seen again,
+  or the transport ended.
   Technical alarms are not latching (IEC 60601-1-8 lets a technical alarm end with its
   condition); the alarm and its audit trail stay in the history and the shift handover;
 - escalates an open Emergency not acknowledged within the ward's escalation time, and moves
@@ -34,7 +37,7 @@ from backend.unit_of_work import Effects, UnitOfWork, unit_of_work
 
 log = logging.getLogger(__name__)
 #: The technical alarms the monitor raises, and clears once their cause ended.
-OUTAGE_KINDS = (AlarmKind.ROBOT_OFFLINE, AlarmKind.STREAM_STALLED)
+OUTAGE_KINDS = (AlarmKind.ROBOT_OFFLINE, AlarmKind.STREAM_STALLED, AlarmKind.PATIENT_NOT_SEEN)
 
 
 class AlarmMonitor:
@@ -107,6 +110,10 @@ class AlarmMonitor:
                 kind, silent_since = AlarmKind.ROBOT_OFFLINE, last_seen or transport.started_at
             elif now - last_frame > timedelta(seconds=settings.stream_stall_seconds):
                 kind, silent_since = AlarmKind.STREAM_STALLED, last_frame
+            elif now - (last_patient := transport.last_patient_at or transport.started_at) > (
+                timedelta(seconds=settings.patient_unseen_seconds)
+            ):
+                kind, silent_since = AlarmKind.PATIENT_NOT_SEEN, last_patient
             else:
                 continue
             latest = queries.latest_of_kind(session, robot.id, transport.id, kind)
@@ -121,7 +128,7 @@ class AlarmMonitor:
         return raised
 
     def _cleared(self, session: Session, now: datetime) -> list[Alarm]:
-        """Clear the robot_offline / stream_stalled alarms whose cause ended."""
+        """Clear the robot_offline / stream_stalled / patient_not_seen alarms whose cause ended."""
         reasons = {
             alarm.id: reason
             for alarm, robot, transport in queries.unresolved_outages(session, OUTAGE_KINDS)
@@ -134,8 +141,8 @@ class AlarmMonitor:
     def _outage_over(
         self, alarm: Alarm, robot: Robot, transport: Transport | None, now: datetime
     ) -> str | None:
-        """Why this robot_offline / stream_stalled alarm's cause ended, or None if it did not.
-        Only what the robot sent after the alarm was raised counts."""
+        """Why this robot_offline / stream_stalled / patient_not_seen alarm's cause ended, or
+        None if it did not. Only what the robot sent after the alarm was raised counts."""
         settings = self._settings
         if transport is not None and transport.ended_at is not None:
             return "cleared: transport ended"
@@ -145,6 +152,10 @@ class AlarmMonitor:
                 at is not None and at > alarm.raised_at and now - at <= timedelta(seconds=within_s)
             )
 
+        if alarm.kind == AlarmKind.PATIENT_NOT_SEEN:
+            seen = recent(transport.last_patient_at if transport else None,
+                          settings.patient_unseen_seconds)  # fmt: skip
+            return "cleared: patient in view again" if seen else None
         frames = recent(transport.last_frame_at if transport else None,
                         settings.stream_stall_seconds)  # fmt: skip
         if frames:

@@ -48,6 +48,7 @@ class TransportState:
     location: str | None
     fps: float | None = None
     last_frame_at: datetime | None = None
+    last_patient_at: datetime | None = None
 
 
 @dataclass(slots=True)
@@ -159,11 +160,15 @@ class IngestContext:
         ]  # fmt: skip
         update_rows(session, Transport.__table__, ("id", "last_frame_at"),
                     [(t.id, t.last_frame_at) for t in transports])  # fmt: skip
+        update_rows(session, Transport.__table__, ("id", "last_patient_at"),
+                    [(t.id, t.last_patient_at) for t in transports
+                     if t.last_patient_at is not None])  # fmt: skip
         for robot in robots:
             robot.last_seen_at = None
             robot.running_model_changed = False
         for transport in transports:
             transport.last_frame_at = None
+            transport.last_patient_at = None
 
     def detach(self) -> IngestContext:
         """After the commit: a context for the next flush that keeps the robot, transport and

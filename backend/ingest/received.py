@@ -52,6 +52,12 @@ class ReceivedFrames:
     frames: list[ReceivedFrame]
 
 
+def shows_person(keypoints: bytes) -> bool:
+    """Whether packed keypoints hold any keypoint (confidence above 0): the robot saw its
+    patient in this frame (a frame without the patient travels with every keypoint missing)."""
+    return any(c > 0 for c in _KEYPOINTS.unpack(keypoints)[2::3])
+
+
 def pack_keypoints(keypoints: list[list[float]]) -> bytes:
     """Same bytes as vigil.skeleton.encode_keypoints (25 x 3 little-endian float32), without
     building a numpy array per frame."""

@@ -21,7 +21,7 @@ from backend.ingest.context import (
     VideoState,
     video_name,
 )
-from backend.ingest.received import ROW_TAIL_START, ReceivedFrame
+from backend.ingest.received import ROW_TAIL_START, ReceivedFrame, shows_person
 from backend.models._types import utcnow
 from backend.models.alarms import Alarm, AlarmKind, AlarmState
 from backend.models.robots import Robot, Transport
@@ -100,6 +100,9 @@ def start_transport(session: Session, robot: Robot, message: TransportStart) -> 
             location=message.location,
             started_at=datetime.fromtimestamp(message.ts, UTC),
             fps=message.fps,
+            # The patient-not-seen grace starts now on the server's clock (started_at is the
+            # robot's, which may be off).
+            last_patient_at=utcnow(),
         )
         session.add(transport)
     elif transport.robot_id != robot.id:
@@ -247,6 +250,9 @@ def store_frames(
             pending[frame.seq] = frame.ts
             video.frame_count += 1
             video.cover(frame.ts, frame.ts)
+            if (transport is not None and transport.last_patient_at != now
+                    and shows_person(frame.keypoints)):  # fmt: skip
+                transport.last_patient_at = now
         kind = ALARM_KIND_OF_DECISION.get(frame.decision)
         if kind is not None:
             evidence = DecisionEvidence(

@@ -22,6 +22,9 @@ class AlarmKind(StrEnum):
     # stored. Pushed unstored by the ingest writer (storage is what is stalled), then stored
     # raised and cleared once storage recovers (backend/ingest/failopen.py).
     STORAGE_STALLED = "storage_stalled"
+    # Frames flow but none has shown the patient for patient_unseen_seconds: the robot lost its
+    # patient (or never found them); raised and cleared by the alarm monitor.
+    PATIENT_NOT_SEEN = "patient_not_seen"
 
 
 class AlarmPriority(StrEnum):
@@ -37,6 +40,7 @@ PRIORITY_OF_KIND = {
     AlarmKind.STREAM_STALLED: AlarmPriority.TECHNICAL,
     AlarmKind.DETECTION_DEGRADED: AlarmPriority.TECHNICAL,
     AlarmKind.STORAGE_STALLED: AlarmPriority.TECHNICAL,
+    AlarmKind.PATIENT_NOT_SEEN: AlarmPriority.TECHNICAL,
 }
 #: Alarms about the system rather than the patient (no verdict statistics per model version).
 TECHNICAL_KINDS = frozenset(

@@ -61,5 +61,8 @@ class Transport(Base):
     ended_at: Mapped[datetime | None] = mapped_column(UTCDateTime)
     # When a frame of this transport was last committed (stream-stalled detection).
     last_frame_at: Mapped[datetime | None] = mapped_column(UTCDateTime)
+    # When a frame showing the patient (any keypoint) was last committed, or the transport was
+    # started (server clock): the alarm monitor's patient-not-seen check counts from there.
+    last_patient_at: Mapped[datetime | None] = mapped_column(UTCDateTime)
     # The source's real frame rate from transport_start (None: not given, 30 assumed).
     fps: Mapped[float | None] = mapped_column()

@@ -425,3 +425,57 @@ def test_missed_emergency_is_latched_says_its_transport_ended_and_counts_in_the_
         ("acknowledge", "missed", "acknowledged", "nurse:nora"),
         ("resolve", "acknowledged", "resolved", "nurse:nora"),
     ]
+
+
+def unseen(seq: int, transport: str = "t-1"):
+    """A frame the robot sent without its patient: every keypoint missing."""
+    return frame(seq, "normal", transport).model_copy(
+        update={"keypoints": [[0.0, 0.0, 0.0]] * 25, "depth": None, "floor": None}
+    )
+
+
+def test_frames_without_the_patient_raise_patient_not_seen_until_the_patient_is_back(
+    client, robot, make_account, session_factory, settings
+):
+    """A robot whose frames flow but show nobody has lost its patient: after
+    patient_unseen_seconds the nurse board gets a technical alarm, which clears itself when a
+    frame shows the patient again (not when more empty frames arrive)."""
+    settings.patient_unseen_seconds = 4
+    nurse = make_account(Role.NURSE, ward="ward-a", username="nina")
+    stream(client, robot, ROBOT_TOKEN, "t-1", frame(0, "normal", "t-1"), end=False)
+    seen_at = utcnow()
+    stream(client, robot, ROBOT_TOKEN, "t-1", unseen(1), end=False)
+    assert tick(client, seen_at + timedelta(seconds=3)) == []  # within the grace period
+
+    # Frames keep flowing, none with the patient: one technical alarm for the outage.
+    stream(client, robot, ROBOT_TOKEN, "t-1", unseen(2), end=False)
+    (lost,) = tick(client, seen_at + timedelta(seconds=4.5))
+    assert (lost["kind"], lost["priority"], lost["transport_id"]) == (
+        "patient_not_seen", "technical", "t-1"
+    )  # fmt: skip
+    stream(client, robot, ROBOT_TOKEN, "t-1", unseen(3), end=False)
+    assert tick(client, utcnow()) == []  # empty frames neither clear it nor raise another
+    board = client.get("/api/alarms", headers=nurse.headers).json()
+    assert [a["kind"] for a in board if a["state"] == "open"] == ["patient_not_seen"]
+
+    stream(client, robot, ROBOT_TOKEN, "t-1", frame(4, "normal", "t-1"), end=False)
+    changed = tick(client, utcnow())
+    assert [(a["id"], a["state"]) for a in changed] == [(lost["id"], "resolved")]
+    assert clears(session_factory, lost["id"]) == [
+        ("open", "resolved", "cleared: patient in view again")
+    ]
+    assert tick(client, utcnow()) == []
+
+
+def test_a_transport_that_never_shows_the_patient_raises_patient_not_seen(
+    client, robot, settings
+):
+    settings.patient_unseen_seconds = 4
+    stream(client, robot, ROBOT_TOKEN, "t-2", unseen(0, "t-2"), end=False)
+    started = utcnow()
+    stream(client, robot, ROBOT_TOKEN, "t-2", unseen(1, "t-2"), end=False)
+    assert tick(client, started + timedelta(seconds=3)) == []
+    stream(client, robot, ROBOT_TOKEN, "t-2", unseen(2, "t-2"), end=False)
+    assert [a["kind"] for a in tick(client, started + timedelta(seconds=4.5))] == [
+        "patient_not_seen"
+    ]

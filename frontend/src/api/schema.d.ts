@@ -1327,7 +1327,7 @@ export interface components {
          * AlarmKind
          * @enum {string}
          */
-        AlarmKind: "emergency" | "pause" | "robot_offline" | "stream_stalled" | "detection_degraded" | "storage_stalled";
+        AlarmKind: "emergency" | "pause" | "robot_offline" | "stream_stalled" | "detection_degraded" | "storage_stalled" | "patient_not_seen";
         /** AlarmOut */
         AlarmOut: {
             /** Id */

@@ -1,6 +1,7 @@
 import { describe, expect, it } from "vitest";
 import {
   alarmTitle,
+  styleOf,
   applyMessage,
   bannerEmergency,
   countBoard,
@@ -222,5 +223,8 @@ describe("alarm titles", () => {
     const refused = alarm({ kind: "detection_degraded", priority: "technical", details: { missing_inputs: [], assigned_model: "rf-7", running_model: "kp-2" } });
     expect(alarmTitle(refused)).toBe("Detection degraded: model rf-7 refused, running keypoints-only fallback kp-2");
     expect(alarmTitle(alarm({ kind: "robot_offline", priority: "technical" }))).toBe("Robot offline");
+    const lost = alarm({ kind: "patient_not_seen", priority: "technical" });
+    expect(alarmTitle(lost)).toBe("Patient not in view");
+    expect(styleOf(lost)).toBe("technical");
   });
 });

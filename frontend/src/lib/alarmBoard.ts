@@ -220,6 +220,7 @@ export const KIND_LABEL: Record<Alarm["kind"], string> = {
   stream_stalled: "Stream stalled",
   detection_degraded: "Detection degraded",
   storage_stalled: "Storage stalled",
+  patient_not_seen: "Patient not in view",
 };
 
 const INPUT_WORDS: Record<string, string> = { keypoints: "keypoints", depth: "depth", floor: "floor measures" };
