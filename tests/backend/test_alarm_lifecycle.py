@@ -467,9 +467,7 @@ def test_frames_without_the_patient_raise_patient_not_seen_until_the_patient_is_
     assert tick(client, utcnow()) == []
 
 
-def test_a_transport_that_never_shows_the_patient_raises_patient_not_seen(
-    client, robot, settings
-):
+def test_a_transport_that_never_shows_the_patient_raises_patient_not_seen(client, robot, settings):
     settings.patient_unseen_seconds = 4
     stream(client, robot, ROBOT_TOKEN, "t-2", unseen(0, "t-2"), end=False)
     started = utcnow()
