@@ -17,6 +17,7 @@ from pydantic_settings import (
     TomlConfigSettingsSource,
 )
 
+from robot_agent.behaviour import DegradedAction
 from vigil.classes import TransportMode
 from vigil.floor import CameraMount
 
@@ -137,6 +138,20 @@ class AgentSettings(BaseSettings):
     )
     alarm_hook: str | None = Field(
         default=None, description="command run when the local alarm is raised or cleared"
+    )
+    pause_hold_s: float = Field(
+        default=2.0, ge=0, description="Normal decisions needed this long before a pause resumes"
+    )
+    degraded_action: DegradedAction = Field(
+        default=DegradedAction.STOP,
+        description="what the robot does while detection is degraded: slow or stop",
+    )
+    patient_unseen_s: float = Field(
+        default=3.0, gt=0, description="patient not seen this long: detection degraded"
+    )
+    local_socket: Path | None = Field(
+        default=None,
+        description="UNIX socket streaming behaviour changes to the robot's controller",
     )
     exit_when_done: bool = Field(
         default=False, description="exit once the source ended and the outbox is empty"

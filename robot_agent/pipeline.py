@@ -19,6 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from robot_agent.behaviour import Behaviour
 from robot_agent.outbox import Outbox, Priority
 from vigil.classes import Decision, TransportMode
 from vigil.depth import sample_depth
@@ -146,6 +147,7 @@ class Pipeline:
         self._counts = _TransportCounts()
         self.last_decision: Decision | None = None
         self.refused: str | None = None  # a model refused since the last verified one
+        self.behaviour: Behaviour | None = None  # what the robot does with the decisions
 
     @property
     def classifier(self) -> FrameClassifier | None:
@@ -355,7 +357,21 @@ class Pipeline:
         if changed and (decision != Decision.NORMAL or self.last_decision is not None):
             log.info("transport %s frame %d: %s", self.transport_id, seq, decision.value.upper())
         self.last_decision = decision
+        if self.behaviour is not None:
+            self._behave(decision, wall_ts, detected.seen)
         return FrameResult(seq, decision, classification, detected.seen)
+
+    def _behave(self, decision: Decision | None, wall_ts: float, seen: bool) -> None:
+        degraded = None
+        if self.refused is not None:
+            degraded = f"model {self.refused} failed its check"
+        elif self.detector.degraded_:
+            degraded = (
+                "detection degraded: " + ", ".join(map(str, self.detector.missing_)) + " missing"
+            )
+        self.behaviour.update(
+            decision, wall_ts, seen=seen, degraded=degraded, transport_id=self.transport_id
+        )
 
     def _frame_body(
         self,

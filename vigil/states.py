@@ -13,7 +13,7 @@ exception handler (`backend.main`).
 Machines: alarm (`backend.alarms.state`), label segment (`backend.labelling.status`), job
 (`backend.jobs.queue`), model version and rollout (`backend.registry.rollout`), retention run
 (`backend.storage.retention`), patient tracker (`vigil.tracking`), the robot's local alarm
-(`robot_agent.alarm`).
+(`robot_agent.alarm`), the robot's behaviour (`robot_agent.behaviour`).
 """
 
 from __future__ import annotations
