@@ -7,6 +7,7 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import logging
+import shlex
 import time
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
@@ -15,7 +16,9 @@ from pathlib import Path
 
 from robot_agent.alarm import LocalAlarm
 from robot_agent.backoff import Backoff
+from robot_agent.behaviour import Behaviour
 from robot_agent.client import LinkFatal, RobotLink
+from robot_agent.local_command import BehaviourHook, LocalCommandServer
 from robot_agent.models import ModelRefused, fetch_model, forget_running, remember_running
 from robot_agent.outbox import Outbox
 from robot_agent.pipeline import Pipeline
@@ -59,6 +62,10 @@ class AgentOptions:
     backoff_max_s: float = 15.0
     alarm_after_s: float = 3.0
     alarm_hook: str | None = None
+    pause_hold_s: float = 2.0
+    degraded_action: str = "stop"
+    patient_unseen_s: float = 3.0
+    local_socket: Path | None = None
     speed: float = 1.0  # pace observations at their timestamps / speed; 0: as fast as possible
     exit_when_done: bool = False
 
@@ -102,6 +109,19 @@ class RobotAgent:
             after_s=options.alarm_after_s,
             hook=options.alarm_hook,
         )
+        pipeline.behaviour = self.behaviour = Behaviour(
+            pipeline.mode, options.pause_hold_s, options.degraded_action,
+            options.patient_unseen_s, robot_id,
+        )  # fmt: skip
+        self.local = (
+            LocalCommandServer(options.local_socket, self.behaviour)
+            if options.local_socket is not None
+            else None
+        )
+        if options.alarm_hook:
+            self.behaviour.listeners.append(
+                BehaviourHook(shlex.split(options.alarm_hook), robot_id)
+            )
         self.frames = 0
         self.source_done = asyncio.Event()
         self._fetching: set[str] = set()
@@ -288,6 +308,8 @@ class RobotAgent:
             asyncio.create_task(self.alarm.run(), name=f"{self.robot_id}-alarm"),
             asyncio.create_task(self.produce(), name=f"{self.robot_id}-source"),
         ]
+        if self.local is not None:
+            await self.local.start()  # listening before the first frame is decided
         if self.options.exit_when_done:
             tasks.append(asyncio.create_task(self._until_drained(), name="drained"))
         try:
@@ -305,6 +327,8 @@ class RobotAgent:
             for task in tasks:
                 with contextlib.suppress(asyncio.CancelledError, LinkFatal, Exception):
                     await task
+            if self.local is not None:
+                await self.local.close()
 
     async def _until_drained(self) -> None:
         await self.source_done.wait()

@@ -105,23 +105,27 @@ class LocalAlarm:
             "VIGIL_ALARM_SINCE": "" if since is None else f"{since:.3f}",
             "VIGIL_ALARM_REASON": reason,
         }
-        task = asyncio.get_running_loop().create_task(self._hook(env, state))
-        self._hooks.add(task)
-        task.add_done_callback(self._hooks.discard)
+        spawn_hook(self.hook, env, state, self._hooks)
 
-    async def _hook(self, env: dict[str, str], state: str) -> None:
-        try:
-            process = await asyncio.create_subprocess_exec(*self.hook, env=env)
-        except OSError as error:
-            log.error("alarm hook %s could not be started: %s", self.hook[0], error)
-            return
-        try:
-            code = await asyncio.wait_for(process.wait(), HOOK_TIMEOUT_S)
-        except TimeoutError:
-            process.kill()
-            log.error(
-                "alarm hook %s (%s) ran over %.0f s: killed", self.hook[0], state, HOOK_TIMEOUT_S
-            )
-            return
-        if code != 0:
-            log.error("alarm hook %s (%s) failed with exit code %d", self.hook[0], state, code)
+
+def spawn_hook(hook: list[str], env: dict[str, str], label: str, tasks: set) -> None:
+    """Run the hook command in the background (no shell, killed after HOOK_TIMEOUT_S)."""
+    task = asyncio.get_running_loop().create_task(_hook(hook, env, label))
+    tasks.add(task)
+    task.add_done_callback(tasks.discard)
+
+
+async def _hook(hook: list[str], env: dict[str, str], state: str) -> None:
+    try:
+        process = await asyncio.create_subprocess_exec(*hook, env=env)
+    except OSError as error:
+        log.error("alarm hook %s could not be started: %s", hook[0], error)
+        return
+    try:
+        code = await asyncio.wait_for(process.wait(), HOOK_TIMEOUT_S)
+    except TimeoutError:
+        process.kill()
+        log.error("alarm hook %s (%s) ran over %.0f s: killed", hook[0], state, HOOK_TIMEOUT_S)
+        return
+    if code != 0:
+        log.error("alarm hook %s (%s) failed with exit code %d", hook[0], state, code)

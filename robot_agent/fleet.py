@@ -91,7 +91,7 @@ def build_fleet(
                 tokens[robot_id],
                 pipeline,
                 plans,
-                agent_options(settings),
+                _own_socket(agent_options(settings), robot_id),
                 settings.models_dir / robot_id,
             )
         )
@@ -102,3 +102,11 @@ def build_fleet(
             pipeline.running_model,
         )
     return Fleet(agents)
+
+
+def _own_socket(options, robot_id: str):
+    """One local command socket per simulated robot: `<stem>-<robot_id><suffix>`."""
+    path = options.local_socket
+    if path is not None:
+        options.local_socket = path.with_name(f"{path.stem}-{robot_id}{path.suffix}")
+    return options

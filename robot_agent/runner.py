@@ -76,6 +76,10 @@ def agent_options(settings: AgentSettings, speed: float | None = None) -> AgentO
         backoff_max_s=settings.backoff_max_s,
         alarm_after_s=settings.alarm_after_s,
         alarm_hook=settings.alarm_hook,
+        pause_hold_s=settings.pause_hold_s,
+        degraded_action=settings.degraded_action,
+        patient_unseen_s=settings.patient_unseen_s,
+        local_socket=settings.local_socket,
         speed=settings.speed if speed is None else speed,
         exit_when_done=settings.exit_when_done,
     )

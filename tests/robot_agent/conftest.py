@@ -93,6 +93,10 @@ class AgentProcess:
     def hook_events(self) -> list[str]:
         return self.hook_log.read_text().split("\n")[:-1] if self.hook_log.exists() else []
 
+    def alarm_hook_events(self) -> list[str]:
+        """The local alarm's hook calls (raised/cleared), not the behaviour changes'."""
+        return [e for e in self.hook_events() if e.split()[0] in ("raised", "cleared")]
+
     def next_seq(self) -> int:
         with sqlite3.connect(self.outbox) as db:
             return db.execute("SELECT value FROM meta WHERE key = 'next_seq'").fetchone()[0]

@@ -63,7 +63,7 @@ def test_backend_killed_during_a_fall_loses_no_frame_and_the_alarm_arrives_after
     backend.kill()
 
     # The patient falls while the backend is dead: the robot alarms locally.
-    wait_for(lambda: "raised robot-a" in agent.hook_events(), 30, "the local alarm hook")
+    wait_for(lambda: "raised robot-a" in agent.alarm_hook_events(), 30, "the local alarm hook")
     assert "LOCAL ALARM robot robot-a" in agent.log()
     backend.start()
     nurse = NurseSocket(backend)
@@ -78,7 +78,7 @@ def test_backend_killed_during_a_fall_loses_no_frame_and_the_alarm_arrives_after
     count, distinct, first, last = frames_by_seq(backend)
     assert (count, distinct, first, last) == (sent, sent, 0, sent - 1)
     assert sent >= 12 * 30 * 0.9  # the whole generated transport
-    assert agent.hook_events() == ["raised robot-a", "cleared robot-a"]
+    assert agent.alarm_hook_events() == ["raised robot-a", "cleared robot-a"]
     (first_emergency,) = [seq for _, seq in emergency_alarms(backend)]
     decisions = query(
         backend,
