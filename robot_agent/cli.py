@@ -3,6 +3,8 @@
     vigil-robot run --config robot.toml [flags]       one robot from a keypoint source
     vigil-robot simulate --backend URL --robots 3 --tokens-file var/robot_tokens.json
                                                       a fleet of robots on GENERATED transports
+    vigil-robot reset --config robot.toml             reset this robot's emergency stop (local
+                                                      socket; audited on the server)
 
 Settings come from the TOML config file, then VIGIL_ROBOT_* environment variables, then flags.
 Bad configuration exits with code 2 and a message naming the field; a robot the backend refuses
@@ -90,6 +92,13 @@ def _parser() -> argparse.ArgumentParser:
                 default=None,
                 help=AgentSettings.model_fields[field].description,
             )
+    reset = commands.add_parser("reset", help="reset this robot's emergency stop (local socket)")
+    reset.add_argument("--config", type=Path, help="TOML config file")
+    reset.add_argument(
+        "--local-socket",
+        dest="local_socket",
+        help=AgentSettings.model_fields["local_socket"].description,
+    )
     for flag, field in RUN_FLAGS.items():
         run.add_argument(flag, dest=field, help=AgentSettings.model_fields[field].description)
     for flag, field in SIMULATE_FLAGS.items():
@@ -147,11 +156,34 @@ async def _run_until_signal(coroutine) -> None:
         await task
 
 
+def _reset(settings: AgentSettings) -> int:
+    from robot_agent.controller_client import reset
+
+    if settings.local_socket is None:
+        raise ConfigError("local_socket: required for reset (the running agent's socket)")
+    try:
+        reply = reset(settings.local_socket)
+    except (FileNotFoundError, ConnectionRefusedError, TimeoutError, OSError) as error:
+        print(f"vigil-robot: local_socket {settings.local_socket}: no agent answers ({error})",
+              file=sys.stderr)  # fmt: skip
+        return EXIT_REFUSED
+    if reply.get("reset"):
+        print(f"emergency stop reset; the robot is {reply['state']} (reported to the backend)")
+        return 0
+    print(f"vigil-robot: nothing reset: {reply.get('reason') or reply.get('error')}",
+          file=sys.stderr)  # fmt: skip
+    return EXIT_REFUSED
+
+
 def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
-    given = {k: v for k, v in vars(args).items() if k in AgentSettings.model_fields}
+    given = {
+        k: v for k, v in vars(args).items() if k in AgentSettings.model_fields and v is not None
+    }
     try:
         settings = load_settings(args.config, **given)
+        if args.command == "reset":
+            return _reset(settings)
         _setup_logging(settings.log_level)
         if args.command == "run":
             from robot_agent.runner import build_robot

@@ -9,6 +9,7 @@ import socket
 import sys
 from concurrent.futures import ThreadPoolExecutor
 
+from robot_agent import cli
 from robot_agent.agent import AgentOptions, RobotAgent, TransportPlan
 from robot_agent.controller_client import reset as client_reset
 from robot_agent.outbox import Outbox
@@ -101,13 +102,39 @@ def test_reset_on_the_socket_releases_the_emergency_stop(tmp_path):
         reply = await asyncio.to_thread(client_reset, tmp_path / "robot.sock")
         after = await _read_until(reader, "transporting")
         again = await asyncio.to_thread(client_reset, tmp_path / "robot.sock")
+        # `vigil-robot reset` on a robot that is not stopped: refused with the reason
+        code = await asyncio.to_thread(
+            cli.main, ["reset", "--local-socket", str(tmp_path / "robot.sock")]
+        )
         writer.close()
         await agent.local.close()
-        return reply, after[-1], again
+        return reply, after[-1], again, code
 
     with ThreadPoolExecutor(1) as pool:
-        reply, after, again = pool.submit(asyncio.run, scenario()).result()
+        reply, after, again, code = pool.submit(asyncio.run, scenario()).result()
     assert reply == {"reset": True, "state": "transporting"}
     assert "reset on the robot" in after["reason"]
     assert again["reset"] is False and "nothing to reset" in again["reason"]
+    assert code == 1
     assert len(agent.behaviour.pending_resets) == 1  # told to the backend on reconnect
+
+
+def test_reset_cli_stops_the_robot_via_the_socket_and_names_a_missing_agent(tmp_path, capsys):
+    agent = _agent(tmp_path)
+    path = str(tmp_path / "robot.sock")
+    assert cli.main(["reset", "--local-socket", path]) == 1
+    assert "no agent answers" in capsys.readouterr().err
+    assert cli.main(["reset"]) == 2
+    assert "local_socket" in capsys.readouterr().err
+
+    async def scenario():
+        await agent.local.start()
+        await agent.produce()
+        code = await asyncio.to_thread(cli.main, ["reset", "--local-socket", path])
+        await agent.local.close()
+        return code
+
+    with ThreadPoolExecutor(1) as pool:
+        assert pool.submit(asyncio.run, scenario()).result() == 0
+    assert "emergency stop reset" in capsys.readouterr().out
+    assert agent.behaviour.state == "transporting"
