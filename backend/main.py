@@ -151,7 +151,7 @@ async def start_services(settings: Settings) -> Services:
     await bus.start()
     robots = RobotRegistry(on_change=metrics.connected_robots.set)
     assignments = AssignmentPusher(factory, robots, settings.assignment_resend_s)
-    effects = Fanout(bus, assignments)
+    effects = Fanout(bus, assignments, robots)
     writer = FrameWriter(
         factory,
         metrics,

@@ -59,6 +59,14 @@ class Fanout:
 
     bus: AlarmBus
     assignments: AssignmentPusher
+    robots: RobotRegistry | None = None
+
+    async def send_to_robot(self, robot_id: str, text: str) -> None:
+        """One message to a robot connected to this replica (a robot connected to another
+        one does not get it: alarm_acknowledged / alarm_resolved are best effort)."""
+        link = self.robots.socket(robot_id) if self.robots is not None else None
+        if link is not None:
+            await link.send(text)
 
     async def publish_alarm(self, alarm: dict) -> None:
         await self.bus.publish(alarm)

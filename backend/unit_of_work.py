@@ -42,6 +42,10 @@ class Effects(Protocol):
 
     async def push_assignments(self, robot_ids: list[str]) -> None: ...
 
+    # Optional (an Effects without it drops robot messages): send one message to a robot
+    # connected to this process (alarm_acknowledged, alarm_resolved).
+    # async def send_to_robot(self, robot_id: str, text: str) -> None: ...
+
 
 class UnitOfWork:
     """One session in one transaction; `commit()` is the only commit of the code base."""
@@ -53,6 +57,7 @@ class UnitOfWork:
         self._published: list[dict] = []  # AlarmOut JSON, serialised at commit
         self._robots: list[str] = []
         self._hooks: list[AfterCommit] = []
+        self._robot_messages: list[tuple[str, str]] = []  # (robot_id, message JSON)
         self.committed = False
         self._effects_ran = False
 
@@ -66,6 +71,9 @@ class UnitOfWork:
 
     def after_commit(self, hook: AfterCommit) -> None:
         self._hooks.append(hook)
+
+    def tell_robot(self, robot_id: str, text: str) -> None:
+        self._robot_messages.append((robot_id, text))
 
     # -- the boundary ------------------------------------------------------------------------
     def commit(self) -> None:
@@ -84,6 +92,7 @@ class UnitOfWork:
         self._alarms.clear()
         self._robots.clear()
         self._hooks.clear()
+        self._robot_messages.clear()
 
     def close(self) -> None:
         self.session.info.pop(_UNIT, None)
@@ -103,6 +112,7 @@ class UnitOfWork:
         self._published.extend(other._published)
         self.push_assignments(other._robots)
         self._hooks.extend(other._hooks)
+        self._robot_messages.extend(other._robot_messages)
 
     async def run_after_commit(self, effects: Effects | None = None) -> None:
         """Alarms first, then assignments, then the other hooks; each failure is logged and the
@@ -122,6 +132,12 @@ class UnitOfWork:
                     await effects.push_assignments(robots)
                 except Exception:
                     log.exception("assignments to %s not sent", robots)
+            send = getattr(effects, "send_to_robot", None)
+            for robot_id, text in self._robot_messages if send is not None else ():
+                try:
+                    await send(robot_id, text)
+                except Exception:
+                    log.exception("message to robot %s not sent", robot_id)
         for hook in hooks:
             try:
                 result = hook()
@@ -229,6 +245,13 @@ def push_assignments(session: Session, robot_ids: Iterable[str]) -> None:
     unit = of(session)
     if unit is not None:
         unit.push_assignments(robot_ids)
+
+
+def tell_robot(session: Session, robot_id: str, text: str) -> None:
+    """Send this message to the robot (if connected to this process) once the unit commits."""
+    unit = of(session)
+    if unit is not None:
+        unit.tell_robot(robot_id, text)
 
 
 def after_commit(session: Session, hook: AfterCommit) -> None:

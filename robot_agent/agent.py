@@ -24,7 +24,13 @@ from robot_agent.outbox import Outbox
 from robot_agent.pipeline import Pipeline
 from vigil.inputs import is_keypoints_only
 from vigil.observation import Observation
-from vigil.protocol import ModelAssignment, Welcome
+from vigil.protocol import (
+    AlarmAcknowledged,
+    AlarmResolved,
+    EmergencyReset,
+    ModelAssignment,
+    Welcome,
+)
 
 log = logging.getLogger(__name__)
 
@@ -100,6 +106,7 @@ class RobotAgent:
             heartbeat_s=options.heartbeat_s,
             batch_frames=options.batch_frames,
             backoff=Backoff(options.backoff_initial_s, options.backoff_max_s),
+            on_alarm=self.on_alarm,
         )
         self.alarm = LocalAlarm(
             robot_id,
@@ -113,6 +120,7 @@ class RobotAgent:
             pipeline.mode, options.pause_hold_s, options.degraded_action,
             options.patient_unseen_s, robot_id,
         )  # fmt: skip
+        self.behaviour.on_reset = self._report_reset
         self.local = (
             LocalCommandServer(options.local_socket, self.behaviour)
             if options.local_socket is not None
@@ -227,6 +235,21 @@ class RobotAgent:
             remember_running(self.models_dir, assignment.version, assignment.sha256)
             self.link.model_error = None
         self.link.heartbeat_now()
+
+    # --- the robot's behaviour --------------------------------------------------------------
+    def on_alarm(self, message: AlarmAcknowledged | AlarmResolved) -> None:
+        """A nurse acknowledged (help is coming) or resolved (an emergency stop is released)
+        this robot's alarm: shown locally (log, local socket, hook)."""
+        if isinstance(message, AlarmAcknowledged):
+            self.behaviour.acknowledged(message.alarm_id, message.by, message.at)
+        elif self.behaviour.resolved(message.alarm_id, message.by, message.at) is None:
+            log.info("robot %s: alarm %d resolved by %s (the robot was not stopped)",
+                     self.robot_id, message.alarm_id, message.by)  # fmt: skip
+
+    def _report_reset(self, ts: float, transport_id, alarm_id, who: str) -> None:
+        message = EmergencyReset(ts=ts, transport_id=transport_id, alarm_id=alarm_id, by=who)
+        self.outbox.add_message(message.model_dump_json(exclude_none=True))
+        self.link.notify_queued()
 
     # --- frames ------------------------------------------------------------------------------
     async def produce(self) -> None:

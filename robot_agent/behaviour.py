@@ -113,8 +113,11 @@ class Behaviour:
         self.listeners: list[Listener] = []
         self._normal_since: float | None = None
         self._unseen_since: float | None = None
-        #: local resets not yet reported to the backend: (ts, transport_id, alarm_id)
-        self.pending_resets: list[tuple[float, str | None, int | None]] = []
+        #: local resets made: (ts, transport_id, alarm_id, who)
+        self.resets: list[tuple[float, str | None, int | None, str]] = []
+        #: called on each local reset with (ts, transport_id, alarm_id, who): the agent queues
+        #: an emergency_reset message for the backend (sent when it is reachable)
+        self.on_reset: Callable[[float, str | None, int | None, str], None] | None = None
 
     # --- the decision path ---------------------------------------------------------------
     def update(
@@ -183,7 +186,10 @@ class Behaviour:
         if self.state != _E:
             return None
         ts = time.time() if ts is None else ts
-        self.pending_resets.append((ts, self.transport_id, self.alarm_id))
+        record = (ts, self.transport_id, self.alarm_id, who)
+        self.resets.append(record)
+        if self.on_reset is not None:
+            self.on_reset(*record)
         return self._act("reset", ts, f"emergency stop reset on the robot ({who})")
 
     def acknowledged(self, alarm_id: int, by: str, at: float) -> BehaviourChange:

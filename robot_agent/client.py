@@ -26,6 +26,8 @@ from vigil import protocol
 from vigil.inputs import normalise
 from vigil.protocol import (
     Ack,
+    AlarmAcknowledged,
+    AlarmResolved,
     Heartbeat,
     Hello,
     ModelAssignment,
@@ -61,6 +63,7 @@ class RobotLink:
         heartbeat_s: float = 5.0,
         batch_frames: int = 100,
         backoff: Backoff | None = None,
+        on_alarm: Callable[[AlarmAcknowledged | AlarmResolved], None] | None = None,
     ) -> None:
         self.url, self.robot_id, self.token = url, robot_id, token
         self.outbox = outbox
@@ -68,6 +71,7 @@ class RobotLink:
         self.inputs = None if inputs is None else normalise(inputs)  # told in the hello
         self.on_assignment = on_assignment
         self.on_welcome = on_welcome
+        self.on_alarm = on_alarm  # a nurse acknowledged / resolved this robot's alarm
         # sha256 of the model files it runs (hello: running_sha256, fallback_model/_sha256).
         self.loaded_models = loaded_models or dict
         self.heartbeat_s = heartbeat_s
@@ -242,6 +246,9 @@ class RobotLink:
                     task = asyncio.create_task(self.on_assignment(message))
                     self._tasks.add(task)
                     task.add_done_callback(self._tasks.discard)
+            elif isinstance(message, AlarmAcknowledged | AlarmResolved):
+                if self.on_alarm is not None:
+                    self.on_alarm(message)
             elif isinstance(message, ServerError):
                 log.warning("robot %s: backend says: %s", self.robot_id, message.message)
 

@@ -172,13 +172,40 @@ class DetectionStatus(_Message):
     reason: str = Field(default="", max_length=500)
 
 
+class EmergencyReset(_Message):
+    """The robot's emergency stop was reset on the robot itself (`vigil-robot reset`, its local
+    socket), not by a nurse's resolve (protocol 1 extension). Queued in the outbox, so a reset
+    made while the backend was unreachable is told on reconnect; the backend writes it into the
+    audit of the robot's alarm (``alarm_id``, else the transport's unresolved Emergency)."""
+
+    type: Literal["emergency_reset"] = "emergency_reset"
+    ts: FiniteFloat
+    transport_id: str | None = Field(default=None, max_length=64)
+    alarm_id: int | None = Field(default=None, ge=1)
+    by: str = Field(default="local", max_length=64, description="who reset: cli, local socket")
+
+
 RobotMessage = Annotated[
-    Hello | TransportStart | TransportEnd | FrameBatch | Heartbeat | DetectionStatus,
+    Hello
+    | TransportStart
+    | TransportEnd
+    | FrameBatch
+    | Heartbeat
+    | DetectionStatus
+    | EmergencyReset,
     Field(discriminator="type"),
 ]
 robot_message_adapter: TypeAdapter[RobotMessage] = TypeAdapter(RobotMessage)
 MESSAGE_TYPES = frozenset(
-    {"hello", "transport_start", "transport_end", "frames", "heartbeat", "detection_status"}
+    {
+        "hello",
+        "transport_start",
+        "transport_end",
+        "frames",
+        "heartbeat",
+        "detection_status",
+        "emergency_reset",
+    }
 )
 
 
@@ -248,8 +275,53 @@ class ServerError(_Message):
     message: str
 
 
+class AlarmAcknowledged(_Message):
+    """A nurse acknowledged this robot's alarm: help is coming (protocol 1 extension). The robot
+    shows it locally (log, local socket, hook); its behaviour does not change."""
+
+    type: Literal["alarm_acknowledged"] = "alarm_acknowledged"
+    alarm_id: int = Field(ge=1)
+    kind: str = Field(max_length=32)
+    transport_id: str | None = Field(default=None, max_length=64)
+    by: str = Field(max_length=128, description="who acknowledged (role:username)")
+    at: FiniteFloat = Field(description="when (Unix time)")
+
+
+class AlarmResolved(_Message):
+    """A nurse resolved this robot's alarm (protocol 1 extension): an emergency stop is
+    released and the robot goes on transporting."""
+
+    type: Literal["alarm_resolved"] = "alarm_resolved"
+    alarm_id: int = Field(ge=1)
+    kind: str = Field(max_length=32)
+    transport_id: str | None = Field(default=None, max_length=64)
+    by: str = Field(max_length=128, description="who resolved (role:username)")
+    at: FiniteFloat = Field(description="when (Unix time)")
+    verdict: str | None = Field(default=None, max_length=32)
+
+
+def alarm_acknowledged(
+    alarm_id: int, kind: str, transport_id: str | None, by: str, at: float
+) -> AlarmAcknowledged:
+    return AlarmAcknowledged(alarm_id=alarm_id, kind=kind, transport_id=transport_id, by=by, at=at)
+
+
+def alarm_resolved(
+    alarm_id: int,
+    kind: str,
+    transport_id: str | None,
+    by: str,
+    at: float,
+    verdict: str | None = None,
+) -> AlarmResolved:
+    return AlarmResolved(
+        alarm_id=alarm_id, kind=kind, transport_id=transport_id, by=by, at=at, verdict=verdict
+    )
+
+
 ServerMessage = Annotated[
-    Welcome | Ack | ModelAssignment | ServerError, Field(discriminator="type")
+    Welcome | Ack | ModelAssignment | ServerError | AlarmAcknowledged | AlarmResolved,
+    Field(discriminator="type"),
 ]
 server_message_adapter: TypeAdapter[ServerMessage] = TypeAdapter(ServerMessage)
 

@@ -4,11 +4,12 @@ commits, then pushes every alarm changed here to the boards (`unit_of_work.publi
 from __future__ import annotations
 
 from dataclasses import dataclass
-from datetime import datetime
+from datetime import UTC, datetime
 
 from sqlalchemy import select
 from sqlalchemy.orm import Session
 
+from backend.alarms import queries
 from backend.alarms.state import ALARM, AlarmAction
 from backend.models._types import utcnow
 from backend.models.alarms import (
@@ -23,7 +24,8 @@ from backend.models.alarms import (
 )
 from backend.models.robots import Robot, Transport
 from backend.models.users import User
-from backend.unit_of_work import publish_alarm
+from backend.unit_of_work import publish_alarm, tell_robot
+from vigil import protocol
 
 
 @dataclass(slots=True)
@@ -142,6 +144,12 @@ def acknowledge(session: Session, alarm: Alarm, user: User, comment: str | None 
     alarm.acknowledged_by_user = user
     _record(session, alarm, AlarmAction.ACKNOWLEDGE, before, f"{user.role}:{user.username}", user,
             comment)  # fmt: skip
+    if alarm.kind not in TECHNICAL_KINDS:  # help is coming: the robot tells the patient
+        message = protocol.alarm_acknowledged(
+            alarm.id, str(alarm.kind), alarm.transport_id, f"{user.role}:{user.username}",
+            alarm.acknowledged_at.timestamp(),
+        )  # fmt: skip
+        tell_robot(session, alarm.robot_id, message.model_dump_json())
     return alarm
 
 
@@ -166,6 +174,31 @@ def resolve(
         note += f": {comment}"
     _record(session, alarm, AlarmAction.RESOLVE, before, f"{user.role}:{user.username}", user,
             note)  # fmt: skip
+    if alarm.kind not in TECHNICAL_KINDS:  # releases the robot's emergency stop
+        message = protocol.alarm_resolved(
+            alarm.id, str(alarm.kind), alarm.transport_id, f"{user.role}:{user.username}",
+            alarm.resolved_at.timestamp(), verdict.value,
+        )  # fmt: skip
+        tell_robot(session, alarm.robot_id, message.model_dump_json())
+    return alarm
+
+
+def robot_reset(session: Session, robot_id: str, message: protocol.EmergencyReset) -> Alarm | None:
+    """The robot's emergency stop was reset on the robot: written into the audit of the alarm
+    it names (if that robot's), else of the transport's latest Emergency. None: no such alarm."""
+    alarm = session.get(Alarm, message.alarm_id) if message.alarm_id is not None else None
+    if alarm is None or alarm.robot_id != robot_id:
+        alarm = queries.latest_of_kind(
+            session, robot_id, message.transport_id or "", AlarmKind.EMERGENCY
+        )
+    if alarm is None:
+        return None
+    before = alarm.state
+    ALARM.act(alarm, AlarmAction.ROBOT_RESET)
+    alarm.updated_at = utcnow()
+    at = datetime.fromtimestamp(message.ts, UTC).isoformat(timespec="seconds")
+    _record(session, alarm, AlarmAction.ROBOT_RESET, before, f"robot:{robot_id}",
+            comment=f"emergency stop reset on the robot ({message.by}) at {at}")  # fmt: skip
     return alarm
 
 

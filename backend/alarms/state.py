@@ -29,6 +29,9 @@ class AlarmAction(StrEnum):
     REALARM = "realarm"
     CLEAR = "clear"  # the system resolves a technical alarm whose cause ended (no verdict)
     MISS = "miss"  # the escalation chain ended without an acknowledgement
+    # The robot reports its emergency stop was reset on the robot (not by a resolve): audited,
+    # the alarm's state does not change.
+    ROBOT_RESET = "robot_reset"
 
 
 OPEN, ACKNOWLEDGED, RESOLVED = AlarmState.OPEN, AlarmState.ACKNOWLEDGED, AlarmState.RESOLVED
@@ -49,6 +52,7 @@ ALARM = StateMachine(
         AlarmAction.REALARM: {ACKNOWLEDGED: ACKNOWLEDGED},
         AlarmAction.CLEAR: {OPEN: RESOLVED, ACKNOWLEDGED: RESOLVED},
         AlarmAction.MISS: {OPEN: MISSED},
+        AlarmAction.ROBOT_RESET: {s: s for s in AlarmState},
     },
     attribute="state",
     initial=OPEN,

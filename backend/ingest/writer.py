@@ -23,6 +23,7 @@ from typing import Protocol
 from sqlalchemy.exc import DataError
 from sqlalchemy.orm import Session, sessionmaker
 
+from backend.alarms import service as alarm_service
 from backend.ingest import service
 from backend.ingest.context import IngestContext
 from backend.ingest.failopen import FailOpen
@@ -31,11 +32,19 @@ from backend.metrics import Metrics
 from backend.unit_of_work import Effects, UnitOfWork, unit_of_work
 from vigil import protocol
 from vigil.classes import Decision
-from vigil.protocol import DetectionStatus, Heartbeat, TransportEnd, TransportStart
+from vigil.protocol import (
+    DetectionStatus,
+    EmergencyReset,
+    Heartbeat,
+    TransportEnd,
+    TransportStart,
+)
 
 log = logging.getLogger(__name__)
 
-RobotWork = ReceivedFrames | TransportStart | TransportEnd | Heartbeat | DetectionStatus
+RobotWork = (
+    ReceivedFrames | TransportStart | TransportEnd | Heartbeat | DetectionStatus | EmergencyReset
+)
 CACHE_SECONDS = 5.0
 
 
@@ -377,6 +386,11 @@ class FrameWriter:
                     log.warning("robot %s: detection %s: %s", robot.id,
                                 "degraded" if message.degraded else "recovered",
                                 message.reason or ", ".join(message.missing_inputs))  # fmt: skip
+            elif isinstance(message, EmergencyReset):
+                audited = alarm_service.robot_reset(session, robot.id, message)
+                log.warning("robot %s: emergency stop reset on the robot (%s)%s", robot.id,
+                            message.by, f", audited on alarm {audited.id}" if audited else
+                            ", no Emergency alarm to audit it on")  # fmt: skip
         store_run()
         outcome.stored = context.flush_rows(session)
         context.write_back(session)

@@ -61,7 +61,7 @@ def test_local_reset_releases_and_is_kept_for_the_backend():
     feed(behaviour, [E])
     behaviour.reset(ts=123.0)
     assert behaviour.state == BehaviourState.TRANSPORTING
-    assert behaviour.pending_resets == [(123.0, "t-1", None)]
+    assert behaviour.resets == [(123.0, "t-1", None, "local")]
 
 
 def test_degraded_detection_slows_or_stops_and_recovers():

@@ -116,7 +116,11 @@ def test_reset_on_the_socket_releases_the_emergency_stop(tmp_path):
     assert "reset on the robot" in after["reason"]
     assert again["reset"] is False and "nothing to reset" in again["reason"]
     assert code == 1
-    assert len(agent.behaviour.pending_resets) == 1  # told to the backend on reconnect
+    assert len(agent.behaviour.resets) == 1
+    # queued for the backend (sent on reconnect)
+    queued = [json.loads(m.text) for m in agent.outbox.pending(limit=100_000) if m.seq is None]
+    (reset,) = [m for m in queued if m["type"] == "emergency_reset"]
+    assert reset["by"] == "local socket" and reset["transport_id"].startswith("robot-a-")
 
 
 def test_reset_cli_stops_the_robot_via_the_socket_and_names_a_missing_agent(tmp_path, capsys):
