@@ -19,6 +19,12 @@
   5 people; 15 s; seeds 100-111): frames attributed to someone else (`identity_switch_frames`),
   transports with any, and frames where the visible patient was not passed on
   (`patient_lost_frames`), with the generator's depth and with depth removed.
+- socket_latency: decision frame to the line on the local command socket (issue 33): a robot
+  agent in this process streams GENERATED falls (vigil.synthetic, decisions = the generator's
+  ground truth, flat out) with the backend down (nothing listens) and up (real backend); a
+  controller in another thread reads the socket and resets each emergency stop. Latency = from
+  the start of `Pipeline.process` of the frame that stopped the robot to the controller
+  receiving the `emergency_stop` line (p50/p99/max ms, and the number of stops).
 Goals (issue 5): frame p99 <= 5 ms; MediaPipe >= 15 frames/s on 2 cores. Issue 17: 0 dropped
 frames on URFD, 0 identity switches on the generated scenes.
 """
@@ -48,6 +54,16 @@ URFD_DIR = default_dir()
 VIDEO = URFD_DIR / "video" / "fall-01-cam0.mp4"
 GOAL_FRAME_P99_MS = 5.0
 GOAL_MEDIAPIPE_FPS = 15.0
+GOAL_SOCKET_P99_MS = 100.0
+
+
+def socket_goals(latency: dict) -> dict:
+    return {
+        "socket_p99_ms": GOAL_SOCKET_P99_MS,
+        "socket_p99_met": all(
+            latency[k]["p99_ms"] <= GOAL_SOCKET_P99_MS for k in ("backend_down", "backend_up")
+        ),
+    }
 
 
 def ensure_model() -> Path:
@@ -258,6 +274,104 @@ def bench_outbox_replay(workdir: Path, n: int) -> dict:
     }
 
 
+def _socket_latency(url: str, workdir: Path, transports: int) -> dict:
+    import socket as socketlib
+    import threading
+
+    from robot_agent.agent import AgentOptions, RobotAgent, TransportPlan
+    from robot_agent.outbox import Outbox
+    from robot_agent.pipeline import Pipeline
+    from robot_agent.sources.simulator import SimulatorSource
+    from tests.support.live_backend import ROBOT_ID, ROBOT_TOKEN
+    from vigil.classes import TransportMode
+
+    path = workdir / f"latency-{int(time.time() * 1000)}.sock"
+    outbox = Outbox(workdir / f"latency-{path.stem}.sqlite")
+    pipeline = Pipeline(outbox, TransportMode.WALKING, ground_truth_fallback=True)
+    plans = [
+        TransportPlan(list(SimulatorSource("walking", seed=200 + i, duration_s=10, n_people=1,
+                                           events=["fall"], speed=0)))
+        for i in range(transports)
+    ]  # fmt: skip
+    options = AgentOptions(url=url, speed=0, local_socket=path, backoff_max_s=0.5)
+    agent = RobotAgent(ROBOT_ID, ROBOT_TOKEN, pipeline, iter(plans), options, workdir / "m")
+    started: dict[str, float] = {}  # the current frame's start
+    stop_frames: list[float] = []
+    received: list[float] = []
+    process = pipeline.process
+
+    def timed(observation):
+        started["t"] = time.perf_counter()
+        return process(observation)
+
+    pipeline.process = timed  # type: ignore[method-assign]
+    agent.behaviour.listeners.insert(
+        0, lambda c: stop_frames.append(started["t"]) if c.state == "emergency_stop" else None
+    )
+
+    def controller(ready: threading.Event, done: threading.Event) -> None:
+        sock = socketlib.socket(socketlib.AF_UNIX, socketlib.SOCK_STREAM)
+        sock.connect(str(path))
+        sock.settimeout(0.2)
+        ready.set()
+        buffer = b""
+        while not done.is_set():
+            try:
+                chunk = sock.recv(65536)
+            except TimeoutError:
+                continue
+            now = time.perf_counter()
+            if not chunk:
+                break
+            buffer += chunk
+            while b"\n" in buffer:
+                line, buffer = buffer.split(b"\n", 1)
+                message = json.loads(line)
+                if message.get("state") == "emergency_stop" and message.get("event") == "behaviour":
+                    received.append(now)
+                    sock.sendall(b"reset\n")
+        sock.close()
+
+    async def run() -> None:
+        await agent.local.start()
+        ready, done = threading.Event(), threading.Event()
+        thread = threading.Thread(target=controller, args=(ready, done), daemon=True)
+        thread.start()
+        await asyncio.to_thread(ready.wait, 5)
+        link = asyncio.create_task(agent.link.run())
+        await asyncio.sleep(0.5)
+        await agent.produce()
+        await asyncio.sleep(0.5)
+        done.set()
+        link.cancel()
+        await asyncio.to_thread(thread.join, 5)
+        await agent.local.close()
+
+    asyncio.run(run())
+    outbox.close()
+    # the first line of a stop already on the socket when a reset arrived is the one counted
+    latencies = [(r - s) * 1000 for s, r in zip(stop_frames, received, strict=False)]
+    return {
+        "stops": len(latencies),
+        "p50_ms": _percentile(latencies, 50),
+        "p99_ms": _percentile(latencies, 99),
+        "max_ms": round(max(latencies), 3),
+    }
+
+
+def bench_socket_latency(workdir: Path, transports: int = 6) -> dict:
+    from tests.support.live_backend import LiveServer, free_port
+
+    down = _socket_latency(f"ws://127.0.0.1:{free_port()}/ws/robot", workdir, transports)
+    server = LiveServer.create(workdir)
+    server.start()
+    try:
+        up = _socket_latency(server.robot_ws_url, workdir, transports)
+    finally:
+        server.stop()
+    return {"backend_down": down, "backend_up": up}
+
+
 def tracking_goals(tracking: dict) -> dict:
     return {
         "urfd_dropped_frames_met": tracking["urfd_dropped_frames"] == 0,
@@ -275,8 +389,21 @@ def main(argv: list[str] | None = None) -> int:
         action="store_true",
         help="only the tracking figures, merged into an existing --output",
     )
+    parser.add_argument(
+        "--latency-only",
+        action="store_true",
+        help="only the decision -> local socket latency, merged into an existing --output",
+    )
     parser.add_argument("--output", type=Path, default=RESULTS)
     args = parser.parse_args(argv)
+    if args.latency_only:
+        result = json.loads(args.output.read_text()) if args.output.exists() else {}
+        with tempfile.TemporaryDirectory() as tmp:
+            result["socket_latency"] = bench_socket_latency(Path(tmp))
+        result.setdefault("goals", {}).update(socket_goals(result["socket_latency"]))
+        args.output.write_text(json.dumps(result, indent=2) + "\n")
+        print(json.dumps(result["socket_latency"], indent=2))
+        return 0
     if args.tracking_only:
         result = json.loads(args.output.read_text()) if args.output.exists() else {}
         result["tracking"] = bench_tracking()
@@ -302,9 +429,11 @@ def main(argv: list[str] | None = None) -> int:
             result.update(bench_mediapipe())
         print(json.dumps(result), flush=True)
         result.update(bench_outbox_replay(workdir, args.replay_frames))
+        result["socket_latency"] = bench_socket_latency(workdir)
     result["tracking"] = bench_tracking()
     result["goals"] = {
         **tracking_goals(result["tracking"]),
+        **socket_goals(result["socket_latency"]),
         "frame_p99_ms": GOAL_FRAME_P99_MS,
         "frame_p99_met": result["frame_p99_ms"] <= GOAL_FRAME_P99_MS,
         "frame_cpu_p99_met": result["frame_cpu_p99_ms"] <= GOAL_FRAME_P99_MS,
