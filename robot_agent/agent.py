@@ -242,9 +242,13 @@ class RobotAgent:
         this robot's alarm: shown locally (log, local socket, hook)."""
         if isinstance(message, AlarmAcknowledged):
             self.behaviour.acknowledged(message.alarm_id, message.by, message.at)
-        elif self.behaviour.resolved(message.alarm_id, message.by, message.at) is None:
-            log.info("robot %s: alarm %d resolved by %s (the robot was not stopped)",
-                     self.robot_id, message.alarm_id, message.by)  # fmt: skip
+            return
+        released = None
+        if message.kind == "emergency":  # a resolved Pause alarm releases no emergency stop
+            released = self.behaviour.resolved(message.alarm_id, message.by, message.at)
+        if released is None:
+            log.info("robot %s: %s alarm %d resolved by %s (no emergency stop released)",
+                     self.robot_id, message.kind, message.alarm_id, message.by)  # fmt: skip
 
     def _report_reset(self, ts: float, transport_id, alarm_id, who: str) -> None:
         message = EmergencyReset(ts=ts, transport_id=transport_id, alarm_id=alarm_id, by=who)

@@ -15,7 +15,7 @@ from robot_agent.controller_client import reset as client_reset
 from robot_agent.outbox import Outbox
 from robot_agent.pipeline import Pipeline
 from robot_agent.sources.simulator import SimulatorSource
-from vigil.classes import TransportMode
+from vigil.classes import Decision, TransportMode
 from vigil.runtime import FrameClassifier
 
 from .tiny_model import write_upright_model
@@ -142,3 +142,21 @@ def test_reset_cli_stops_the_robot_via_the_socket_and_names_a_missing_agent(tmp_
         assert pool.submit(asyncio.run, scenario()).result() == 0
     assert "emergency stop reset" in capsys.readouterr().out
     assert agent.behaviour.state == "transporting"
+
+
+def test_only_a_resolved_emergency_alarm_releases_the_stop(tmp_path):
+    from vigil.protocol import alarm_acknowledged, alarm_resolved
+
+    agent = _agent(tmp_path)
+    seen = []
+    agent.behaviour.listeners.append(seen.append)
+    agent.behaviour.update(Decision.EMERGENCY, 1.0, transport_id="t-1")
+    agent.on_alarm(alarm_acknowledged(5, "emergency", "t-1", "nurse:alice", 2.0))
+    assert (seen[-1].event, seen[-1].alarm_id, seen[-1].state) == (
+        "alarm_acknowledged", 5, "emergency_stop"
+    )  # fmt: skip
+    agent.on_alarm(alarm_resolved(6, "pause", "t-1", "nurse:alice", 3.0))
+    assert agent.behaviour.state == "emergency_stop"
+    agent.on_alarm(alarm_resolved(5, "emergency", "t-1", "nurse:alice", 4.0, "true_emergency"))
+    assert agent.behaviour.state == "transporting"
+    assert seen[-1].reason == "alarm 5 resolved by nurse:alice on the board"
