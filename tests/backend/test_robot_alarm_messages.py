@@ -7,6 +7,7 @@ from __future__ import annotations
 import json
 import time
 
+import pytest
 from sqlalchemy import select
 
 from backend.models import AlarmEvent, Role
@@ -30,6 +31,8 @@ def _robot_with_an_emergency(ws, robot: str) -> None:
     assert json.loads(ws.receive_text()) == {"type": "ack", "seq": 1}
 
 
+# A message that never comes would block receive_text: fail instead of hanging.
+@pytest.mark.timeout(30)
 def test_acknowledge_and_resolve_are_sent_to_the_robot(client, make_account, robot):
     nurse = make_account(Role.NURSE, ward="ward-a", username="alice")
     with client.websocket_connect("/ws/robot") as ws:
