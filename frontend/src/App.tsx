@@ -21,11 +21,13 @@ import { AdminPage } from "./pages/admin/AdminPage";
 import { StoragePage } from "./pages/admin/StoragePage";
 import { Layout } from "./pages/Layout";
 import { LoginPage } from "./pages/LoginPage";
+import { NotHerePage } from "./pages/NotHerePage";
 
 export function App() {
   const { user } = useAuth();
   return (
     <Routes>
+      <Route path="/" element={<Navigate to={user ? homeFor(user.role) : "/login"} replace />} />
       <Route path="/login" element={<LoginPage />} />
       <Route element={<Layout />}>
         <Route path="/annotate" element={<RequireRole section="annotate"><VideosPage /></RequireRole>} />
@@ -46,8 +48,8 @@ export function App() {
           <Route path="fleet" element={<FleetPage />} />
           <Route path="jobs" element={<JobsPage />} />
         </Route>
+        <Route path="*" element={user ? <NotHerePage kind="not-found" /> : <Navigate to="/login" replace />} />
       </Route>
-      <Route path="*" element={<Navigate to={user ? homeFor(user.role) : "/login"} replace />} />
     </Routes>
   );
 }

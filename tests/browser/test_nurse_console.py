@@ -142,9 +142,17 @@ def test_fall_alarm_sounds_is_acknowledged_resolved_and_becomes_a_label(live_ser
     page.goto(f"{live_server.base_url}/nurse/alarms/{alarm_id}")
     replay = page.locator("main.replay")
     expect(replay).to_contain_text("mlp-7")
-    expect(replay).to_contain_text("threshold 0.60")
+    expect(replay).to_contain_text("alarm level 60%")
     expect(page.locator("canvas.skeleton")).to_be_visible()
     assert int(replay.get_attribute("data-frames")) >= 40
+    expect(replay.locator(".frame-info")).to_contain_text("alarm raised")
+    # In a nurse's words: no engineer terms on the page as it opens (issue 35) ...
+    shown = replay.inner_text()
+    for word in ("Threshold", "Delay", "P(emergency)", "delay filter", " ms)"):
+        assert word not in shown, f"{word!r} on the nurse's replay page"
+    # ... and the numbers one click away.
+    page.get_by_text("Technical details").click()
+    expect(replay).to_contain_text("threshold 0.60")
     expect(replay).to_contain_text("delay filter fired")
     expect(page.get_by_role("table", name="Audit trail")).to_contain_text("resolve")
     page.screenshot(path=str(SCREENSHOTS / "alarm_replay.png"), full_page=True)

@@ -1,6 +1,7 @@
 import type { ReactNode } from "react";
 import { Navigate, useLocation } from "react-router-dom";
-import { homeFor, mayOpen, type SECTION_ROLES } from "../lib/roles";
+import { mayOpen, type SECTION_ROLES } from "../lib/roles";
+import { NotHerePage } from "../pages/NotHerePage";
 import { useAuth } from "./AuthContext";
 
 export function RequireRole({
@@ -13,6 +14,6 @@ export function RequireRole({
   const { user } = useAuth();
   const location = useLocation();
   if (!user) return <Navigate to="/login" replace state={{ from: location.pathname }} />;
-  if (!mayOpen(user.role, section)) return <Navigate to={homeFor(user.role)} replace />;
+  if (!mayOpen(user.role, section)) return <NotHerePage kind="forbidden" />;
   return <>{children}</>;
 }

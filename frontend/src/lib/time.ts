@@ -22,3 +22,15 @@ export function localInputToIso(value: string): string | undefined {
   const ms = Date.parse(value);
   return Number.isNaN(ms) ? undefined : new Date(ms).toISOString();
 }
+
+/** A duration in seconds as a person reads it: "0.4 s", "12 s", "4 min 05 s", "50 min",
+ * "2 h 13 min" (the fatigue figures: not "2972 s"). */
+export function duration(seconds: number): string {
+  if (seconds < 1) return `${seconds.toFixed(1)} s`;
+  if (seconds < 60) return `${Math.round(seconds)} s`;
+  const total = Math.round(seconds);
+  if (total < 600) return `${Math.floor(total / 60)} min ${String(total % 60).padStart(2, "0")} s`;
+  const minutes = Math.round(seconds / 60);
+  if (minutes < 60) return `${minutes} min`;
+  return `${Math.floor(minutes / 60)} h ${String(minutes % 60).padStart(2, "0")} min`;
+}

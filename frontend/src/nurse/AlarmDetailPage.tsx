@@ -16,6 +16,12 @@ import { useAlarmActions } from "./useAlarmActions";
 type Replay = components["schemas"]["AlarmReplayOut"];
 
 const FILTER_TEXT = { idle: "idle", counting: "counting", fired: "fired" } as const;
+/** The delay filter's state in a nurse's words. */
+const ALARM_TEXT = {
+  idle: "no alarm",
+  counting: "waiting to be sure",
+  fired: "alarm raised",
+} as const;
 
 /** Alarm replay (skeleton, Emergency probability, delay filter) and its audit trail. */
 export function AlarmDetailPage() {
@@ -90,11 +96,30 @@ export function AlarmDetailPage() {
         <dt>Patient</dt><dd>{alarm.patient ?? "–"}</dd>
         <dt>Location</dt><dd>{alarm.location ?? "–"}</dd>
         <dt>Raised</dt><dd>{clockTime(alarm.raised_at)}</dd>
-        <dt>Model version</dt><dd>{alarm.model_version ?? "–"}</dd>
-        <dt>Threshold</dt><dd>{alarm.threshold ?? "–"}</dd>
-        <dt>Delay</dt><dd>{alarm.delay_ms != null ? `${alarm.delay_ms} ms` : "–"}</dd>
         <dt>Verdict</dt><dd>{verdictText(alarm.verdict, alarm.reason)}</dd>
+        <dt>When it rings</dt>
+        <dd>
+          {alarm.threshold != null && alarm.delay_ms != null
+            ? `when the robot is at least ${Math.round(alarm.threshold * 100)}% sure for ${(alarm.delay_ms / 1000).toFixed(1)} s`
+            : "–"}
+        </dd>
       </dl>
+      <details className="technical">
+        <summary>Technical details</summary>
+        <dl className="facts">
+          <dt>Model version</dt><dd>{alarm.model_version ?? "–"}</dd>
+          <dt>Threshold</dt><dd>{alarm.threshold != null ? `threshold ${alarm.threshold.toFixed(2)}` : "–"}</dd>
+          <dt>Delay</dt><dd>{alarm.delay_ms != null ? `${alarm.delay_ms} ms` : "–"}</dd>
+        </dl>
+        {frame && step && (
+          <p className="frame-numbers">
+            frame {frame.seq} · decision {frame.decision ?? "–"} ·
+            P(emergency) {step.emergencyScore?.toFixed(2) ?? "–"} · delay filter{" "}
+            <strong className={`filter-${step.state}`}>{FILTER_TEXT[step.state]}</strong>
+            {step.state !== "idle" ? ` (${step.heldMs} of ${alarm.delay_ms ?? 0} ms)` : ""}
+          </p>
+        )}
+      </details>
       {alarm.state !== "resolved" && (
         <div className="actions replay-actions">
           {alarm.state === "open" && (
@@ -123,10 +148,10 @@ export function AlarmDetailPage() {
           </div>
           {frame && step && (
             <p className="frame-info">
-              t = {(frame.ts - origin).toFixed(2)} s · frame {frame.seq} · decision {frame.decision ?? "–"} ·
-              P(emergency) {step.emergencyScore?.toFixed(2) ?? "–"} · delay filter{" "}
-              <strong className={`filter-${step.state}`}>{FILTER_TEXT[step.state]}</strong>
-              {step.state !== "idle" ? ` (${step.heldMs} of ${alarm.delay_ms ?? 0} ms)` : ""}
+              {(frame.ts - origin).toFixed(1)} s · the robot is{" "}
+              {step.emergencyScore != null ? `${Math.round(step.emergencyScore * 100)}% ` : ""}sure
+              of an emergency ·{" "}
+              <strong className={`filter-${step.state}`}>{ALARM_TEXT[step.state]}</strong>
             </p>
           )}
         </div>

@@ -1,6 +1,7 @@
 import { useEffect, useState } from "react";
 import { api, errorMessage } from "../api/client";
 import type { components } from "../api/schema";
+import { duration } from "../lib/time";
 import { BarChart } from "./BarChart";
 
 type Fatigue = components["schemas"]["FatigueOut"];
@@ -15,8 +16,7 @@ const pct = (v: number) => `${Math.round(v * 100)} %`;
 /** Fewer resolved or acknowledged alarms than this and a share or median says little. */
 const SMALL_SAMPLE = 5;
 const n = (count: number) => ` (n=${count}${count < SMALL_SAMPLE ? ", few" : ""})`;
-const secs = (v: number) =>
-  v < 1 ? `${v.toFixed(2)} s` : v < 10 ? `${v.toFixed(1)} s` : `${Math.round(v)} s`;
+const secs = duration;
 
 /** Alarm fatigue: load per shift and ward, share of false alarms and time to acknowledge. */
 export function FatiguePage() {

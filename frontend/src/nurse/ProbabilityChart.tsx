@@ -43,11 +43,11 @@ export function ProbabilityChart({ frames, steps, threshold, span, index, onSele
 
   return (
     <svg viewBox={`0 0 ${W} ${H}`} className="chart prob-chart" onClick={pick} role="img"
-      aria-label="Emergency probability per frame">
+      aria-label="How sure the robot was of an emergency, per frame">
       {[0, 0.5, 1].map((p) => (
         <g key={p}>
           <line x1={PAD.left} x2={W - PAD.right} y1={y(p)} y2={y(p)} className="grid" />
-          <text x={PAD.left - 4} y={y(p) + 4} textAnchor="end" className="tick">{p}</text>
+          <text x={PAD.left - 4} y={y(p) + 4} textAnchor="end" className="tick">{`${p * 100}%`}</text>
         </g>
       ))}
       {steps.map((s, i) => {
@@ -55,13 +55,13 @@ export function ProbabilityChart({ frames, steps, threshold, span, index, onSele
         return <rect key={i} x={x(frames[i].ts)} width={Math.max(0.5, x(next) - x(frames[i].ts))}
           y={strip} height={10} fill={FILTER_COLOR[s.state]} />;
       })}
-      <text x={PAD.left - 4} y={strip + 9} textAnchor="end" className="tick">delay</text>
+      <text x={PAD.left - 4} y={strip + 9} textAnchor="end" className="tick">alarm</text>
       <polyline points={points} className="prob-line" />
       {threshold !== null && (
         <g>
           <line x1={PAD.left} x2={W - PAD.right} y1={y(threshold)} y2={y(threshold)} className="threshold" />
           <text x={W - PAD.right} y={y(threshold) - 4} textAnchor="end" className="threshold-label">
-            threshold {threshold.toFixed(2)}
+            alarm level {Math.round(threshold * 100)}%
           </text>
         </g>
       )}

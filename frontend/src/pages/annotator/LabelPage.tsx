@@ -15,6 +15,7 @@ import { Timeline } from "./Timeline";
 import { QUICK_LABELS, labelColours } from "./timelineLogic";
 import type { TaxonomyLabel } from "./types";
 import { classColour } from "./types";
+import { CLASS_COLOURS, LEGEND } from "../../lib/labelColours";
 
 /** The annotator's workspace for one video: player, quick labels and search, the timeline of
  * everyone's segments. State lives in the hooks under ./hooks; this page composes them. */
@@ -29,7 +30,10 @@ export function LabelPage() {
   const timeline = useTimeline(video, Number(search.get("frame") ?? 0));
   const view = useViewOptions(mayUnblur);
 
-  const colours = useMemo(() => labelColours(labels.map((l) => l.key)), [labels]);
+  const colours = useMemo(
+    () => labelColours(labels.map((l) => ({ key: l.key, decision: video ? l[video.mode] : null }))),
+    [labels, video],
+  );
   const labelColour = useCallback((key: string) => colours.get(key) ?? "#64748b", [colours]);
   const labelName = useCallback(
     (key: string) => labels.find((l) => l.key === key)?.name ?? key,
@@ -116,6 +120,13 @@ export function LabelPage() {
             </label>
           )}
           <h2>Labels</h2>
+          <ul className="class-legend" aria-label="Colour legend">
+            {LEGEND.map((c) => (
+              <li key={c.cls}>
+                <span className="swatch" style={{ background: CLASS_COLOURS[c.cls] }} /> {c.name}
+              </li>
+            ))}
+          </ul>
           <ol className="quick-labels">
             {quick.map((l, i) => (
               <li key={l.key}>

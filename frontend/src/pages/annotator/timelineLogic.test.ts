@@ -175,8 +175,9 @@ describe("overlapping segments in one lane", () => {
 
 describe("label colours", () => {
   it("gives every label of the taxonomy its own colour", () => {
-    const keys = Array.from({ length: 22 }, (_, i) => `label_${i}`);
-    const colours = labelColours(keys);
+    const classes = ["normal", "emergency", "pause"];
+    const labels = Array.from({ length: 22 }, (_, i) => ({ key: `label_${i}`, decision: classes[i % 3] }));
+    const colours = labelColours(labels);
     expect(new Set(colours.values()).size).toBe(22);
   });
 });

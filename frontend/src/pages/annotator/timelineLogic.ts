@@ -221,8 +221,4 @@ export function packSubRows<T extends Span & { id: number }>(
   return { subRow, count: Math.max(ends.length, 1) };
 }
 
-/** One colour per fine label, in taxonomy order: hues spread by the golden angle so that
- * neighbouring labels (the stages of a fall) differ, dark enough for white text. */
-export function labelColours(keys: readonly string[]): Map<string, string> {
-  return new Map(keys.map((key, i) => [key, `hsl(${((i * 137.508) % 360).toFixed(1)}, 62%, 40%)`]));
-}
+export { labelColours } from "../../lib/labelColours";

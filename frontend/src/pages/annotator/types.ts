@@ -13,12 +13,4 @@ export type Taxonomy = S["TaxonomyOut"];
 export type TaxonomyLabel = S["TaxonomyLabelOut"];
 export type Decision = TaxonomyLabel["walking"];
 
-export const CLASS_COLOURS: Record<string, string> = {
-  normal: "#16a34a",
-  emergency: "#dc2626",
-  pause: "#d97706",
-};
-
-export function classColour(decision: string | null | undefined): string {
-  return (decision && CLASS_COLOURS[decision]) || "#64748b";
-}
+export { CLASS_COLOURS, classColour } from "../../lib/labelColours";
