@@ -35,6 +35,19 @@ FLEET_RATES = [
 TOKENS = VAR / "robot_tokens.json"
 
 
+def fleet_banner() -> str:
+    """The simulated fleet's start-up line, with the rates in force (the robot agent's settings,
+    which the fleet reads from the same environment), not the defaults'."""
+    from robot_agent.config import AgentSettings
+
+    rates = AgentSettings()
+    return (
+        f"simulated fleet of {ROBOTS} robots (generated transports, per robot per hour: "
+        f"{rates.falls_per_hour:g} falls, {rates.pauses_per_hour:g} Pause situations, "
+        f"{rates.lookalikes_per_hour:g} look-alikes)"
+    )
+
+
 def use_var_dir() -> None:
     """Point every child's settings at VAR when VIGIL_VAR_DIR moved it (settings given in the
     environment stay as they are)."""
@@ -155,8 +168,7 @@ def main() -> int:
         children.append(start("worker", "-m", "worker.cli", "run"))
         children.append(
             start(
-                "simulated fleet of 3 robots (generated transports at a ward's pace: about "
-                "one fall per robot per 15 min, Pause situations and look-alikes)",
+                fleet_banner(),
                 "-m",
                 "robot_agent.cli",
                 "simulate",

@@ -40,6 +40,11 @@ class JobContext:
         """A session that only reads (loading data, evaluating): it commits nothing."""
         return self.factory()
 
+    def write(self):
+        """A unit of work for a step whose writes the job needs before going on (re-importing
+        archived frames to train on): it commits when the block ends."""
+        return transaction(self.factory)
+
     def result(self):
         """The job's unit of work that stores its result: a job commits once (its progress goes
         in the queue's own short transactions, `flush`)."""

@@ -74,3 +74,11 @@ def test_the_demo_models_must_be_trained_with_the_generated_walking_transports(t
     assert run_all.model_is_current(urfd_only) and not run_all.model_is_current(urfd_only, True)
     assert run_all.model_is_current(demo, demo=True)
     assert not run_all.model_is_current(tmp_path / "missing", demo=True)
+
+
+def test_fleet_banner_prints_the_rates_in_force(monkeypatch):
+    monkeypatch.setenv("VIGIL_ROBOT_FALLS_PER_HOUR", "12")
+    monkeypatch.setenv("VIGIL_ROBOT_LOOKALIKES_PER_HOUR", "0")
+    banner = run_all.fleet_banner()
+    assert "12 falls" in banner and "0 look-alikes" in banner and "3 Pause" in banner
+    assert "15 min" not in banner

@@ -40,15 +40,21 @@ def spec_for(params: RetrainParams) -> ModelSpec:
     return spec
 
 
-def with_archived(session, videos: list, archive_ids: list[int], mode) -> list:
-    """The training videos plus the chosen archived ones (imported again if their frames were
-    dropped; those with accepted labels train)."""
+def restore_archives(session, archive_ids: list[int]) -> list[int]:
+    """Import the chosen archived videos again (if their frames were dropped): the ids of their
+    videos. A write: run it in a unit of work that commits (`context.write()`), not in a read
+    session, or the restored frames and labels are lost when that session closes."""
     restored = []
     for archive_id in archive_ids:
         found = archive_by_id(session, archive_id)
         if found is None:
             raise ValueError(f"invalid job parameter archive_ids: archive {archive_id} not found")
         restored.append(import_archive(session, found).id)
+    return restored
+
+
+def with_archived(session, videos: list, restored: list[int], mode) -> list:
+    """The training videos plus the restored archived ones (those with accepted labels train)."""
     known = {v.id for v in videos}
     extra = [v for v in labelled_videos(session, mode, None, restored) if v.id not in known]
     return videos + extra
@@ -58,11 +64,15 @@ def run(context: JobContext) -> dict:
     params = parse(RetrainParams, context.params)
     spec = spec_for(params)
     context.progress(0.02, "loading labelled training recordings")
+    restored: list[int] = []
+    if params.archive_ids:
+        with context.write() as session:
+            restored = restore_archives(session, params.archive_ids)
     with context.read() as session:
         videos = labelled_videos(session, params.mode, None if params.video_ids else Split.TRAIN,
                                  params.video_ids)  # fmt: skip
         if params.archive_ids:
-            videos = with_archived(session, videos, params.archive_ids, params.mode)
+            videos = with_archived(session, videos, restored, params.mode)
         data = frame_data(session, videos, params.mode)
         who = started_by(session, context)
     falls = int(data.is_positive_sequence.sum())

@@ -1,5 +1,5 @@
 import { describe, expect, it } from "vitest";
-import { listView, metricName, statusText } from "./registry";
+import { jobResultLink, listView, metricName, statusText } from "./registry";
 
 describe("model status in true words", () => {
   it("says on how many robots a production model runs", () => {
@@ -45,5 +45,14 @@ describe("search, sort and pages", () => {
     expect(view("rf 4", 0).total).toBe(14); // rf-04, rf-14, ..., rf-40..rf-49
     expect(view("", 0, "desc").rows[0].name).toBe("rf-52");
     expect(view("nothing", 0)).toMatchObject({ total: 0, pages: 1, page: 0 });
+  });
+});
+
+describe("job result link", () => {
+  it("links the new version only for jobs that register one", () => {
+    expect(jobResultLink("retrain", { model_version_id: 4, version: "mlp-9" })).toEqual({ modelId: 4, text: "mlp-9" });
+    expect(jobResultLink("whatif", { model_version_id: 2 })).toEqual({ modelId: 2, text: "ran on model #2" });
+    expect(jobResultLink("evaluate", { model_version_id: 2 })!.text).not.toContain("new version");
+    expect(jobResultLink("retention", { summary: "x" })).toBeNull();
   });
 });

@@ -70,3 +70,19 @@ export function listView<T>(
   const current = Math.min(Math.max(page, 0), pages - 1);
   return { rows: hits.slice(current * pageSize, (current + 1) * pageSize), total: hits.length, page: current, pages };
 }
+
+/** Job kinds whose result is a newly registered model version. */
+const REGISTERING_KINDS = new Set(["retrain", "rethreshold", "register"]);
+
+/** What a job's Result cell links to: the new version (jobs that register one) or the model a
+ * what-if or evaluation ran on, named as such; null when the result names no model. */
+export function jobResultLink(
+  kind: string,
+  result: Record<string, unknown> | null | undefined,
+): { modelId: number; text: string } | null {
+  const id = result?.model_version_id;
+  if (typeof id !== "number") return null;
+  const version = typeof result?.version === "string" ? result.version : null;
+  if (REGISTERING_KINDS.has(kind)) return { modelId: id, text: version ?? "the new version" };
+  return { modelId: id, text: `ran on model #${id}${version ? ` (${version})` : ""}` };
+}

@@ -1,6 +1,7 @@
 import { useEffect, useState } from "react";
 import { Link } from "react-router-dom";
 import { api, errorMessage } from "../../api/client";
+import { jobResultLink } from "../../lib/registry";
 import { JobProgress } from "./JobProgress";
 import type { Job } from "./types";
 import { isFinished, useJob } from "./useJobPolling";
@@ -34,9 +35,10 @@ export function JobsPage() {
           <tbody>{jobs.map((j) => (
             <tr key={j.id}>
               <td>{j.id}</td><td>{j.kind}</td><td><JobProgress job={j} /></td>
-              <td>{typeof j.result?.model_version_id === "number"
-                ? <Link to={`/engineer/models/${j.result.model_version_id}`}>{String(j.result.version ?? "the new version")}</Link>
-                : "–"}</td>
+              <td>{(() => {
+                const link = jobResultLink(j.kind, j.result as Record<string, unknown> | null);
+                return link ? <Link to={`/engineer/models/${link.modelId}`}>{link.text}</Link> : "–";
+              })()}</td>
               <td>{j.worker_id ?? "–"}{j.attempts > 1 ? ` (attempt ${j.attempts})` : ""}</td>
               <td>{new Date(j.created_at).toLocaleString()}</td>
               <td>
