@@ -15,16 +15,14 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import re
 from pathlib import Path
 
 import numpy as np
 from scipy.optimize import least_squares
 
 from backend.labelling.importers.urfd import KINECT_INTRINSICS
-from robot_agent.sources.replay import URFD_DEPTH_SCALE_MM, read_depth_png, urfd_image_frames
 from vigil.datasets import urfd
-from vigil.depth import sample_depth
+from vigil.depth import read_depth_png, sample_depth
 from vigil.floor import CameraMount, floor_measures
 from vigil.skeleton import FLOOR_FIELDS
 
@@ -35,15 +33,13 @@ SEQUENCE = "fall-01"
 def paired_frames(directory: Path) -> list[tuple[int, np.ndarray, np.ndarray, np.ndarray]]:
     """(official frame, keypoints, sampled depth, official floor measures) per depth PNG."""
     sequence = urfd.load(directory, [SEQUENCE])[0]
-    # The later row wins where two rows share an official frame, as in the robot's URFD replay.
-    row_of = {int(f): row for row, f in enumerate(urfd_image_frames(SEQUENCE, directory))}
+    # The pictures paired with rows as the robot's replay, the importer and training pair them.
     pairs = []
-    for png in sorted((directory / "depth").glob(f"{SEQUENCE}-cam0-d-*.png")):
-        frame = int(re.findall(r"(\d+)\.png$", png.name)[0])
-        i = row_of.get(frame)
-        if i is None or not sequence.detected[i]:
+    for i, png in sequence.depth_pictures(directory / urfd.DEPTH_DIR).items():
+        if not sequence.detected[i]:
             continue
-        depth = sample_depth(read_depth_png(png), sequence.keypoints[i], URFD_DEPTH_SCALE_MM)
+        frame = int(sequence.image_frame[i])
+        depth = sample_depth(read_depth_png(png), sequence.keypoints[i], sequence.depth_scale_mm)
         pairs.append((frame, sequence.keypoints[i], depth, sequence.floor[i]))
     return pairs
 

@@ -106,7 +106,7 @@ def bench_frames(model_dir: Path, workdir: Path, max_frames: int) -> dict:
         pipeline.start_transport(f"bench-{number}", time.time())
         for observation in observations:
             observation.depth_image = depth_images[len(times) % len(depth_images)]
-            observation.depth_scale_mm = 6000 / 65535
+            observation.depth_scale_mm = urfd.depth_scale_mm("fall-01")
             t0, c0 = time.perf_counter(), time.thread_time()
             pipeline.process(observation)
             times.append((time.perf_counter() - t0) * 1000)

@@ -4,9 +4,16 @@ For every keypoint the raw values in a small square window around it are gathere
 reading) are ignored and the median of the rest is converted to metres. A keypoint that is
 missing (confidence 0), lies outside the image or has no reading in its window gets NaN.
 Vectorised: one gather, one sort, no Python loop over keypoints (a few microseconds per person).
+
+The one implementation of depth at keypoints: the robot (vigil.detector), the importers
+(backend.labelling.importers), the training rows and the benchmarks all sample with
+`sample_depth`, and read 16-bit depth pictures with `read_depth_png` (docs/detection.md, "train
+equals serve").
 """
 
 from __future__ import annotations
+
+from pathlib import Path
 
 import numpy as np
 
@@ -14,6 +21,23 @@ from vigil.observation import Observation
 from vigil.skeleton import SkeletonFrame
 
 DEFAULT_WINDOW = 5  # pixels on a side; odd
+
+
+def read_depth_png(path: Path | str) -> np.ndarray:
+    """A 16-bit single-channel depth picture (Kinect / OpenNI PNG) as raw integers; ValueError
+    (naming the file) when it is not readable or not 16-bit single-channel."""
+    import cv2
+
+    path = Path(path)
+    picture = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
+    if picture is None:
+        raise ValueError(f"{path.name}: not a readable picture")
+    if picture.dtype != np.uint16 or picture.ndim != 2:
+        raise ValueError(
+            f"{path.name}: depth must be a 16-bit single-channel PNG, got {picture.dtype} "
+            f"{picture.shape}"
+        )
+    return picture
 
 
 def _offsets(window: int) -> tuple[np.ndarray, np.ndarray]:

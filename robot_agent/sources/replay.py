@@ -25,16 +25,16 @@ import re
 from collections.abc import Iterator
 from pathlib import Path
 
-import cv2
 import numpy as np
 
 from robot_agent.sources.pacing import Pacer
+from vigil import depth as vigil_depth
 from vigil.datasets import urfd
 from vigil.observation import Observation
 from vigil.skeleton import N_FLOOR, N_KEYPOINTS, SkeletonFrame
 
-URFD_DEPTH_SCALE_MM = 6000 / 65535  # fall sequences (ADL: 7000 / 65535)
-URFD_ADL_DEPTH_SCALE_MM = 7000 / 65535
+URFD_DEPTH_SCALE_MM = urfd.DEPTH_SCALE_MM["fall"]  # fall sequences (ADL: 7000 / 65535)
+URFD_ADL_DEPTH_SCALE_MM = urfd.DEPTH_SCALE_MM["adl"]
 EXPORT_FORMAT = "vigil-labels"
 EXPORT_VERSIONS = (1,)
 
@@ -85,12 +85,11 @@ def depth_files(directory: Path | str) -> dict[int, Path]:
 
 
 def read_depth_png(path: Path) -> np.ndarray:
-    image = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
-    if image is None:
-        raise SourceError(f"{path}: not a readable image")
-    if image.dtype != np.uint16 or image.ndim != 2:
-        raise SourceError(f"{path}: depth must be a 16-bit single-channel PNG, got {image.dtype}")
-    return image
+    """vigil.depth.read_depth_png (the one reader), its error as a SourceError."""
+    try:
+        return vigil_depth.read_depth_png(path)
+    except ValueError as error:
+        raise SourceError(f"{path}: {error}") from error
 
 
 class UrfdReplaySource:
@@ -118,28 +117,25 @@ class UrfdReplaySource:
         self.name = f"urfd:{sequence}"
         self.speed = speed
         self.depth = depth_files(depth_dir) if depth_dir is not None else {}
-        # row -> depth PNG; where two rows share an official frame (the first two), the later
-        self.depth_rows: dict[int, Path] = {}
-        if self.depth:
-            frames = urfd_image_frames(sequence, self.directory, keypoints_file)
-            by_frame = {int(frame): row for row, frame in enumerate(frames)}
-            self.depth_rows = {
-                row: self.depth[frame] for frame, row in by_frame.items() if frame in self.depth
-            }
-        kind = sequence.split("-")[0]
-        self.depth_scale_mm = URFD_DEPTH_SCALE_MM if kind == "fall" else URFD_ADL_DEPTH_SCALE_MM
+        self.depth_dir = Path(depth_dir) if depth_dir is not None else None
+        # row -> depth PNG (vigil.datasets.urfd: where two rows share an official frame, the
+        # later one has it); the same pictures the importer and the training rows use
+        self.depth_rows: dict[int, Path] = (
+            self.sequence.depth_pictures(self.depth_dir) if self.depth_dir is not None else {}
+        )
+        self.depth_scale_mm = self.sequence.depth_scale_mm
 
     def __len__(self) -> int:
         return len(self.sequence)
 
     def __iter__(self) -> Iterator[Observation]:
         pacer = Pacer(self.speed)
-        for i, observation in enumerate(self.sequence.observations()):
+        try:
+            observations = self.sequence.observations(self.depth_dir)
+        except ValueError as error:
+            raise SourceError(str(error)) from error
+        for observation in observations:
             pacer.wait(observation.timestamp)
-            depth_path = self.depth_rows.get(i)
-            if depth_path is not None:
-                observation.depth_image = read_depth_png(depth_path)
-            observation.depth_scale_mm = self.depth_scale_mm
             observation.patient_hint = 0 if observation.people else None
             yield observation
 

@@ -13,6 +13,12 @@ Floor measures come from the official per-frame depth features (labels/urfall-ca
 on the official frame index): H (top above the floor) and D (centroid above the floor) in mm
 become metres, P40 (share of the silhouette within 40 cm of the floor) stays a share. They are
 NaN where the official files have no row for a frame (the same 409 ADL frames without a label).
+
+Depth pictures (``depth/<sequence>-cam0-d-NNN.png``, 16-bit, raw * DEPTH_SCALE_MM[kind] is mm)
+belong to the keypoint row whose official frame (``image_frame``) is NNN; where two rows share an
+official frame (the first two), the later row gets it. ``Sequence.observations(depth_dir)``
+attaches them as a camera would: the robot's replay, the training rows and the importer all
+take them from there, and sample them with the one sampler, ``vigil.depth.sample_depth``.
 """
 
 from __future__ import annotations
@@ -26,6 +32,7 @@ from pathlib import Path
 
 import numpy as np
 
+from vigil.depth import read_depth_png
 from vigil.formats.coco import MOVENET13, movenet13_to_body25
 from vigil.observation import Observation
 from vigil.skeleton import SkeletonFrame
@@ -52,6 +59,10 @@ TRUTH_LABELS = {
 #: Every fifth sequence of each kind is a gold (test) recording: 6 falls and 8 daily activities,
 #: 56 training recordings (split by recording, never by frame).
 TEST_EVERY = 5
+#: Raw depth value -> millimetres, by sequence kind (dataset README: 6000 mm full range for falls,
+#: 7000 for daily activities, over 65535).
+DEPTH_SCALE_MM = {"fall": 6000 / 65535, "adl": 7000 / 65535}
+DEPTH_DIR = "depth"
 NAMES = tuple([f"fall-{i:02d}" for i in range(1, 31)] + [f"adl-{i:02d}" for i in range(1, 41)])
 
 
@@ -60,6 +71,11 @@ def fine_label(name: str, urfd_label: float) -> str | None:
     if np.isnan(urfd_label):
         return None
     return FINE_LABELS[name.split("-")[0]][int(urfd_label)]
+
+
+def depth_scale_mm(name: str) -> float:
+    """Raw depth value -> millimetres for URFD sequence `name`."""
+    return DEPTH_SCALE_MM[name.split("-")[0]]
 
 
 def is_gold(name: str) -> bool:
@@ -90,6 +106,8 @@ class Sequence:
     target: np.ndarray  # (n,) NORMAL, EMERGENCY or UNLABELLED
     detected: np.ndarray  # (n,) bool
     floor: np.ndarray  # (n, 3) floor measures from the official depth features, NaN if unknown
+    #: (n,) official frame (picture number) of each row; None: the documented max(row, 1)
+    image_frame: np.ndarray | None = None
 
     @property
     def is_fall(self) -> bool:
@@ -108,9 +126,35 @@ class Sequence:
         """Per frame, the fine label of FINE_LABELS (None where unlabelled)."""
         return [fine_label(self.name, v) for v in self.urfd_label]
 
-    def observations(self) -> list[Observation]:
+    @property
+    def depth_scale_mm(self) -> float:
+        return depth_scale_mm(self.name)
+
+    def depth_pictures(self, depth_dir: Path | str) -> dict[int, Path]:
+        """Row -> its depth picture in `depth_dir` (rows without one are left out); the later
+        row wins where two share an official frame."""
+        depth_dir = Path(depth_dir)
+        if not depth_dir.is_dir():
+            return {}
+        frames = (
+            self.image_frame
+            if self.image_frame is not None
+            else np.maximum(np.arange(len(self)), 1)
+        )
+        row_of = {int(frame): row for row, frame in enumerate(frames)}
+        pictures = {}
+        for path in sorted(depth_dir.glob(f"{self.name}-cam0-d-*.png")):
+            number = path.stem.rsplit("-", 1)[-1]
+            row = row_of.get(int(number)) if number.isdigit() else None
+            if row is not None:
+                pictures[row] = path
+        return dict(sorted(pictures.items()))
+
+    def observations(self, depth_dir: Path | str | None = None) -> list[Observation]:
         """The sequence as a camera would have given it: one person where MoveNet found
-        somebody (with the official floor measures), nobody where it did not."""
+        somebody (with the official floor measures), nobody where it did not; with
+        `depth_dir`, the rows that have a depth picture carry it (and its scale)."""
+        pictures = self.depth_pictures(depth_dir) if depth_dir is not None else {}
         out = []
         for i, (truth, ts) in enumerate(zip(self.truth(), self.timestamps, strict=True)):
             ts = float(ts)
@@ -119,7 +163,11 @@ class Sequence:
                 if self.detected[i]
                 else []
             )
-            out.append(Observation(timestamp=ts, people=people, index=i, truth=truth))
+            observation = Observation(timestamp=ts, people=people, index=i, truth=truth)
+            if i in pictures:
+                observation.depth_image = read_depth_png(pictures[i])
+            observation.depth_scale_mm = self.depth_scale_mm
+            out.append(observation)
         return out
 
     def first_emergency_time(self) -> float | None:
@@ -234,6 +282,7 @@ def load(
                 target=target_for(name, label),
                 detected=detected,
                 floor=floor,
+                image_frame=np.array([int(r[column["image_frame"]]) for r in seq_rows], np.int64),
             )
         )
     return sequences

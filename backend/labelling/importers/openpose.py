@@ -14,11 +14,12 @@ from pathlib import Path
 import numpy as np
 from sqlalchemy.orm import Session
 
-from backend.labelling.depth import depth_at_keypoints, read_depth_png
+from backend.labelling.depth import read_depth_png
 from backend.labelling.errors import LabellingError
 from backend.labelling.store import add_video
 from backend.models.videos import Split, Video
 from vigil.classes import TransportMode
+from vigil.depth import sample_depth
 from vigil.formats import from_openpose_json
 from vigil.skeleton import N_KEYPOINTS, empty_keypoints
 
@@ -72,7 +73,7 @@ def import_openpose_dir(
             if i is not None:
                 picture = read_depth_png(png)
                 size = (float(picture.shape[1]), float(picture.shape[0]))
-                depth[i] = depth_at_keypoints(picture, keypoints[i], depth_metres_per_unit)
+                depth[i] = sample_depth(picture, keypoints[i], depth_metres_per_unit * 1000)
     video = Video(
         name=name,
         source="openpose",

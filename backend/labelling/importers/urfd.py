@@ -16,12 +16,14 @@ these apart, so one label is used for all of them: `bending`, Normal in every mo
 
 Frame index i is the i-th row of the keypoint extraction (npy_index - 1). Those keypoints
 belong to official picture max(i, 1); the clip's 0-based frame is therefore i - 1
-(Video.rgb_frame_offset = -1) and depth picture fall-01-cam0-d-NNN.png belongs to frame NNN.
+(Video.rgb_frame_offset = -1) and depth picture fall-01-cam0-d-NNN.png belongs to the row whose
+official picture is NNN (`urfd.Sequence.depth_pictures`, as the robot's replay pairs them). The
+depth stored at the keypoints is sampled by the robot's sampler, `vigil.depth.sample_depth`,
+with the sequence's scale (`urfd.DEPTH_SCALE_MM`): what the robot computes from that picture.
 """
 
 from __future__ import annotations
 
-import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -29,7 +31,7 @@ import numpy as np
 from sqlalchemy import select
 from sqlalchemy.orm import Session
 
-from backend.labelling.depth import depth_at_keypoints, read_depth_png
+from backend.labelling.depth import read_depth_png
 from backend.labelling.runs import label_runs
 from backend.labelling.segments import SegmentDraft, create_segment
 from backend.labelling.store import add_video, video_by_name
@@ -37,12 +39,10 @@ from backend.models.annotations import SegmentSource, SegmentStatus
 from backend.models.videos import Split, Video
 from vigil.classes import TransportMode
 from vigil.datasets import urfd
+from vigil.depth import sample_depth
 
 #: The URFD clip: 640x240, depth picture left, RGB (320x240) right.
 RGB_CROP = {"x": 320, "y": 0, "width": 320, "height": 240}
-#: Depth PNG raw value -> metres (README: P * 6000 / 65535 mm for falls, 7000 for ADL).
-DEPTH_RANGE_MM = {"fall": 6000.0, "adl": 7000.0}
-DEPTH_NAME = re.compile(r"^(?P<seq>(fall|adl)-\d+)-cam0-d-(?P<frame>\d+)\.png$")
 #: Nominal Kinect v1 colour-camera intrinsics at 640x480 (URFD publishes no calibration).
 KINECT_INTRINSICS = {"fx": 525.0, "fy": 525.0, "cx": 319.5, "cy": 239.5}
 
@@ -62,21 +62,17 @@ def split_for(name: str) -> Split:
 
 
 def _depth_for(directory: Path, sequence: urfd.Sequence) -> np.ndarray | None:
-    depth_dir = directory / "depth"
-    if not depth_dir.is_dir():
+    """(n, 25) depth at the keypoints of the rows with a depth picture (NaN elsewhere), sampled
+    as the robot samples it; None when the sequence has no depth picture."""
+    pictures = sequence.depth_pictures(directory / urfd.DEPTH_DIR)
+    if not pictures:
         return None
-    kind = sequence.name.split("-")[0]
-    metres_per_unit = DEPTH_RANGE_MM[kind] / 65535 / 1000
     depth = np.full((len(sequence), 25), np.nan, np.float32)
-    found = False
-    for path in sorted(depth_dir.glob(f"{sequence.name}-cam0-d-*.png")):
-        match = DEPTH_NAME.match(path.name)
-        frame = int(match["frame"]) if match else -1
-        if 0 <= frame < len(sequence):
-            picture = read_depth_png(path)
-            depth[frame] = depth_at_keypoints(picture, sequence.keypoints[frame], metres_per_unit)
-            found = True
-    return depth if found else None
+    for row, path in pictures.items():
+        depth[row] = sample_depth(
+            read_depth_png(path), sequence.keypoints[row], sequence.depth_scale_mm
+        )
+    return depth
 
 
 def _skip(video: Video, report: ImportReport, split: Split | None) -> None:

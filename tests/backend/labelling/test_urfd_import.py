@@ -72,3 +72,39 @@ def test_import_is_idempotent(urfd_videos, session_factory):
                 select(AnnotationSegment).where(AnnotationSegment.video_id == urfd_videos["adl-01"])
             ).all()
         )
+
+
+def test_imported_depth_is_the_robots_depth_on_fall_01s_real_pictures(urfd_videos, session_factory):
+    """Train equals serve (issue #34): on fall-01's 11 real depth pictures the depth the importer
+    stores at each keypoint is the depth the robot's frame path computes from the same picture
+    (its replay source pairs pictures with rows, its detector samples them): 0 differing."""
+    from robot_agent.sources.replay import UrfdReplaySource
+    from vigil.depth import sample_depth
+    from vigil.detector import PatientFrames
+
+    with session_factory() as session:
+        stored = dict(
+            session.execute(
+                select(Frame.index, Frame.depth).where(Frame.video_id == urfd_videos["fall-01"])
+            ).all()
+        )
+    robot = PatientFrames()  # as robot_agent.pipeline builds it
+    assert robot.depth_sampler is sample_depth
+    source = UrfdReplaySource("fall-01", URFD_DIR, speed=0, depth_dir=URFD_DIR / "depth")
+    compared = differing = 0
+    rows_with_pictures = []
+    for observation in source:
+        frame, seen = robot(observation)
+        if observation.depth_image is None:
+            continue
+        rows_with_pictures.append(observation.index)
+        assert seen
+        imported = decode_depth(stored[observation.index])
+        present = frame.keypoints[:, 2] > 0
+        compared += int(present.sum())
+        differing += int(
+            (~np.isclose(imported, frame.depth, rtol=0, atol=1e-6, equal_nan=True)).sum()
+        )
+    assert rows_with_pictures == [2, 10, 20, 30, 40, 50, 60, 70, 80, 90, 99]
+    assert compared == 165
+    assert differing == 0
