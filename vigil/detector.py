@@ -25,6 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from vigil.depth import sample_depth
+from vigil.features import FeatureExtractor
 from vigil.floor import CameraMount, floor_measures
 from vigil.inputs import (
     DEPTH,
@@ -113,6 +114,27 @@ def patient_stream(
         frames.append(frame)
         seen.append(found)
     return frames, np.asarray(seen, bool)
+
+
+def stream_features(
+    observations: Iterable[Observation],
+    feature_set: str = "full",
+    patient_frames: PatientFrames | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """A recording's feature rows (n, d) exactly as the robot computes them, and which frames had
+    the patient: each observation through the patient frames (tracker, vigil.depth, vigil.floor)
+    and the streaming vigil.features.FeatureExtractor, frame by frame, as a FrameClassifier on the
+    robot pushes them. The training rows (worker.training.data.build_rows) are made here."""
+    patient_frames = patient_frames if patient_frames is not None else PatientFrames()
+    patient_frames.reset()
+    extractor = FeatureExtractor(feature_set)
+    rows, seen = [], []
+    for observation in observations:
+        frame, found = patient_frames(observation)
+        rows.append(extractor.push(frame))
+        seen.append(found)
+    features = np.stack(rows) if rows else np.zeros((0, extractor.n_features), np.float32)
+    return features, np.asarray(seen, bool)
 
 
 @dataclass(frozen=True, slots=True)

@@ -15,6 +15,7 @@ import numpy as np
 from sqlalchemy import select
 from sqlalchemy.orm import Session
 
+from backend.labelling.runs import frame_segments
 from backend.labelling.taxonomy import load_taxonomy, taxonomy_versions
 from backend.models.annotations import AnnotationSegment, SegmentStatus
 from backend.models.videos import Frame, Split, Video
@@ -23,7 +24,7 @@ from vigil.classes import MODE_CLASSES, Decision, TransportMode
 from vigil.observation import Observation
 from vigil.skeleton import N_FLOOR, N_KEYPOINTS, SkeletonFrame, decode_many
 from vigil.taxonomy import DEFAULT_TAXONOMY
-from worker.training.data import FrameData, sequence_arrays
+from worker.training.data import FrameData, Recording, build_rows
 
 
 def label_decisions(session: Session, mode: TransportMode) -> dict[tuple[int, str], Decision]:
@@ -75,23 +76,22 @@ def accepted_segments(session: Session, video_ids: list[int]) -> dict[int, list[
     return out
 
 
-def frame_data(
-    session: Session, videos: list[Video], mode: TransportMode, feature_set: str = "full"
-) -> FrameData:
-    """Frames of the videos in order, targets from accepted segments (-1 where none).
-
-    A sequence is positive (a fall) when any of its frames is labelled Emergency. The data hash
-    covers every frame and label used, so equal hashes mean equal training data.
-    """
+def db_recordings(
+    session: Session, videos: list[Video], mode: TransportMode
+) -> tuple[list[Recording], str]:
+    """The database source: each video's stored frames as the robot's camera would give them
+    (one person where a pose was found, with the depth and floor measures stored beside it),
+    targets from the accepted segments by the one rule for overlaps
+    (`backend.labelling.runs.frame_segments`, which the exports use too); and a hash that covers
+    every frame and label used, so equal hashes mean equal training data."""
     if not videos:
         raise ValueError("no labelled recordings to build a data set from")
     classes = MODE_CLASSES[TransportMode(mode)]
     decisions = label_decisions(session, mode)
     segments_of = accepted_segments(session, [v.id for v in videos])
     digest = hashlib.sha256()
-    feats, targets, groups, times, usable, positive, generated = [], [], [], [], [], [], False
     recordings = []
-    for i, video in enumerate(videos):
+    for video in videos:
         rows = session.execute(
             select(Frame.index, Frame.ts, Frame.keypoints, Frame.depth, Frame.floor)
             .where(*of_video(session, video))
@@ -118,42 +118,30 @@ def frame_data(
             )
             for j in range(len(rows))
         )  # fmt: skip
-        index_of = {index: j for j, index in enumerate(indices)}
+        winners = frame_segments(max(indices) + 1, segments_of.get(video.id, []))
         target = np.full(len(rows), -1, np.int64)
-        segments = segments_of.get(video.id, [])
-        for seg in segments:
+        for j, frame_index in enumerate(indices):
+            seg = winners[frame_index] if frame_index >= 0 else None
+            if seg is None:
+                continue
             decision = decisions.get((seg.taxonomy_version, seg.label_key))
             if decision is None:
                 raise ValueError(
                     f"video {video.name}: label {seg.label_key!r} is not in taxonomy "
                     f"version {seg.taxonomy_version}"
                 )
-            for frame_index in range(seg.first_frame, seg.last_frame + 1):
-                j = index_of.get(frame_index)
-                if j is not None:
-                    target[j] = classes.index(decision)
+            target[j] = classes.index(decision)
         digest.update(json.dumps([video.name, len(rows)]).encode())
         digest.update(keypoints.tobytes())
         digest.update(target.tobytes())
-        features, seen = sequence_arrays(list(observations), feature_set)
-        feats.append(features)
-        targets.append(target)
-        groups.append(np.full(len(rows), i))
-        times.append(ts)
-        usable.append(seen)
-        recordings.append(observations)
-        positive.append(bool(np.any(target == classes.index(Decision.EMERGENCY))))
-        generated = generated or video.generated
-    return FrameData(
-        names=[v.name for v in videos],
-        is_positive_sequence=np.array(positive),
-        features=np.concatenate(feats),
-        target=np.concatenate(targets),
-        group=np.concatenate(groups),
-        timestamps=np.concatenate(times),
-        usable=np.concatenate(usable),
-        mode=TransportMode(mode),
-        data_sha256=digest.hexdigest(),
-        generated=generated,
-        recordings=tuple(recordings),
-    )
+        recordings.append(Recording(video.name, observations, target, video.generated))
+    return recordings, digest.hexdigest()
+
+
+def frame_data(
+    session: Session, videos: list[Video], mode: TransportMode, feature_set: str = "full"
+) -> FrameData:
+    """Training rows of the videos in order (the one builder, `build_rows`, fed by the database
+    source), targets from accepted segments (-1 where none)."""
+    recordings, digest = db_recordings(session, videos, mode)
+    return build_rows(recordings, mode, digest, feature_set)

@@ -1,7 +1,8 @@
 """Export a video's labels: CSV (one row per frame), Vigil JSON (everything), COCO keypoints.
 
 Segments exported are those with the requested statuses (accepted by default: training data).
-Where exported segments overlap, the one updated last wins the frame (CSV and COCO).
+Where exported segments overlap, the one updated last wins the frame (CSV and COCO): the one
+rule of `backend.labelling.runs.frame_segments`, which training uses too.
 """
 
 from __future__ import annotations
@@ -14,7 +15,7 @@ import numpy as np
 from sqlalchemy.orm import Session
 
 from backend.labelling.queries import frame_timestamps, usernames, video_frames, video_segments
-from backend.labelling.runs import frame_labels
+from backend.labelling.runs import overlap_order, segment_labels
 from backend.labelling.taxonomy import load_taxonomy
 from backend.models.annotations import AnnotationSegment, SegmentStatus
 from backend.models.videos import Video
@@ -37,14 +38,11 @@ VIDEO_FIELDS = (
 
 def _segments(session: Session, video: Video, statuses) -> list[AnnotationSegment]:
     segments = video_segments(session, video.id, statuses)
-    return sorted(segments, key=lambda s: (s.updated_at, s.id))
+    return sorted(segments, key=overlap_order)
 
 
 def _per_frame(session: Session, video: Video, statuses) -> list[str | None]:
-    return frame_labels(
-        video.frame_count,
-        [(s.first_frame, s.last_frame, s.label_key) for s in _segments(session, video, statuses)],
-    )
+    return segment_labels(video.frame_count, video_segments(session, video.id, statuses))
 
 
 def export_csv(session: Session, video: Video, statuses=(SegmentStatus.ACCEPTED,)) -> str:

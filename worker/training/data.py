@@ -1,16 +1,20 @@
-"""Frames of whole sequences as arrays for training: features, targets, timestamps, groups."""
+"""Frames of whole sequences as arrays for training: features, targets, timestamps, groups.
+
+`build_rows` is the one builder of training rows; sources hand it `Recording`s (observations as
+the robot's camera gives them, and per-frame targets) and it computes features on the robot's own
+streaming path (docs/detection.md, "train equals serve")."""
 
 from __future__ import annotations
 
 import hashlib
 from dataclasses import dataclass, replace
+from pathlib import Path
 
 import numpy as np
 
 from vigil.classes import MODE_CLASSES, Decision, TransportMode
 from vigil.datasets import urfd
-from vigil.detector import patient_stream
-from vigil.features import extract_sequence
+from vigil.detector import stream_features
 from vigil.observation import Observation
 from vigil.policy import TIME_EPSILON
 
@@ -112,38 +116,88 @@ def concatenate(*parts: FrameData) -> FrameData:
     )
 
 
-def sequence_arrays(
-    observations: list[Observation], feature_set: str = "full"
-) -> tuple[np.ndarray, np.ndarray]:
-    """Features of one recording from the patient frames the robot's path makes of it, and
-    which frames had the patient (trainable)."""
-    frames, seen = patient_stream(observations)
-    return extract_sequence(frames, feature_set), seen
+@dataclass(frozen=True)
+class Recording:
+    """One recording as a source gives it to the builder: what the camera saw, frame by frame,
+    and the class of each frame in the mode's class order (-1: unlabelled)."""
+
+    name: str
+    observations: tuple[Observation, ...]
+    target: np.ndarray  # (n,) class index, -1 = unlabelled
+    generated: bool = False
+
+    def __post_init__(self) -> None:
+        if len(self.target) != len(self.observations):
+            raise ValueError(
+                f"recording {self.name}: {len(self.target)} targets for "
+                f"{len(self.observations)} frames"
+            )
 
 
-def from_urfd(
-    directory=None, names: list[str] | None = None, feature_set: str = "full"
+def build_rows(
+    recordings: list[Recording],
+    mode: TransportMode | str,
+    data_sha256: str,
+    feature_set: str = "full",
 ) -> FrameData:
-    sequences = urfd.load(directory, names)
-    feats, targets, groups, times, usable, recordings = [], [], [], [], [], []
-    for i, seq in enumerate(sequences):
-        observations = seq.observations()
-        features, seen = sequence_arrays(observations, feature_set)
+    """The one builder of training rows (issue #34), fed by sources: URFD files
+    (`urfd_recordings`), database recordings with their accepted segments
+    (`worker.db_data.db_recordings`) and generated transports
+    (`worker.training.generated.generated_recordings`). Each recording's features come from the
+    robot's own streaming path (`vigil.detector.stream_features`: tracker, `vigil.depth`,
+    `vigil.floor`, `vigil.features.FeatureExtractor`), so a model is trained on the numbers it is
+    served. A sequence is positive (a fall) when any of its frames is Emergency."""
+    if not recordings:
+        raise ValueError("no recordings to build training rows from")
+    mode = TransportMode(mode)
+    emergency = MODE_CLASSES[mode].index(Decision.EMERGENCY)
+    feats, targets, groups, times, usable, positive = [], [], [], [], [], []
+    for i, recording in enumerate(recordings):
+        features, seen = stream_features(recording.observations, feature_set)
+        target = np.asarray(recording.target, np.int64)
         feats.append(features)
-        targets.append(seq.target)
-        groups.append(np.full(len(seq), i))
-        times.append(seq.timestamps)
+        targets.append(target)
+        groups.append(np.full(len(target), i))
+        times.append(np.array([o.timestamp for o in recording.observations], np.float64))
         usable.append(seen)
-        recordings.append(tuple(observations))
+        positive.append(bool(np.any(target == emergency)))
     return FrameData(
-        names=[s.name for s in sequences],
-        is_positive_sequence=np.array([s.is_fall for s in sequences]),
+        names=[r.name for r in recordings],
+        is_positive_sequence=np.array(positive),
         features=np.concatenate(feats),
         target=np.concatenate(targets),
         group=np.concatenate(groups),
         timestamps=np.concatenate(times),
         usable=np.concatenate(usable),
-        mode=TransportMode.WALKING,
-        data_sha256=urfd.data_sha256(directory),
-        recordings=tuple(recordings),
+        mode=mode,
+        data_sha256=data_sha256,
+        generated=any(r.generated for r in recordings),
+        recordings=tuple(r.observations for r in recordings),
     )
+
+
+def urfd_recordings(
+    directory=None, names: list[str] | None = None, depth: bool = True
+) -> tuple[list[Recording], str]:
+    """The URFD file source: each sequence as the robot's replay gives it (its depth pictures
+    attached where there are any, unless `depth` is False), targets from the official labels;
+    and the hash of the files read."""
+    directory = Path(directory) if directory else urfd.default_dir()
+    depth_dir = directory / urfd.DEPTH_DIR if depth else None
+    digest = hashlib.sha256(urfd.data_sha256(directory).encode())
+    recordings = []
+    for sequence in urfd.load(directory, names):
+        if depth_dir is not None:
+            for path in sequence.depth_pictures(depth_dir).values():
+                digest.update(path.read_bytes())
+        recordings.append(
+            Recording(sequence.name, tuple(sequence.observations(depth_dir)), sequence.target)
+        )
+    return recordings, digest.hexdigest()
+
+
+def from_urfd(
+    directory=None, names: list[str] | None = None, feature_set: str = "full"
+) -> FrameData:
+    recordings, digest = urfd_recordings(directory, names)
+    return build_rows(recordings, TransportMode.WALKING, digest, feature_set)

@@ -9,11 +9,11 @@ import hashlib
 
 import numpy as np
 
-from vigil.classes import MODE_CLASSES, Decision, TransportMode
+from vigil.classes import MODE_CLASSES, TransportMode
 from vigil.observation import Observation
 from vigil.skeleton import SkeletonFrame
 from vigil.synthetic import EVENTS_BY_LOCOMOTION, GeneratedTransport, Locomotion, generate_transport
-from worker.training.data import FrameData, sequence_arrays
+from worker.training.data import FrameData, Recording, build_rows
 
 LOCOMOTIONS: dict[TransportMode, tuple[Locomotion, ...]] = {
     TransportMode.WHEELCHAIR: (Locomotion.WHEELCHAIR,),
@@ -55,26 +55,25 @@ def patient_arrays(transport: GeneratedTransport):
 DEFAULT_REPEATS = {TransportMode.WHEELCHAIR: 4, TransportMode.COMBINED: 2, TransportMode.WALKING: 2}
 
 
-def generated_frames(
+def generated_recordings(
     mode: TransportMode | str, repeats: int | None = None, seed: int = 0, depth: bool = True
-) -> FrameData:
-    """depth False: the frames carry no depth at the keypoints (their floor measures stay, made
+) -> tuple[list[Recording], str]:
+    """The generated source: each transport's patient alone in view (the bystanders are the
+    tracker's part: bench-robot), targets from the generator's decisions for `mode`.
+
+    depth False: the frames carry no depth at the keypoints (their floor measures stay, made
     by the generator's camera), as URFD's: a model trained on both cannot tell them apart by
     `has_depth`, and needs the inputs a URFD model needs (keypoints, floor)."""
     mode = TransportMode(mode)
     repeats = repeats or DEFAULT_REPEATS[mode]
     classes = MODE_CLASSES[mode]
-    emergency = classes.index(Decision.EMERGENCY)
-    transports = generate_for_mode(mode, repeats, seed)
-    feats, targets, groups, times, usable_all, positive, names = [], [], [], [], [], [], []
-    recordings = []
     digest = hashlib.sha256()
-    for i, transport in enumerate(transports):
+    recordings = []
+    for transport in generate_for_mode(mode, repeats, seed):
         keypoints, depths, usable, floor = patient_arrays(transport)
         if not depth:
             depths = np.full_like(depths, np.nan)
         timestamps = np.arange(transport.n_frames) / transport.fps
-        # The patient alone in view (the bystanders are the tracker's part: bench-robot).
         observations = tuple(
             Observation(
                 float(ts), [SkeletonFrame(keypoints[t], depths[t], float(ts), floor[t])]
@@ -82,29 +81,17 @@ def generated_frames(
             )
             for t, ts in enumerate(timestamps)
         )  # fmt: skip
-        recordings.append(observations)
-        features, usable = sequence_arrays(list(observations))
-        feats.append(features)
         target = np.array([classes.index(d) for d in transport.decisions(mode)])
-        targets.append(target)
-        groups.append(np.full(len(target), i))
-        times.append(timestamps)
-        usable_all.append(usable)
-        positive.append(bool(np.any(target == emergency)))
-        names.append(
-            f"gen-{transport.locomotion.value}-{'+'.join(transport.events)}-{transport.seed:03d}"
-        )
+        name = f"gen-{transport.locomotion.value}-{'+'.join(transport.events)}-{transport.seed:03d}"
+        recordings.append(Recording(name, observations, target, generated=True))
         digest.update(keypoints.tobytes())
-    return FrameData(
-        names=names,
-        is_positive_sequence=np.array(positive),
-        features=np.concatenate(feats),
-        target=np.concatenate(targets),
-        group=np.concatenate(groups),
-        timestamps=np.concatenate(times),
-        usable=np.concatenate(usable_all),
-        mode=mode,
-        data_sha256=digest.hexdigest(),
-        generated=True,
-        recordings=tuple(recordings),
-    )
+    return recordings, digest.hexdigest()
+
+
+def generated_frames(
+    mode: TransportMode | str, repeats: int | None = None, seed: int = 0, depth: bool = True
+) -> FrameData:
+    """Training rows of generated transports (the one builder, `build_rows`, fed by the
+    generated source); see `generated_recordings`."""
+    recordings, digest = generated_recordings(mode, repeats, seed, depth)
+    return build_rows(recordings, mode, digest)
