@@ -85,7 +85,7 @@ def measure(
     recall = [s["frame_recall"] for s in splits]
     return {
         "data": "REAL: URFD, 30 falls and 40 daily activities",
-        # Training frames made by the robot's frame path (vigil.detector.patient_stream).
+        # Training rows made on the robot's frame path (vigil.detector.stream_features).
         "training_frames": "robot_path",
         "model": model,
         "feature_version": FEATURE_VERSION,

@@ -184,9 +184,10 @@ def urfd_recordings(
     and the hash of the files read."""
     directory = Path(directory) if directory else urfd.default_dir()
     depth_dir = directory / urfd.DEPTH_DIR if depth else None
+    sequences = urfd.load(directory, names)  # first: its errors name VIGIL_URFD_DIR
     digest = hashlib.sha256(urfd.data_sha256(directory).encode())
     recordings = []
-    for sequence in urfd.load(directory, names):
+    for sequence in sequences:
         if depth_dir is not None:
             for path in sequence.depth_pictures(depth_dir).values():
                 digest.update(path.read_bytes())
