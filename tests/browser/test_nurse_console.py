@@ -362,7 +362,8 @@ def test_audio_pause_silences_for_now_and_lifts_for_a_new_emergency(live_server,
 def test_triage_order_missed_state_banner_filters_and_handover_export(live_server, page, db):
     """Issue 21: what needs a person now comes first and the newest Emergency is the first card
     and named in the banner; a missed Emergency is latched in its own group and says its
-    transport ended; the handover exports the shift as CSV."""
+    transport ended; the handover exports the shift as CSV. Issue 32: a missed Emergency nobody
+    answered keeps the tone and the banner, also after the nurse acknowledges the new ones."""
     now = utcnow()
     with transaction(db) as session:
         robot = session.get(Robot, "robot-a")
@@ -393,7 +394,12 @@ def test_triage_order_missed_state_banner_filters_and_handover_export(live_serve
     board = page.locator("main.board")
     expect(board).to_have_attribute("data-link", "live")
     page.get_by_role("button", name="Start shift").click()
-    expect(board).to_have_attribute("data-audio-state", "ready")  # a missed alarm does not sound
+    # A missed Emergency is unanswered: it sounds and holds the banner on its own.
+    expect(board).to_have_attribute("data-audio-state", "playing")
+    expect(page.get_by_test_id("emergency-banner")).to_have_attribute(
+        "data-alarm-id-banner", str(ids["t-missed"])
+    )
+    expect(page.get_by_test_id("banner-waiting")).to_contain_text("missed")
     expect(_card(page)).to_have_count(3)
 
     with SimulatedRobot(live_server.robot_ws_url, "robot-a", ROBOT_TOKEN) as robot:
@@ -415,6 +421,9 @@ def test_triage_order_missed_state_banner_filters_and_handover_export(live_serve
     banner = page.get_by_test_id("emergency-banner")
     for text in ("robot-a", "P-NEW", "lift lobby"):
         expect(banner).to_contain_text(text)
+    expect(page.get_by_test_id("banner-waiting")).to_contain_text(
+        re.compile(r"2 Emergencies unanswered, 1 missed, oldest .+ ago")
+    )
     missed_card = _card(page, ids["t-missed"])
     expect(missed_card).to_have_attribute("data-state", "missed")
     expect(missed_card).to_contain_text("Missed: needs review")
@@ -438,10 +447,12 @@ def test_triage_order_missed_state_banner_filters_and_handover_export(live_serve
     )
     page.screenshot(path=str(SCREENSHOTS / "nurse_board_list.png"), full_page=True)
 
-    # The banner stays until someone acknowledges; the tone with it.
+    # Acknowledging the new Emergency leaves the missed one unanswered: banner and tone stay,
+    # now naming the missed one (a fall nobody answered is never quieter).
     banner.get_by_role("button", name="Acknowledge").click()
-    expect(banner).to_have_count(0)
-    expect(board).to_have_attribute("data-audio-state", "ready")
+    expect(banner).to_have_attribute("data-alarm-id-banner", str(ids["t-missed"]))
+    expect(page.get_by_test_id("banner-waiting")).to_contain_text("missed")
+    expect(board).to_have_attribute("data-audio-state", "playing")
     expect(rows.first).to_have_attribute("data-alarm-id", str(ids["t-pause"]))
 
     page.get_by_role("link", name="Handover").click()
@@ -464,6 +475,17 @@ def test_triage_order_missed_state_banner_filters_and_handover_export(live_serve
     assert by_id[ids["t-missed"]]["transport_ended_at"] != ""
     assert by_id[new_id]["state"] == "acknowledged"
     assert by_id[new_id]["acknowledged_by"] == "nina"
+
+    # A missed alarm is acknowledged from its replay page as from the board; then, with every
+    # Emergency answered, banner and tone go.
+    page.goto(f"{live_server.base_url}/nurse/alarms/{ids['t-missed']}")
+    page.locator("main.replay").get_by_role("button", name="Acknowledge").click()
+    expect(page.locator("main.replay .replay-actions .ack")).to_have_count(0)
+    page.get_by_role("link", name="Alarms", exact=True).click()
+    board = page.locator("main.board")
+    expect(_card(page, ids["t-missed"])).to_have_attribute("data-state", "acknowledged")
+    expect(page.get_by_test_id("emergency-banner")).to_have_count(0)
+    expect(board).not_to_have_attribute("data-audio-state", "playing")
 
 
 def test_list_of_hundreds_of_alarms_is_in_triage_order_and_draws_the_rows_in_view(

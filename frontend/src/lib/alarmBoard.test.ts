@@ -14,6 +14,7 @@ import {
   transportEndedText,
   triageGroup,
   soundRequired,
+  unacknowledgedEmergencies,
   sortForBoard,
   wardsOf,
 } from "./alarmBoard";
@@ -142,9 +143,9 @@ describe("board ordering and sound", () => {
     const sorted = sortForBoard(alarms);
     expect(sorted.map((a) => a.id)).toEqual([4, 3, 2, 1, 6, 5]);
     expect(sorted.map(triageGroup)).toEqual(["new", "missed", "missed", "acknowledged", "acknowledged", "acknowledged"]);
-    // A missed Emergency is latched on the board and does not drive the repeating tone.
+    // A missed Emergency is latched on the board and, unanswered, keeps the tone repeating.
     expect(isLive(alarms[1])).toBe(true);
-    expect(soundRequired([alarms[1]])).toBe(false);
+    expect(soundRequired([alarms[1]])).toBe(true);
     expect(countBoard(alarms)).toEqual({ new: 1, missed: 2, acknowledged: 3, emergency: 3, technical: 1, pause: 2, total: 6 });
   });
 
@@ -170,7 +171,7 @@ describe("board ordering and sound", () => {
   });
 
   it("announces the newest unacknowledged Emergency in the banner, not a missed or acknowledged one", () => {
-    expect(bannerEmergency([alarm({ kind: "pause" }), alarm({ state: "missed" })])).toBeNull();
+    expect(bannerEmergency([alarm({ kind: "pause" }), alarm({ state: "acknowledged" })])).toBeNull();
     const banner = bannerEmergency([
       alarm({ id: 1, raised_at: "2026-01-01T10:00:00Z" }),
       alarm({ id: 2, raised_at: "2026-01-01T10:05:00Z", patient: "P-9" }),
@@ -178,6 +179,31 @@ describe("board ordering and sound", () => {
     ]);
     expect(banner?.alarm.id).toBe(2);
     expect(banner?.others).toBe(1);
+    expect(banner?.oldest.id).toBe(1);
+    expect(banner?.missed).toBe(0);
+  });
+
+  it("never goes quieter for a missed Emergency: acknowledging the new ones keeps tone and banner", () => {
+    const missed = [
+      alarm({ id: 1, state: "missed", raised_at: "2026-01-01T09:00:00Z" }),
+      alarm({ id: 2, state: "missed", raised_at: "2026-01-01T09:30:00Z" }),
+    ];
+    const fresh = alarm({ id: 3, raised_at: "2026-01-01T10:00:00Z" });
+    expect(unacknowledgedEmergencies([...missed, fresh]).map((a) => a.id)).toEqual([1, 2, 3]);
+    const before = bannerEmergency([...missed, fresh]);
+    expect(before?.alarm.id).toBe(3);
+    expect(before).toMatchObject({ others: 2, missed: 2 });
+    // The nurse acknowledges the fresh one: the two missed ones still sound and keep the banner.
+    const answered = { ...fresh, state: "acknowledged" as const, acknowledged_at: "2026-01-01T10:01:00Z" };
+    expect(soundRequired([...missed, answered])).toBe(true);
+    const after = bannerEmergency([...missed, answered]);
+    expect(after?.alarm.id).toBe(2);
+    expect(after).toMatchObject({ others: 1, missed: 2 });
+    expect(after?.oldest.id).toBe(1);
+    // Only when every Emergency is answered do tone and banner go.
+    const allAnswered = missed.map((a) => ({ ...a, state: "acknowledged" as const }));
+    expect(soundRequired([...allAnswered, answered])).toBe(false);
+    expect(bannerEmergency([...allAnswered, answered])).toBeNull();
   });
 
   it("says when the transport of an alarm ended", () => {

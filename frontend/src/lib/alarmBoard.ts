@@ -168,17 +168,49 @@ export function robotsOf(alarms: Iterable<Alarm>): string[] {
   return [...new Set([...alarms].map((a) => a.robot_id))].sort();
 }
 
-/** The sticky banner: the newest Emergency nobody has acknowledged yet (not one already
- * missed: those have their own group), and how many more wait beside it. */
-export function bannerEmergency(alarms: Iterable<Alarm>): { alarm: Alarm; others: number } | null {
-  let newest: Alarm | null = null;
-  let count = 0;
-  for (const a of alarms) {
-    if (a.kind !== "emergency" || a.state !== "open") continue;
-    count += 1;
-    if (!newest || compareForBoard(a, newest) < 0) newest = a;
+/** The Acknowledge button's rule, the same on the board's cards, its list and the replay page:
+ * open, or missed (a missed alarm is acknowledged the same way). */
+export function mayAcknowledge(alarm: Alarm): boolean {
+  return alarm.state === "open" || alarm.state === "missed";
+}
+
+/** An Emergency nobody has answered: open, re-alarmed, or latched "missed" (a fall nobody
+ * answered is never quieter than one somebody answered). Tone, banner and audio pause all
+ * follow this one rule. */
+export function isUnansweredEmergency(alarm: Alarm): boolean {
+  return alarm.kind === "emergency" && (needsAttention(alarm) || alarm.state === "missed");
+}
+
+export function unacknowledgedEmergencies(alarms: Iterable<Alarm>): Alarm[] {
+  return [...alarms].filter(isUnansweredEmergency);
+}
+
+export interface EmergencyBannerState {
+  /** The banner's alarm: the newest unanswered Emergency in triage order (a fresh one before a
+   * missed one). */
+  alarm: Alarm;
+  /** How many more unanswered Emergencies wait beside it. */
+  others: number;
+  /** Of all unanswered Emergencies, how many are already missed. */
+  missed: number;
+  /** The one waiting longest. */
+  oldest: Alarm;
+}
+
+/** The sticky banner: stays while any Emergency of the ward is unanswered, missed included,
+ * naming how many, how many are missed and the oldest. */
+export function bannerEmergency(alarms: Iterable<Alarm>): EmergencyBannerState | null {
+  const waiting = unacknowledgedEmergencies(alarms);
+  if (!waiting.length) return null;
+  let newest = waiting[0];
+  let oldest = waiting[0];
+  let missed = 0;
+  for (const a of waiting) {
+    if (a.state === "missed") missed += 1;
+    if (compareForBoard(a, newest) < 0) newest = a;
+    if (Date.parse(a.raised_at) < Date.parse(oldest.raised_at)) oldest = a;
   }
-  return newest ? { alarm: newest, others: count - 1 } : null;
+  return { alarm: newest, others: waiting.length - 1, missed, oldest };
 }
 
 /** "transport ended 40 min ago", for an alarm whose transport is over (null while under way). */
@@ -198,10 +230,10 @@ export function wardsOf(alarms: Iterable<Alarm>): string[] {
   return [...wards].sort();
 }
 
-/** The emergency sound repeats while any emergency on the shown board is unacknowledged (or
- * re-alarmed because it was acknowledged but not resolved in time). */
+/** The emergency sound repeats while any emergency on the shown board is unanswered: open,
+ * missed, or re-alarmed because it was acknowledged but not resolved in time. */
 export function soundRequired(alarms: Iterable<Alarm>): boolean {
-  for (const a of alarms) if (a.kind === "emergency" && needsAttention(a)) return true;
+  for (const a of alarms) if (isUnansweredEmergency(a)) return true;
   return false;
 }
 

@@ -28,6 +28,14 @@ describe("audio paused for 2 minutes", () => {
     expect(pauseHolds(pause, [stored], now + 1000)).toBe(true);
   });
 
+  it("keeps holding when a silenced Emergency goes missed, and a missed one silenced stays counted", () => {
+    const pause = pauseAudio([calling], now);
+    expect(pauseHolds(pause, [{ ...calling, state: "missed" }], now + 1000)).toBe(true);
+    const missedElsewhere = testAlarm({ id: 4, key: "r4/t4/emergency", state: "missed" });
+    expect(pauseHolds(pause, [calling, missedElsewhere], now + 1000)).toBe(false);
+    expect(pauseHolds(pauseAudio([calling, missedElsewhere], now), [calling, missedElsewhere], now + 1000)).toBe(true);
+  });
+
   it("does not hold without a pause", () => {
     expect(pauseHolds(null, [calling], now)).toBe(false);
   });

@@ -1,7 +1,7 @@
 // "Audio paused" as IEC 60601-1-8 describes it: the nurse silences the tone for a fixed time;
 // the visual alarm stays, and the pause lifts itself when it runs out or a new Emergency arrives.
 import type { Alarm } from "../api/types";
-import { needsAttention } from "./alarmBoard";
+import { unacknowledgedEmergencies } from "./alarmBoard";
 
 export const AUDIO_PAUSE_MS = 2 * 60_000;
 
@@ -15,17 +15,14 @@ export interface AudioPause {
 /** An Emergency's identity across its provisional (not yet stored) and stored versions. */
 const identity = (alarm: Alarm): string => alarm.key ?? `id:${alarm.id}`;
 
-const callingEmergencies = (alarms: Iterable<Alarm>): Alarm[] =>
-  [...alarms].filter((a) => a.kind === "emergency" && needsAttention(a));
-
 export function pauseAudio(alarms: Iterable<Alarm>, now: number): AudioPause {
-  return { until: now + AUDIO_PAUSE_MS, silenced: new Set(callingEmergencies(alarms).map(identity)) };
+  return { until: now + AUDIO_PAUSE_MS, silenced: new Set(unacknowledgedEmergencies(alarms).map(identity)) };
 }
 
 /** The pause still holds: not run out, and no Emergency calls that was not silenced. */
 export function pauseHolds(pause: AudioPause | null, alarms: Iterable<Alarm>, now: number): boolean {
   if (!pause || now >= pause.until) return false;
-  return callingEmergencies(alarms).every((a) => pause.silenced.has(identity(a)));
+  return unacknowledgedEmergencies(alarms).every((a) => pause.silenced.has(identity(a)));
 }
 
 /** "1:42" left of a pause. */

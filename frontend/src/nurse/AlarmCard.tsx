@@ -1,6 +1,6 @@
 import { Link } from "react-router-dom";
 import type { Alarm } from "../api/types";
-import { alarmTitle, isRealarmed, isStored, KIND_LABEL, styleOf, transportEndedText } from "../lib/alarmBoard";
+import { alarmTitle, isRealarmed, isStored, KIND_LABEL, mayAcknowledge, styleOf, transportEndedText } from "../lib/alarmBoard";
 import { elapsed } from "../lib/time";
 
 interface Props {
@@ -76,7 +76,7 @@ export function AlarmCard({ alarm, now, busy, onAcknowledge, onResolve }: Props)
         </footer>
       ) : (
         <footer>
-          {(alarm.state === "open" || alarm.state === "missed") && (
+          {mayAcknowledge(alarm) && (
             <button type="button" className="ack" disabled={busy} onClick={() => onAcknowledge(alarm)}>
               Acknowledge
             </button>

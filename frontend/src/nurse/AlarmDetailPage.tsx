@@ -3,7 +3,7 @@ import { Link, useParams } from "react-router-dom";
 import { api, errorMessage } from "../api/client";
 import type { components } from "../api/schema";
 import type { Alarm } from "../api/types";
-import { KIND_LABEL } from "../lib/alarmBoard";
+import { KIND_LABEL, mayAcknowledge } from "../lib/alarmBoard";
 import { delayFilter } from "../lib/replay";
 import { clockTime } from "../lib/time";
 import { AuditTrail } from "./AuditTrail";
@@ -122,7 +122,7 @@ export function AlarmDetailPage() {
       </details>
       {alarm.state !== "resolved" && (
         <div className="actions replay-actions">
-          {alarm.state === "open" && (
+          {mayAcknowledge(alarm) && (
             <button type="button" className="ack" disabled={actions.busyId === alarm.id}
               onClick={() => void actions.acknowledge(alarm)}>
               Acknowledge

@@ -1,7 +1,7 @@
 import { memo, useLayoutEffect, useMemo, useRef, useState, type RefObject } from "react";
 import { Link } from "react-router-dom";
 import type { Alarm } from "../api/types";
-import { alarmTitle, GROUP_LABEL, isRealarmed, isStored, styleOf, transportEndedText, type TriageGroup } from "../lib/alarmBoard";
+import { alarmTitle, GROUP_LABEL, isRealarmed, isStored, mayAcknowledge, styleOf, transportEndedText, type TriageGroup } from "../lib/alarmBoard";
 import { itemOffsets, visibleSlice } from "../lib/listWindow";
 import { elapsed } from "../lib/time";
 
@@ -132,7 +132,7 @@ const Row = memo(function Row({ alarm, top, rowIndex, group, since, ended, busy,
       </span>
       <span role="cell" className="since" title={alarm.raised_at}>{since}</span>
       <span role="cell" className="actions">
-        {stored && (alarm.state === "open" || alarm.state === "missed") && (
+        {stored && mayAcknowledge(alarm) && (
           <button type="button" className="ack" disabled={busy} onClick={() => onAcknowledge(alarm)}>Acknowledge</button>
         )}
         {stored && <button type="button" className="resolve" disabled={busy} onClick={() => onResolve(alarm)}>Resolve…</button>}

@@ -1,17 +1,19 @@
 import type { Alarm } from "../api/types";
-import { elapsed } from "../lib/time";
+import type { EmergencyBannerState } from "../lib/alarmBoard";
+import { clockTime, elapsed } from "../lib/time";
 
 interface Props {
-  alarm: Alarm;
-  others: number;
+  banner: EmergencyBannerState;
   now: number;
   busy: boolean;
   onAcknowledge(alarm: Alarm): void;
 }
 
-/** Sticky strip for the newest unacknowledged Emergency: robot, patient and location where the
- * eye already is, until someone acknowledges it (the tone repeats until then). */
-export function EmergencyBanner({ alarm, others, now, busy, onAcknowledge }: Props) {
+/** Sticky strip for the newest unanswered Emergency: robot, patient and location where the eye
+ * already is. It stays while any Emergency of the ward is unanswered, missed ones included,
+ * naming how many and the oldest (the tone repeats until then). */
+export function EmergencyBanner({ banner, now, busy, onAcknowledge }: Props) {
+  const { alarm, others, missed, oldest } = banner;
   // The list draws only the rows near the window: a row out of it is not in the page, and the
   // banner's alarm (the newest unacknowledged Emergency) is the board's first row, at its top.
   const show = () => {
@@ -26,7 +28,15 @@ export function EmergencyBanner({ alarm, others, now, busy, onAcknowledge }: Pro
       <span>patient <b>{alarm.patient ?? "unknown"}</b></span>
       <span>at <b>{alarm.location ?? "unknown location"}</b></span>
       <span className="since">{elapsed(alarm.raised_at, now)} ago</span>
-      {others > 0 && <span className="others">+{others} more unacknowledged</span>}
+      {others > 0 && (
+        <span className="others" data-testid="banner-waiting">
+          {others + 1} Emergencies unanswered{missed > 0 ? `, ${missed} missed` : ""}, oldest{" "}
+          {clockTime(oldest.raised_at)} ({elapsed(oldest.raised_at, now)} ago)
+        </span>
+      )}
+      {others === 0 && alarm.state === "missed" && (
+        <span className="others" data-testid="banner-waiting">missed: nobody has answered it</span>
+      )}
       {alarm.stored !== false && (
         <button type="button" className="primary" disabled={busy} onClick={() => onAcknowledge(alarm)}>
           Acknowledge

@@ -98,7 +98,7 @@ export function NurseBoard() {
         </div>
       )}
       {banner && (
-        <EmergencyBanner alarm={banner.alarm} others={banner.others} now={now} busy={busyId === banner.alarm.id}
+        <EmergencyBanner banner={banner} now={now} busy={busyId === banner.alarm.id}
           onAcknowledge={onAcknowledge} />
       )}
       <div className="board-head">
