@@ -24,6 +24,7 @@ from robot_agent.sources.replay import SourceError
 from robot_agent.sources.rosbag import (
     BEHAVIOUR_TOPIC,
     CAMERA_INFO,
+    COMPRESSED,
     DECISION_TOPIC,
     DEFAULT_DEPTH_TOPIC,
     DEFAULT_INFO_TOPIC,
@@ -31,6 +32,8 @@ from robot_agent.sources.rosbag import (
     IMAGE,
     BagTopicError,
     RosbagSource,
+    colour_picture,
+    depth_picture_mm,
     typestore,
 )
 from vigil.classes import Decision, TransportMode
@@ -301,3 +304,49 @@ def test_record_bag_round_trip(bag, model_dir, tmp_path):
     assert all(START_NS <= ns <= times[-1] for ns, _ in behaviour)
     with pytest.raises(Exception, match="exists already"):
         build_robot(settings)  # never overwrites a bag
+
+
+def test_pictures_decode_from_every_supported_encoding():
+    store = typestore()
+    rng = np.random.default_rng(0)
+    bgr = rng.integers(0, 255, (4, 6, 3), dtype=np.uint8)
+    ok, png = cv2.imencode(".png", bgr)
+    compressed = store.types[COMPRESSED](header=header(1), format="png", data=png.ravel())
+    assert np.array_equal(colour_picture(compressed, COMPRESSED, "/c"), bgr)
+    padded = np.zeros((4, 6 * 3 + 2), np.uint8)  # rows with padding: step > width * 3
+    padded[:, :18] = cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB).reshape(4, 18)
+    rgb8 = store.types[IMAGE](
+        header=header(1),
+        height=4,
+        width=6,
+        encoding="rgb8",
+        is_bigendian=0,
+        step=20,
+        data=padded.ravel(),
+    )
+    assert np.array_equal(colour_picture(rgb8, IMAGE, "/c"), bgr)
+    metres = np.array([[1.2344, np.nan], [0.0, 2.0]], np.float32)
+    depth = store.types[IMAGE](
+        header=header(1),
+        height=2,
+        width=2,
+        encoding="32FC1",
+        is_bigendian=0,
+        step=8,
+        data=metres.view(np.uint8).ravel(),
+    )
+    assert depth_picture_mm(depth, "/d").tolist() == [[1234, 0], [0, 2000]]
+    big = np.array([[1500, 0]], ">u2")
+    depth16 = store.types[IMAGE](
+        header=header(1),
+        height=1,
+        width=2,
+        encoding="16UC1",
+        is_bigendian=1,
+        step=4,
+        data=big.view(np.uint8).ravel(),
+    )
+    assert depth_picture_mm(depth16, "/d").tolist() == [[1500, 0]]
+    rgb8.encoding = "yuv422"
+    with pytest.raises(SourceError, match="/c: encoding 'yuv422'"):
+        colour_picture(rgb8, IMAGE, "/c")
