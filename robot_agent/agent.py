@@ -9,7 +9,7 @@ import contextlib
 import logging
 import shlex
 import time
-from collections.abc import Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass
 from functools import partial
 from pathlib import Path
@@ -132,6 +132,8 @@ class RobotAgent:
             )
         self.frames = 0
         self.source_done = asyncio.Event()
+        # Called once the source ended and when the agent stops (e.g. finish a recorded bag).
+        self.on_source_done: list[Callable[[], None]] = []
         self._fetching: set[str] = set()
         # The registry's sha256 of versions, as the backend told (welcome, assignments).
         self.registry_sha256: dict[str, str] = {}
@@ -279,7 +281,12 @@ class RobotAgent:
                 transport_id,
                 self.frames,
             )
+        self._source_ended()
+
+    def _source_ended(self) -> None:
         self.source_done.set()
+        while self.on_source_done:
+            self.on_source_done.pop(0)()
 
     async def _stream(self, plan: TransportPlan, made: list[Observation] | None) -> None:
         """A recording or camera is read frame by frame in a thread, one frame ahead: the next
@@ -356,6 +363,8 @@ class RobotAgent:
                     await task
             if self.local is not None:
                 await self.local.close()
+            while self.on_source_done:  # stopped before the source ended
+                self.on_source_done.pop(0)()
 
     async def _until_drained(self) -> None:
         await self.source_done.wait()

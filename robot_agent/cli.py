@@ -1,6 +1,9 @@
 """`vigil-robot`: the robot agent.
 
     vigil-robot run --config robot.toml [flags]       one robot from a keypoint source
+    vigil-robot run --source rosbag --source-path BAG [--record-bag OUT]
+                                                      one robot on a ROS 2 recording; OUT: a
+                                                      copy of it plus its decisions
     vigil-robot simulate --backend URL --robots 3 --tokens-file var/robot_tokens.json
                                                       a fleet of robots on GENERATED transports
     vigil-robot reset --config robot.toml             reset this robot's emergency stop (local
@@ -66,6 +69,13 @@ RUN_FLAGS = {
     "--patient": "patient",
     "--location": "location",
     "--outbox": "outbox_path",
+    "--rgb-topic": "rgb_topic",
+    "--depth-topic": "depth_topic",
+    "--camera-info-topic": "camera_info_topic",
+    "--depth-tolerance-s": "depth_tolerance_s",
+    "--camera-height-m": "camera_height_m",
+    "--camera-pitch-deg": "camera_pitch_deg",
+    "--record-bag": "record_bag",
 }
 SIMULATE_FLAGS = {
     "--falls-per-hour": "falls_per_hour",

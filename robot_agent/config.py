@@ -30,6 +30,7 @@ class SourceKind(StrEnum):
     REPLAY = "replay"  # a URFD keypoint file or a Vigil export
     OPENPOSE = "openpose"  # a directory of OpenPose JSON files (+ optional depth PNGs)
     MEDIAPIPE = "mediapipe"  # a video file or camera index through MediaPipe pose
+    ROSBAG = "rosbag"  # a ROS 2 recording (RGB, aligned depth, camera info) through MediaPipe
 
 
 def parse_camera_mount(text: str) -> CameraMount:
@@ -66,7 +67,40 @@ class AgentSettings(BaseSettings):
         default=None,
         description="replay: URFD sequence (fall-01, or FILE#fall-01 for a keypoint file in "
         "URFD's format) or export .json; openpose: directory; "
-        "mediapipe: video file or camera index",
+        "mediapipe: video file or camera index; rosbag: the rosbag2 directory",
+    )
+    rgb_topic: str = Field(
+        default="/camera/color/image_raw",
+        min_length=1,
+        description="rosbag: RGB topic (sensor_msgs/msg/Image or CompressedImage)",
+    )
+    depth_topic: str = Field(
+        default="/camera/aligned_depth_to_color/image_raw",
+        description="rosbag: aligned depth topic (sensor_msgs/msg/Image 16UC1 mm or 32FC1 m; "
+        "empty: none)",
+    )
+    camera_info_topic: str = Field(
+        default="/camera/color/camera_info",
+        description="rosbag: sensor_msgs/msg/CameraInfo topic (empty: none)",
+    )
+    depth_tolerance_s: float = Field(
+        default=0.02,
+        ge=0,
+        description="rosbag: a depth picture pairs with the RGB frame of the nearest stamp "
+        "within this many seconds",
+    )
+    camera_height_m: float | None = Field(
+        default=None,
+        gt=0,
+        description="rosbag: camera height above the floor; with CameraInfo gives floor measures",
+    )
+    camera_pitch_deg: float = Field(
+        default=0.0, gt=-90, lt=90, description="rosbag: downward tilt of the camera"
+    )
+    record_bag: Path | None = Field(
+        default=None,
+        description="write a new rosbag2 here: the input bag's topics plus /vigil/decision "
+        "and /vigil/behaviour (std_msgs/msg/String JSON)",
     )
     depth_dir: Path | None = Field(
         default=None, description="16-bit depth PNGs (openpose, URFD replay)"

@@ -148,6 +148,9 @@ class Pipeline:
         self.last_decision: Decision | None = None
         self.refused: str | None = None  # a model refused since the last verified one
         self.behaviour: Behaviour | None = None  # what the robot does with the decisions
+        # Told every frame after its decision and behaviour (e.g. the rosbag recorder):
+        # (observation, result, transport_id).
+        self.frame_listeners: list[Callable[[Observation, FrameResult, str | None], None]] = []
 
     @property
     def classifier(self) -> FrameClassifier | None:
@@ -359,7 +362,10 @@ class Pipeline:
         self.last_decision = decision
         if self.behaviour is not None:
             self._behave(decision, wall_ts, detected.seen)
-        return FrameResult(seq, decision, classification, detected.seen)
+        result = FrameResult(seq, decision, classification, detected.seen)
+        for listener in self.frame_listeners:
+            listener(observation, result, self.transport_id)
+        return result
 
     def _behave(self, decision: Decision | None, wall_ts: float, seen: bool) -> None:
         degraded = None

@@ -92,6 +92,11 @@ def source_inputs(settings: AgentSettings) -> list[str]:
     if kind == SourceKind.GENERATED:  # the generator knows depth and its camera's mount
         return ["keypoints", "depth", "floor"]
     has_depth = settings.depth_dir is not None
+    if kind == SourceKind.ROSBAG:  # depth from the depth topic; floor with CameraInfo + height
+        has_depth = bool(settings.depth_topic)
+        has_floor = (
+            has_depth and bool(settings.camera_info_topic) and bool(settings.camera_height_m)
+        )
     has_floor = has_depth and settings.mount is not None
     if kind == SourceKind.REPLAY:
         path = settings.source_path or ""
@@ -138,7 +143,7 @@ def build_robot(settings: AgentSettings) -> RobotAgent:
     # A camera paces itself; recorded, generated and video frames are paced by the agent.
     camera = settings.source == SourceKind.MEDIAPIPE and (settings.source_path or "").isdigit()
     speed = 0.0 if camera else settings.speed
-    return RobotAgent(
+    agent = RobotAgent(
         settings.robot_id,
         token,
         pipeline,
@@ -146,3 +151,22 @@ def build_robot(settings: AgentSettings) -> RobotAgent:
         agent_options(settings, speed),
         settings.models_dir / settings.robot_id,
     )
+    if settings.record_bag is not None:
+        attach_recorder(agent, settings)
+    return agent
+
+
+def attach_recorder(agent: RobotAgent, settings: AgentSettings) -> None:
+    """--record-bag: a new bag with the input bag's topics (rosbag source) and the agent's
+    decisions and behaviour changes, finished when the source ends or the agent stops."""
+    from robot_agent.sources.replay import SourceError
+    from robot_agent.sources.rosbag import BagRecorder
+
+    input_bag = settings.source_path if settings.source == SourceKind.ROSBAG else None
+    try:
+        recorder = BagRecorder(settings.record_bag, input_bag)
+    except (OSError, SourceError) as error:
+        raise ConfigError(f"record_bag: {error}") from None
+    agent.pipeline.frame_listeners.append(recorder.on_frame)
+    agent.behaviour.listeners.append(recorder.on_behaviour)
+    agent.on_source_done.append(recorder.close)

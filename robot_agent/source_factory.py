@@ -160,6 +160,19 @@ def transports_for(settings: AgentSettings) -> Iterator[TransportPlan]:
             return module.OpenPoseDirSource(
                 path, depth_dir=settings.depth_dir, depth_scale_mm=settings.depth_scale_mm
             )
+    elif kind == SourceKind.ROSBAG:
+        module = _module("rosbag", kind)
+
+        def make():
+            return module.RosbagSource(
+                path,
+                rgb_topic=settings.rgb_topic,
+                depth_topic=settings.depth_topic,
+                info_topic=settings.camera_info_topic,
+                tolerance_s=settings.depth_tolerance_s,
+                camera_height_m=settings.camera_height_m,
+                camera_pitch_deg=settings.camera_pitch_deg,
+            )
     else:
         module = _module("mediapipe_video", kind)
         video = int(path) if path.isdigit() else path  # a number is a camera index

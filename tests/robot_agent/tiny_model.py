@@ -16,9 +16,14 @@ from vigil.taxonomy import DEFAULT_TAXONOMY
 
 
 def upright_model_bytes(
-    steepness: float = 6.0, feature_set: str = "pose", always_normal: bool = False
+    steepness: float = 6.0,
+    feature_set: str = "pose",
+    always_normal: bool = False,
+    depth_weight: float = 0.0,
 ) -> bytes:
-    """always_normal: ignore the features and score Normal 0.99 (a model that never alarms)."""
+    """always_normal: ignore the features and score Normal 0.99 (a model that never alarms).
+    depth_weight: added to the Emergency logit on frames with depth (`has_depth`), so that a
+    test sees whether depth reached the model."""
     columns = list(FEATURE_SETS[feature_set])
     n_features = len(columns)
     weights = np.zeros((n_features, 2), np.float32)
@@ -27,6 +32,7 @@ def upright_model_bytes(
         bias = np.array([4.6, 0.0], np.float32)
     else:
         weights[columns.index(FEATURE_NAMES.index("upright"))] = (steepness, -steepness)
+        weights[columns.index(FEATURE_NAMES.index("has_depth"))] = (0.0, depth_weight)
     graph = helper.make_graph(
         [
             helper.make_node("MatMul", ["features", "w"], ["product"]),
@@ -53,6 +59,7 @@ def write_upright_model(
     delay_ms: int = 200,
     feature_set: str = "pose",
     always_normal: bool = False,
+    depth_weight: float = 0.0,
 ) -> Path:
     manifest = ModelManifest(
         version=version,
@@ -68,5 +75,7 @@ def write_upright_model(
         generated_data=True,
         sha256="0" * 64,
     )
-    onnx = upright_model_bytes(feature_set=feature_set, always_normal=always_normal)
+    onnx = upright_model_bytes(
+        feature_set=feature_set, always_normal=always_normal, depth_weight=depth_weight
+    )
     return write_model(directory, onnx, manifest)
