@@ -101,6 +101,17 @@ class Settings(StorageSettings):
     escalation_max_level: int = Field(
         default=3, description="escalation stops after this many levels"
     )
+    missed_escalation_chain: list[str] = Field(
+        default_factory=lambda: ["charge nurse", "rapid-response team"],
+        description="who a missed Emergency escalates to next, in order, JSON list",
+    )
+    missed_escalation_chain_by_ward: dict[str, list[str]] = Field(
+        default_factory=dict,
+        description='per-ward chain, JSON: {"ward-3a": ["charge nurse 3a", "rapid-response team"]}',
+    )
+    missed_escalation_seconds: float = Field(
+        default=120, description="a missed Emergency still unanswered this long goes to the next"
+    )
     realarm_minutes: float = Field(
         default=15, description="an acknowledged alarm not resolved in this time re-alarms"
     )
@@ -172,6 +183,9 @@ class Settings(StorageSettings):
 
     def escalation_seconds_for(self, ward: str) -> float:
         return self.escalation_seconds_by_ward.get(ward, self.escalation_seconds)
+
+    def missed_escalation_chain_for(self, ward: str) -> list[str]:
+        return self.missed_escalation_chain_by_ward.get(ward, self.missed_escalation_chain)
 
     @model_validator(mode="after")
     def _session_key(self) -> "Settings":

@@ -12,6 +12,9 @@
   condition); the alarm and its audit trail stay in the history and the shift handover;
 - escalates an open Emergency not acknowledged within the ward's escalation time, and moves
   one still unacknowledged an escalation time after the last level to "missed: needs review";
+- escalates a missed Emergency on to the ward's further responders (`missed_escalation_chain`,
+  per ward: charge nurse, then the rapid-response team), one each `missed_escalation_seconds`,
+  so a fall nobody answered is never left alone;
 - re-alarms an acknowledged alarm not resolved within `realarm_minutes`.
 
 Each change is committed, then pushed like any other alarm change.
@@ -92,6 +95,7 @@ class AlarmMonitor:
             self._cleared(session, now)
             self._technical(session, now)
             self._escalations(session, now, viewers or [])
+            self._missed_escalations(session, now)
             self._realarms(session, now)
         return unit
 
@@ -187,6 +191,33 @@ class AlarmMonitor:
             )
             for a in claimed
         ]
+
+    def _missed_escalations(self, session: Session, now: datetime) -> list[Alarm]:
+        """A missed Emergency is never left alone: each `missed_escalation_seconds` it goes on
+        to the next of its ward's responders, until the chain ends."""
+        wait = timedelta(seconds=self._settings.missed_escalation_seconds)
+
+        def next_responder(alarm: Alarm) -> str | None:
+            if (
+                alarm.state != AlarmState.MISSED
+                or now - (alarm.escalated_at or alarm.raised_at) < wait
+            ):
+                return None
+            chain = self._settings.missed_escalation_chain_for(alarm.ward)
+            if alarm.escalated_to is None:
+                return chain[0] if chain else None
+            if alarm.escalated_to not in chain:
+                return None  # the chain was changed under it: do not start it over
+            reached = chain.index(alarm.escalated_to) + 1
+            return chain[reached] if reached < len(chain) else None
+
+        candidates = [a.id for a in queries.missed_emergencies(session) if next_responder(a)]
+        changed = []
+        for alarm in queries.claim(session, candidates):
+            responder = next_responder(alarm)
+            if responder:
+                changed.append(service.escalate_missed(session, alarm, now, responder))
+        return changed
 
     def _realarms(self, session: Session, now: datetime) -> list[Alarm]:
         wait = timedelta(minutes=self._settings.realarm_minutes)

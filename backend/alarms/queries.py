@@ -125,6 +125,16 @@ def open_emergencies(session: Session) -> Sequence[Alarm]:
     )
 
 
+def missed_emergencies(session: Session) -> Sequence[Alarm]:
+    return (
+        session.scalars(
+            select(Alarm).where(Alarm.state == AlarmState.MISSED, Alarm.kind == AlarmKind.EMERGENCY)
+        )
+        .unique()
+        .all()
+    )
+
+
 def acknowledged(session: Session) -> Sequence[Alarm]:
     return (
         session.scalars(select(Alarm).where(Alarm.state == AlarmState.ACKNOWLEDGED)).unique().all()

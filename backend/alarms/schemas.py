@@ -38,6 +38,10 @@ class AlarmOut(BaseModel):
     reason: FalseAlarmReason | None
     comment: str | None
     escalation_level: int
+    escalated_to: str | None = Field(
+        default=None,
+        description="a missed Emergency: the last of the ward's further responders it reached",
+    )
     realarmed_at: datetime | None
     video_id: int | None
     first_seq: int | None

@@ -235,10 +235,25 @@ def miss(session: Session, alarm: Alarm, now: datetime) -> Alarm:
     """The last escalation level went unanswered too: "missed: needs review" (latched)."""
     before = alarm.state
     ALARM.act(alarm, AlarmAction.MISS)
-    alarm.updated_at = now
+    # The further responders' wait counts from the miss.
+    alarm.escalated_at = alarm.updated_at = now
     _record(session, alarm, AlarmAction.MISS, before, "system",
             comment=f"not acknowledged after the last escalation level "
                     f"({alarm.escalation_level}): missed, needs review")  # fmt: skip
+    return alarm
+
+
+def escalate_missed(session: Session, alarm: Alarm, now: datetime, responder: str) -> Alarm:
+    """A missed Emergency still unanswered goes on to the ward's next responder (charge nurse,
+    then the rapid-response team): it stays missed, and the audit says who was called."""
+    before = alarm.state
+    ALARM.act(alarm, AlarmAction.ESCALATE)
+    unanswered = int((now - alarm.raised_at).total_seconds() // 60)
+    alarm.escalation_level += 1
+    alarm.escalated_at = alarm.updated_at = now
+    alarm.escalated_to = responder
+    _record(session, alarm, AlarmAction.ESCALATE, before, "system",
+            comment=f"missed, unanswered {unanswered} min: escalated to {responder}")  # fmt: skip
     return alarm
 
 

@@ -48,7 +48,8 @@ ALARM = StateMachine(
         AlarmAction.UPDATE: {OPEN: OPEN, ACKNOWLEDGED: ACKNOWLEDGED, MISSED: MISSED},
         AlarmAction.ACKNOWLEDGE: {OPEN: ACKNOWLEDGED, MISSED: ACKNOWLEDGED},
         AlarmAction.RESOLVE: {OPEN: RESOLVED, ACKNOWLEDGED: RESOLVED, MISSED: RESOLVED},
-        AlarmAction.ESCALATE: {OPEN: OPEN},
+        # A missed Emergency escalates on to the ward's further responders (still missed).
+        AlarmAction.ESCALATE: {OPEN: OPEN, MISSED: MISSED},
         AlarmAction.REALARM: {ACKNOWLEDGED: ACKNOWLEDGED},
         AlarmAction.CLEAR: {OPEN: RESOLVED, ACKNOWLEDGED: RESOLVED},
         AlarmAction.MISS: {OPEN: MISSED},

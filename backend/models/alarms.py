@@ -108,6 +108,8 @@ class Alarm(Base):
     comment: Mapped[str | None] = mapped_column(Text)
     escalation_level: Mapped[int] = mapped_column(default=0)
     escalated_at: Mapped[datetime | None] = mapped_column(UTCDateTime)
+    # Once missed: the last of the ward's further responders reached ("charge nurse", ...).
+    escalated_to: Mapped[str | None] = mapped_column(String(64))
     realarmed_at: Mapped[datetime | None] = mapped_column(UTCDateTime)
     video_id: Mapped[int | None] = mapped_column(ForeignKey("videos.id"))
     first_seq: Mapped[int | None] = mapped_column()

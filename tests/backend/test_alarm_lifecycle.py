@@ -25,6 +25,9 @@ def settings(settings):
     settings.escalation_seconds_by_ward = {"ward-a": 30}
     settings.escalation_max_level = 2
     settings.realarm_minutes = 10
+    settings.missed_escalation_seconds = 120
+    settings.missed_escalation_chain = ["charge nurse", "rapid-response team"]
+    settings.missed_escalation_chain_by_ward = {"ward-b": ["charge nurse B"]}
     settings.stream_stall_seconds = 5
     settings.robot_offline_seconds = 10
     return settings
@@ -92,16 +95,25 @@ def test_unacknowledged_emergency_escalates_per_ward_and_is_pushed_again(
         assert sorted((a["robot_id"], a["escalation_level"], a["state"]) for a in changed) == [
             ("robot-a", 2, "missed"), ("robot-b", 2, "open")
         ]  # fmt: skip
-        # Latched: the missed alarm does not change again; robot-b's follows after its 60 s.
+        # Latched: the missed alarm stays missed and goes on to the ward's further responders
+        # (120 s each here); robot-b's is missed after its 60 s.
         changed = tick(client, start + timedelta(seconds=400))
-        assert [(a["robot_id"], a["state"]) for a in changed] == [("robot-b", "missed")]
-        assert tick(client, start + timedelta(seconds=4000)) == []
+        assert sorted((a["robot_id"], a["state"], a["escalated_to"]) for a in changed) == [
+            ("robot-a", "missed", "charge nurse"), ("robot-b", "missed", None)
+        ]  # fmt: skip
+        changed = tick(client, start + timedelta(seconds=4000))
+        assert sorted((a["robot_id"], a["state"], a["escalated_to"]) for a in changed) == [
+            ("robot-a", "missed", "rapid-response team"), ("robot-b", "missed", "charge nurse B")
+        ]  # fmt: skip
+        assert tick(client, start + timedelta(seconds=8000)) == []  # the chains ended
 
     assert events(session_factory, alarm_a.id) == [
         ("raise", None, "open", "robot:robot-a"),
         ("escalate", "open", "open", "system"),
         ("escalate", "open", "open", "system"),
         ("miss", "open", "missed", "system"),
+        ("escalate", "missed", "missed", "system"),
+        ("escalate", "missed", "missed", "system"),
     ]
     # Each escalation says to whom: who had a board of the alarm's ward open at the time.
     with session_factory() as session:
@@ -374,7 +386,9 @@ def test_missed_emergency_is_latched_says_its_transport_ended_and_counts_in_the_
         assert {(a["id"], a["state"]) for a in pushed} == {(alarm.id, "missed")}
         assert pushed[-1]["transport_ended_at"] is not None
         assert pushed[-1]["decision_count"] == 2
-    assert [a for a in tick(client, start + timedelta(hours=2)) if a["id"] == alarm.id] == []
+    # Still missed two hours on: it went on to the ward's further responders, and stays missed.
+    later = [a for a in tick(client, start + timedelta(hours=2)) if a["id"] == alarm.id]
+    assert [(a["state"], a["escalated_to"]) for a in later] == [("missed", "charge nurse")]
 
     handover = client.get("/api/handover", headers=nurse.headers)
     assert handover.status_code == 200, handover.text
@@ -420,8 +434,9 @@ def test_missed_emergency_is_latched_says_its_transport_ended_and_counts_in_the_
         "filename*=UTF-8''handover-Station%20%22%C3%9C%22%0A3-"
         in odd.headers["content-disposition"]
     )
-    assert events(session_factory, alarm.id)[-3:] == [
+    assert events(session_factory, alarm.id)[-4:] == [
         ("miss", "open", "missed", "system"),
+        ("escalate", "missed", "missed", "system"),
         ("acknowledge", "missed", "acknowledged", "nurse:nora"),
         ("resolve", "acknowledged", "resolved", "nurse:nora"),
     ]
@@ -477,3 +492,58 @@ def test_a_transport_that_never_shows_the_patient_raises_patient_not_seen(client
     assert [a["kind"] for a in tick(client, started + timedelta(seconds=4.5))] == [
         "patient_not_seen"
     ]
+
+
+def test_missed_emergency_escalates_on_to_the_wards_further_responders_with_audit(
+    client, robot, make_account, session_factory
+):
+    """Issue 32: a missed Emergency is never left alone: it goes on to the charge nurse, then
+    to the rapid-response team (the chain settable per ward), each step in its audit; a nurse
+    acknowledging it stops the chain."""
+    with transaction(session_factory) as session:
+        session.add(Robot(id="robot-b", ward="ward-b", token_hash=hash_robot_token("tok-b")))
+    nurse = make_account(Role.NURSE, ward="ward-a", username="nia")
+    stream(client, robot, ROBOT_TOKEN, "t-a", frame(0, "emergency", "t-a"))
+    stream(client, "robot-b", "tok-b", "t-b", frame(0, "emergency", "t-b"))
+    with session_factory() as session:
+        alarm_a, alarm_b = session.scalars(select(Alarm).order_by(Alarm.robot_id)).all()
+    start = max(alarm_a.raised_at, alarm_b.raised_at)
+    # ward-a escalates every 30 s, ward-b every 60 s; two levels, then missed.
+    for seconds in (31, 62, 93, 125, 186):
+        tick(client, start + timedelta(seconds=seconds))
+    with session_factory() as session:
+        states = {a.id: (a.state, a.escalated_to) for a in session.scalars(select(Alarm))}
+    assert states == {alarm_a.id: (AlarmState.MISSED, None), alarm_b.id: (AlarmState.MISSED, None)}
+    missed_at_a = start + timedelta(seconds=93)
+
+    def responders(alarm_id: int) -> list[str]:
+        with session_factory() as session:
+            rows = session.scalars(
+                select(AlarmEvent).where(AlarmEvent.alarm_id == alarm_id).order_by(AlarmEvent.id)
+            )
+            return [e.comment for e in rows if e.comment and "escalated to" in e.comment
+                    and e.from_state == "missed"]  # fmt: skip
+
+    assert tick(client, missed_at_a + timedelta(seconds=119)) == []  # (ward-b missed at 186 s)
+    first = tick(client, missed_at_a + timedelta(seconds=121))
+    assert [(a["id"], a["state"], a["escalated_to"]) for a in first] == [
+        (alarm_a.id, "missed", "charge nurse")
+    ]
+    assert responders(alarm_a.id) == ["missed, unanswered 3 min: escalated to charge nurse"]
+    second = tick(client, missed_at_a + timedelta(seconds=242))
+    ids = {a["id"]: a["escalated_to"] for a in second}
+    assert ids[alarm_a.id] == "rapid-response team"
+    assert ids[alarm_b.id] == "charge nurse B"  # ward-b's own chain
+    # The chains end: no further step, but the alarm stays missed (and on every board).
+    assert tick(client, missed_at_a + timedelta(hours=1)) == []
+    assert len(responders(alarm_a.id)) == 2 and len(responders(alarm_b.id)) == 1
+    pushed = client.get(f"/api/alarms/{alarm_a.id}", headers=nurse.headers).json()
+    assert (pushed["state"], pushed["escalated_to"]) == ("missed", "rapid-response team")
+
+    # Acknowledged at last: the chain stops there (later, only the re-alarm of an acknowledged
+    # alarm not resolved in time).
+    response = client.post(f"/api/alarms/{alarm_a.id}/acknowledge", headers=nurse.headers)
+    assert response.status_code == 200, response.text
+    later = tick(client, missed_at_a + timedelta(hours=2))
+    assert {(a["id"], a["state"]) for a in later} <= {(alarm_a.id, "acknowledged")}
+    assert len(responders(alarm_a.id)) == 2

@@ -388,6 +388,7 @@ def test_triage_order_missed_state_banner_filters_and_handover_export(live_serve
         for _ in range(3):
             service.escalate(session, missed, utcnow())
         service.miss(session, missed, utcnow())
+        service.escalate_missed(session, missed, utcnow(), "charge nurse")
         service.acknowledge(session, session.get(Alarm, ids["t-acked"]), nina)
 
     sign_in(page, live_server.base_url)
@@ -428,6 +429,7 @@ def test_triage_order_missed_state_banner_filters_and_handover_export(live_serve
     expect(missed_card).to_have_attribute("data-state", "missed")
     expect(missed_card).to_contain_text("Missed: needs review")
     expect(missed_card).to_contain_text("Transport ended 40 min ago")
+    expect(missed_card.get_by_test_id("escalated-to")).to_have_text("Escalated to charge nurse")
     expect(page.get_by_test_id("board-counts")).to_contain_text(
         "2 need attention · 1 missed · 1 acknowledged"
     )

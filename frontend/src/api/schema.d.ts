@@ -1369,6 +1369,11 @@ export interface components {
             comment: string | null;
             /** Escalation Level */
             escalation_level: number;
+            /**
+             * Escalated To
+             * @description a missed Emergency: the last of the ward's further responders it reached
+             */
+            escalated_to?: string | null;
             /** Realarmed At */
             realarmed_at: string | null;
             /** Video Id */

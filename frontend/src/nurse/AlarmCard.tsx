@@ -31,6 +31,11 @@ export function AlarmCard({ alarm, now, busy, onAcknowledge, onResolve }: Props)
             Missed: needs review
           </span>
         )}
+        {alarm.state === "missed" && alarm.escalated_to && (
+          <span className="escalated" data-testid="escalated-to" title="Nobody answered: called the next responder">
+            Escalated to {alarm.escalated_to}
+          </span>
+        )}
         {alarm.escalation_level > 0 && alarm.state !== "missed" && (
           <span className="escalated" title="Not acknowledged in time: escalated">
             Escalated{alarm.escalation_level > 1 ? ` ×${alarm.escalation_level}` : ""}

@@ -15,7 +15,9 @@ interface Props {
 
 /** What the state column says: "Missed: needs review", "Escalated ×3", "Acknowledged by ana"… */
 export function stateText(alarm: Alarm): string {
-  if (alarm.state === "missed") return "Missed: needs review";
+  if (alarm.state === "missed") {
+    return alarm.escalated_to ? `Missed: escalated to ${alarm.escalated_to}` : "Missed: needs review";
+  }
   if (isRealarmed(alarm)) return "Re-alarm";
   if (alarm.state === "acknowledged") return `Acknowledged by ${alarm.acknowledged_by ?? "?"}`;
   if (alarm.escalation_level > 0) return `Escalated${alarm.escalation_level > 1 ? ` ×${alarm.escalation_level}` : ""}`;
