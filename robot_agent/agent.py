@@ -16,7 +16,7 @@ from pathlib import Path
 
 from robot_agent.alarm import LocalAlarm
 from robot_agent.backoff import Backoff
-from robot_agent.behaviour import Behaviour
+from robot_agent.behaviour import Behaviour, BehaviourChange
 from robot_agent.client import LinkFatal, RobotLink
 from robot_agent.local_command import BehaviourHook, LocalCommandServer
 from robot_agent.models import ModelRefused, fetch_model, forget_running, remember_running
@@ -27,6 +27,7 @@ from vigil.observation import Observation
 from vigil.protocol import (
     AlarmAcknowledged,
     AlarmResolved,
+    BehaviourChanged,
     EmergencyReset,
     ModelAssignment,
     Welcome,
@@ -121,6 +122,7 @@ class RobotAgent:
             options.patient_unseen_s, robot_id,
         )  # fmt: skip
         self.behaviour.on_reset = self._report_reset
+        self.behaviour.listeners.append(self._report_behaviour)
         self.local = (
             LocalCommandServer(options.local_socket, self.behaviour)
             if options.local_socket is not None
@@ -251,6 +253,18 @@ class RobotAgent:
         if released is None:
             log.info("robot %s: %s alarm %d resolved by %s (no emergency stop released)",
                      self.robot_id, message.kind, message.alarm_id, message.by)  # fmt: skip
+
+    def _report_behaviour(self, change: BehaviourChange) -> None:
+        """Each behaviour change goes to the backend too (fleet page, the alarm's audit),
+        queued in the outbox behind the frames that caused it: never lost while offline."""
+        if change.event != "behaviour":
+            return  # "help is coming" came from the backend: nothing to tell it
+        message = BehaviourChanged(
+            ts=time.time(), state=change.state, reason=change.reason[:500], since=change.since,
+            transport_id=change.transport_id, alarm_id=change.alarm_id,
+        )  # fmt: skip
+        self.outbox.add_message(message.model_dump_json(exclude_none=True))
+        self.link.notify_queued()
 
     def _report_reset(self, ts: float, transport_id, alarm_id, who: str) -> None:
         message = EmergencyReset(ts=ts, transport_id=transport_id, alarm_id=alarm_id, by=who)

@@ -23,17 +23,10 @@ from collections.abc import Callable
 from dataclasses import asdict, dataclass
 from enum import StrEnum
 
-from vigil.classes import Decision, TransportMode
+from vigil.classes import BehaviourState, Decision, TransportMode
 from vigil.states import StateMachine
 
 log = logging.getLogger(__name__)
-
-
-class BehaviourState(StrEnum):
-    TRANSPORTING = "transporting"
-    PAUSED = "paused"
-    EMERGENCY_STOP = "emergency_stop"
-    DETECTION_DEGRADED = "detection_degraded"
 
 
 class DegradedAction(StrEnum):

@@ -21,3 +21,13 @@ MODE_CLASSES: dict[TransportMode, tuple[Decision, ...]] = {
     TransportMode.WHEELCHAIR: (Decision.NORMAL, Decision.EMERGENCY, Decision.PAUSE),
     TransportMode.COMBINED: (Decision.NORMAL, Decision.EMERGENCY, Decision.PAUSE),
 }
+
+
+class BehaviourState(StrEnum):
+    """What the robot does with its decisions (robot_agent.behaviour drives it; the backend
+    stores the last one each robot reported, protocol `behaviour_changed`)."""
+
+    TRANSPORTING = "transporting"
+    PAUSED = "paused"
+    EMERGENCY_STOP = "emergency_stop"
+    DETECTION_DEGRADED = "detection_degraded"

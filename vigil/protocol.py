@@ -1,8 +1,9 @@
 """Robot <-> backend wire protocol (JSON text messages over a websocket), version 1.
 
 Robot -> server: ``hello`` (first message), ``transport_start``, ``frames``, ``transport_end``,
-``heartbeat``, ``detection_status``.  Server -> robot: ``welcome``, ``ack`` (highest sequence
-number committed to the database, never sent before the commit), ``assign_model``, ``error``.
+``heartbeat``, ``detection_status``, ``emergency_reset``, ``behaviour_changed``.  Server ->
+robot: ``welcome``, ``ack`` (highest sequence number committed to the database, never sent
+before the commit), ``assign_model``, ``error``, ``alarm_acknowledged``, ``alarm_resolved``.
 
 A message that does not validate closes the connection with one of the CLOSE_* codes and a
 reason naming the bad field; frames stored before it are unaffected. Messages are parsed
@@ -23,7 +24,7 @@ from pydantic import (
     model_validator,
 )
 
-from vigil.classes import Decision, TransportMode
+from vigil.classes import BehaviourState, Decision, TransportMode
 from vigil.inputs import InputName
 from vigil.skeleton import N_FLOOR, N_KEYPOINTS
 
@@ -185,6 +186,21 @@ class EmergencyReset(_Message):
     by: str = Field(default="local", max_length=64, description="who reset: cli, local socket")
 
 
+class BehaviourChanged(_Message):
+    """The robot's behaviour changed (robot_agent.behaviour: transporting, paused, emergency
+    stop, detection degraded), protocol 1 extension. Queued in the outbox like frames, in stream
+    order after the frames that caused it; the backend keeps each robot's last state for the
+    fleet page and writes it into the audit of the transport's alarm (the board shows it)."""
+
+    type: Literal["behaviour_changed"] = "behaviour_changed"
+    ts: FiniteFloat
+    state: BehaviourState
+    reason: str = Field(default="", max_length=500)
+    since: UnixTime
+    transport_id: str | None = Field(default=None, max_length=64)
+    alarm_id: int | None = Field(default=None, ge=1)
+
+
 RobotMessage = Annotated[
     Hello
     | TransportStart
@@ -192,7 +208,8 @@ RobotMessage = Annotated[
     | FrameBatch
     | Heartbeat
     | DetectionStatus
-    | EmergencyReset,
+    | EmergencyReset
+    | BehaviourChanged,
     Field(discriminator="type"),
 ]
 robot_message_adapter: TypeAdapter[RobotMessage] = TypeAdapter(RobotMessage)
@@ -205,6 +222,7 @@ MESSAGE_TYPES = frozenset(
         "heartbeat",
         "detection_status",
         "emergency_reset",
+        "behaviour_changed",
     }
 )
 

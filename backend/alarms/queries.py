@@ -115,6 +115,16 @@ def latest_of_kind(
     ).first()
 
 
+def latest_of_transport(session: Session, robot_id: str, transport_id: str) -> Alarm | None:
+    """The transport's most recent alarm of any kind (unresolved first)."""
+    return session.scalars(
+        select(Alarm)
+        .where(Alarm.robot_id == robot_id, Alarm.transport_key == transport_id)
+        .order_by((Alarm.state == AlarmState.RESOLVED).asc(), Alarm.raised_at.desc())
+        .limit(1)
+    ).first()
+
+
 def open_emergencies(session: Session) -> Sequence[Alarm]:
     return (
         session.scalars(

@@ -9,6 +9,7 @@ from backend.models.alarms import (
     FalseAlarmReason,
     Verdict,
 )
+from vigil.classes import BehaviourState
 
 
 def alarm_key(robot_id: str, transport_id: str | None, kind: str) -> str:
@@ -42,6 +43,10 @@ class AlarmOut(BaseModel):
         default=None,
         description="a missed Emergency: the last of the ward's further responders it reached",
     )
+    robot_state: BehaviourState | None = Field(
+        default=None, description="what the robot did about it, as it reported (last change)"
+    )
+    robot_state_since: datetime | None = None
     realarmed_at: datetime | None
     video_id: int | None
     first_seq: int | None

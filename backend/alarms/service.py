@@ -202,6 +202,39 @@ def robot_reset(session: Session, robot_id: str, message: protocol.EmergencyRese
     return alarm
 
 
+#: How the audit and the board say what the robot did (nurse words).
+ROBOT_STATE_WORDS = {
+    "emergency_stop": "robot stopped, waiting for help",
+    "paused": "robot paused",
+    "transporting": "robot driving",
+    "detection_degraded": "detection degraded, robot slowed or stopped",
+}
+
+
+def robot_behaviour(
+    session: Session, robot_id: str, message: protocol.BehaviourChanged
+) -> Alarm | None:
+    """The robot reports what it does: written into the audit of the alarm it names (if that
+    robot's), else of its transport's latest alarm (so "robot stopped 12:03:05" stands beside
+    the Emergency), and shown on that alarm. None: no alarm to write it on."""
+    alarm = session.get(Alarm, message.alarm_id) if message.alarm_id is not None else None
+    if alarm is None or alarm.robot_id != robot_id:
+        alarm = queries.latest_of_transport(session, robot_id, message.transport_id or "")
+    if alarm is None:
+        return None
+    before = alarm.state
+    ALARM.act(alarm, AlarmAction.ROBOT_BEHAVIOUR)
+    since = datetime.fromtimestamp(message.since, UTC)
+    alarm.robot_state = message.state.value
+    alarm.robot_state_since = since
+    alarm.updated_at = utcnow()
+    words = ROBOT_STATE_WORDS[message.state.value]
+    at = since.isoformat(timespec="seconds")
+    _record(session, alarm, AlarmAction.ROBOT_BEHAVIOUR, before, f"robot:{robot_id}",
+            comment=f"{words} ({message.state.value}) at {at}: {message.reason}")  # fmt: skip
+    return alarm
+
+
 def clear(session: Session, alarm: Alarm, now: datetime, comment: str) -> Alarm:
     """The system resolves a technical alarm whose cause ended (no verdict, no user)."""
     before = alarm.state

@@ -32,6 +32,9 @@ class AlarmAction(StrEnum):
     # The robot reports its emergency stop was reset on the robot (not by a resolve): audited,
     # the alarm's state does not change.
     ROBOT_RESET = "robot_reset"
+    # The robot reports what it does (stopped, paused, driving again): audited, and shown on
+    # the alarm; the alarm's state does not change.
+    ROBOT_BEHAVIOUR = "robot_behaviour"
 
 
 OPEN, ACKNOWLEDGED, RESOLVED = AlarmState.OPEN, AlarmState.ACKNOWLEDGED, AlarmState.RESOLVED
@@ -54,6 +57,7 @@ ALARM = StateMachine(
         AlarmAction.CLEAR: {OPEN: RESOLVED, ACKNOWLEDGED: RESOLVED},
         AlarmAction.MISS: {OPEN: MISSED},
         AlarmAction.ROBOT_RESET: {s: s for s in AlarmState},
+        AlarmAction.ROBOT_BEHAVIOUR: {s: s for s in AlarmState},
     },
     attribute="state",
     initial=OPEN,

@@ -37,6 +37,8 @@ class RobotState:
     running_model_version: str | None = None
     running_model_sha256: str | None = None
     running_model_changed: bool = False
+    # A behaviour the robot reported in this flush: (state, since, reason), written back once.
+    behaviour: tuple[str, datetime, str] | None = None
 
 
 @dataclass(slots=True)
@@ -144,6 +146,9 @@ class IngestContext:
         update_rows(session, robot_table, ("id", "running_model_version", "running_model_sha256"),
                     [(r.id, r.running_model_version, r.running_model_sha256) for r in robots
                      if r.running_model_changed])  # fmt: skip
+        update_rows(session, robot_table,
+                    ("id", "behaviour_state", "behaviour_since", "behaviour_reason"),
+                    [(r.id, *r.behaviour) for r in robots if r.behaviour])  # fmt: skip
         videos = [
             v for v in self.videos.values()
             if isinstance(v, VideoState) and v.frame_count != v.initial_count
@@ -166,6 +171,7 @@ class IngestContext:
         for robot in robots:
             robot.last_seen_at = None
             robot.running_model_changed = False
+            robot.behaviour = None
         for transport in transports:
             transport.last_frame_at = None
             transport.last_patient_at = None

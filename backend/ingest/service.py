@@ -30,7 +30,7 @@ from backend.registry import queries as registry_queries
 from backend.security import robot_token_matches
 from backend.unit_of_work import publish_alarm
 from vigil.classes import TransportMode
-from vigil.protocol import DetectionStatus, Hello, TransportEnd, TransportStart
+from vigil.protocol import BehaviourChanged, DetectionStatus, Hello, TransportEnd, TransportStart
 
 log = logging.getLogger(__name__)
 
@@ -313,6 +313,13 @@ def degraded_summary(message: DetectionStatus) -> str:
     else:
         running = "no fallback model"
     return f"{missing}, {running}"
+
+
+def apply_behaviour(robot: RobotState, message: BehaviourChanged) -> None:
+    """The robot's last reported behaviour, for the fleet page (written back with the flush)."""
+    robot.last_seen_at = utcnow()
+    since = datetime.fromtimestamp(message.since, UTC)
+    robot.behaviour = (message.state.value, since, message.reason)
 
 
 def apply_detection_status(

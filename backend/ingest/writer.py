@@ -33,6 +33,7 @@ from backend.unit_of_work import Effects, UnitOfWork, unit_of_work
 from vigil import protocol
 from vigil.classes import Decision
 from vigil.protocol import (
+    BehaviourChanged,
     DetectionStatus,
     EmergencyReset,
     Heartbeat,
@@ -43,7 +44,13 @@ from vigil.protocol import (
 log = logging.getLogger(__name__)
 
 RobotWork = (
-    ReceivedFrames | TransportStart | TransportEnd | Heartbeat | DetectionStatus | EmergencyReset
+    ReceivedFrames
+    | TransportStart
+    | TransportEnd
+    | Heartbeat
+    | DetectionStatus
+    | EmergencyReset
+    | BehaviourChanged
 )
 CACHE_SECONDS = 5.0
 
@@ -386,6 +393,9 @@ class FrameWriter:
                     log.warning("robot %s: detection %s: %s", robot.id,
                                 "degraded" if message.degraded else "recovered",
                                 message.reason or ", ".join(message.missing_inputs))  # fmt: skip
+            elif isinstance(message, BehaviourChanged):
+                service.apply_behaviour(robot, message)
+                alarm_service.robot_behaviour(session, robot.id, message)
             elif isinstance(message, EmergencyReset):
                 audited = alarm_service.robot_reset(session, robot.id, message)
                 log.warning("robot %s: emergency stop reset on the robot (%s)%s", robot.id,

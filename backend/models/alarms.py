@@ -110,6 +110,10 @@ class Alarm(Base):
     escalated_at: Mapped[datetime | None] = mapped_column(UTCDateTime)
     # Once missed: the last of the ward's further responders reached ("charge nurse", ...).
     escalated_to: Mapped[str | None] = mapped_column(String(64))
+    # What the robot did about it, as it reported (protocol behaviour_changed): e.g.
+    # emergency_stop since 12:03:05, then transporting once released.
+    robot_state: Mapped[str | None] = mapped_column(String(32))
+    robot_state_since: Mapped[datetime | None] = mapped_column(UTCDateTime)
     realarmed_at: Mapped[datetime | None] = mapped_column(UTCDateTime)
     video_id: Mapped[int | None] = mapped_column(ForeignKey("videos.id"))
     first_seq: Mapped[int | None] = mapped_column()

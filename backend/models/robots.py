@@ -28,6 +28,10 @@ class Robot(Base):
     # not say (an older agent, or it never connected), which counts as keypoints only.
     inputs: Mapped[list[str] | None] = mapped_column(JSON)
     last_seen_at: Mapped[datetime | None] = mapped_column(UTCDateTime)
+    # The robot's last reported behaviour (vigil.classes.BehaviourState) and since when.
+    behaviour_state: Mapped[str | None] = mapped_column(String(32))
+    behaviour_since: Mapped[datetime | None] = mapped_column(UTCDateTime)
+    behaviour_reason: Mapped[str | None] = mapped_column(String(500))
     last_seq: Mapped[int | None] = mapped_column()
     created_at: Mapped[datetime] = mapped_column(UTCDateTime, default=utcnow)
 

@@ -143,6 +143,8 @@ def fleet(
             target_feedable=target_model is None
             or not capability.missing_for(robot, target_model),
             detection_degraded=robot.id in degraded,
+            behaviour_state=robot.behaviour_state, behaviour_since=robot.behaviour_since,
+            behaviour_reason=robot.behaviour_reason,
             qualifies=None if model is None else not missing, missing_inputs=missing,
         ))  # fmt: skip
     return out

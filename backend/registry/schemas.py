@@ -4,7 +4,7 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from backend.models.jobs import JobKind, JobStatus
 from backend.models.registry import DeploymentScope, DeploymentStatus, ModelStatus
-from vigil.classes import TransportMode
+from vigil.classes import BehaviourState, TransportMode
 from vigil.inputs import InputName
 
 
@@ -122,6 +122,11 @@ class FleetRobot(BaseModel):
     detection_degraded: bool = Field(
         description="an unresolved detection_degraded alarm is open for it"
     )
+    behaviour_state: BehaviourState | None = Field(
+        default=None, description="what the robot last reported doing (None: never reported)"
+    )
+    behaviour_since: datetime | None = None
+    behaviour_reason: str | None = None
     qualifies: bool | None = Field(
         default=None, description="with ?model_id=: it feeds every input that model needs"
     )

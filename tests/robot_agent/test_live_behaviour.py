@@ -10,7 +10,7 @@ import httpx
 
 from tests.support.live_backend import ROBOT_ID
 
-from .conftest import NurseSocket
+from .conftest import NurseSocket, wait_for
 from .test_live_streaming import GENERATED_FALL
 from .tiny_model import write_upright_model
 
@@ -72,6 +72,17 @@ def test_a_nurses_acknowledge_and_resolve_reach_the_robots_controller(backend, a
         released = _until(lines, lambda line: line["event"] == "behaviour")
         assert released["state"] == "transporting"
         assert f"alarm {alarm['id']} resolved by nurse:nina" in released["reason"]
+
+        # What the robot did reaches the backend through the outbox: on the alarm (the board
+        # shows it), in its audit, and on the fleet page.
+        def robot_state():
+            return httpx.get(url, headers=headers, timeout=10).json()["robot_state"]
+
+        wait_for(lambda: robot_state() == "transporting", 30, "the robot's release on the alarm")
+        audit = httpx.get(f"{url}/events", headers=headers, timeout=10).json()
+        told = [e["comment"] for e in audit if e["action"] == "robot_behaviour"]
+        assert told[0].startswith("robot stopped, waiting for help (emergency_stop) at ")
+        assert told[-1].startswith("robot driving (transporting) at ")
     finally:
         sock.close()
     assert "behaviour: EMERGENCY_STOP" in agent.log()

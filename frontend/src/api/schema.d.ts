@@ -1374,6 +1374,10 @@ export interface components {
              * @description a missed Emergency: the last of the ward's further responders it reached
              */
             escalated_to?: string | null;
+            /** @description what the robot did about it, as it reported (last change) */
+            robot_state?: components["schemas"]["BehaviourState"] | null;
+            /** Robot State Since */
+            robot_state_since?: string | null;
             /** Realarmed At */
             realarmed_at: string | null;
             /** Video Id */
@@ -1495,6 +1499,13 @@ export interface components {
              */
             frames_in_database: number;
         };
+        /**
+         * BehaviourState
+         * @description What the robot does with its decisions (robot_agent.behaviour drives it; the backend
+         *     stores the last one each robot reported, protocol `behaviour_changed`).
+         * @enum {string}
+         */
+        BehaviourState: "transporting" | "paused" | "emergency_stop" | "detection_degraded";
         /** Body_import_file_api_labelling_import_post */
         Body_import_file_api_labelling_import_post: {
             /** File */
@@ -1697,6 +1708,12 @@ export interface components {
              * @description an unresolved detection_degraded alarm is open for it
              */
             detection_degraded: boolean;
+            /** @description what the robot last reported doing (None: never reported) */
+            behaviour_state?: components["schemas"]["BehaviourState"] | null;
+            /** Behaviour Since */
+            behaviour_since?: string | null;
+            /** Behaviour Reason */
+            behaviour_reason?: string | null;
             /**
              * Qualifies
              * @description with ?model_id=: it feeds every input that model needs

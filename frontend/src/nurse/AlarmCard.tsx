@@ -1,5 +1,6 @@
 import { Link } from "react-router-dom";
 import type { Alarm } from "../api/types";
+import { robotStateText } from "../lib/robotState";
 import { alarmTitle, isRealarmed, isStored, KIND_LABEL, mayAcknowledge, styleOf, transportEndedText } from "../lib/alarmBoard";
 import { elapsed } from "../lib/time";
 
@@ -60,6 +61,10 @@ export function AlarmCard({ alarm, now, busy, onAcknowledge, onResolve }: Props)
       {ended && <p className="transport-ended">{ended[0].toUpperCase() + ended.slice(1)}</p>}
       <dl>
         <dt>Robot</dt><dd>{alarm.robot_id}</dd>
+        {alarm.robot_state && (
+          <><dt>Robot did</dt><dd className={`robot-state robot-${alarm.robot_state}`} data-testid="robot-state">
+            {robotStateText(alarm.robot_state, alarm.robot_state_since)}</dd></>
+        )}
         <dt>Patient</dt><dd>{alarm.patient ?? "–"}</dd>
         <dt>Location</dt><dd>{alarm.location ?? "–"}</dd>
         <dt>Transport</dt><dd>{alarm.transport_id ?? "–"}</dd>

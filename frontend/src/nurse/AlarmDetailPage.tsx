@@ -4,6 +4,7 @@ import { api, errorMessage } from "../api/client";
 import type { components } from "../api/schema";
 import type { Alarm } from "../api/types";
 import { KIND_LABEL, mayAcknowledge } from "../lib/alarmBoard";
+import { robotStateText } from "../lib/robotState";
 import { delayFilter } from "../lib/replay";
 import { clockTime } from "../lib/time";
 import { AuditTrail } from "./AuditTrail";
@@ -96,6 +97,10 @@ export function AlarmDetailPage() {
         <dt>Patient</dt><dd>{alarm.patient ?? "–"}</dd>
         <dt>Location</dt><dd>{alarm.location ?? "–"}</dd>
         <dt>Raised</dt><dd>{clockTime(alarm.raised_at)}</dd>
+        {alarm.robot_state && (
+          <><dt>Robot did</dt><dd className={`robot-state robot-${alarm.robot_state}`} data-testid="robot-state">
+            {robotStateText(alarm.robot_state, alarm.robot_state_since)}</dd></>
+        )}
         <dt>Verdict</dt><dd>{verdictText(alarm.verdict, alarm.reason)}</dd>
         <dt>When it rings</dt>
         <dd>

@@ -1,5 +1,6 @@
 import { useEffect, useState } from "react";
 import { api, errorMessage } from "../../api/client";
+import { clockTime } from "../../lib/time";
 import type { Deployment, FleetRobot } from "./types";
 
 /** "keypoints, depth, floor" (or "keypoints (not reported)" for an agent that did not say). */
@@ -40,10 +41,13 @@ export function FleetPage() {
       {error && <p role="alert" className="error">{error}</p>}
       {robots === null ? <p className="muted">Loading…</p> : (
         <table className="table" aria-label="Fleet">
-          <thead><tr><th>Robot</th><th>Ward</th><th>Connected</th><th>Inputs</th><th>Target version</th><th>Running version</th><th>Fallback</th><th>Shadow</th><th /></tr></thead>
+          <thead><tr><th>Robot</th><th>Ward</th><th>Connected</th><th>Behaviour</th><th>Inputs</th><th>Target version</th><th>Running version</th><th>Fallback</th><th>Shadow</th><th /></tr></thead>
           <tbody>{robots.map((r) => (
             <tr key={r.id} className={r.in_sync ? "" : "out-of-sync"} data-robot={r.id}>
               <td>{r.id}</td><td>{r.ward}</td><td>{r.connected ? "yes" : "no"}</td>
+              <td className={`behaviour robot-${r.behaviour_state ?? "unknown"}`} title={r.behaviour_reason ?? ""} data-testid="behaviour">
+                {r.behaviour_state ? `${r.behaviour_state.replace("_", " ")} since ${clockTime(r.behaviour_since)}` : "–"}
+              </td>
               <td className="inputs">{inputsText(r)}</td>
               <td>{r.target_version ?? "–"}{r.target_feedable ? "" : <span className="pill refused" title="the robot lacks an input this model needs"> cannot feed</span>}</td>
               <td>{r.running_version ?? "–"}</td>
