@@ -22,8 +22,9 @@ pytestmark = pytest.mark.browser
 
 def test_the_board_and_the_fleet_show_what_the_robot_did(live_server, page, db, chromium):
     with transaction(db) as session:
-        session.add(User(username="erin", password_hash=password_hash(PASSWORD),
-                         role=Role.ENGINEER))  # fmt: skip
+        session.add(
+            User(username="erin", password_hash=password_hash(PASSWORD), role=Role.ENGINEER)
+        )
     sign_in(page, live_server.base_url)
     expect(page.locator("main.board")).to_have_attribute("data-link", "live")
     with SimulatedRobot(live_server.robot_ws_url, "robot-a", ROBOT_TOKEN) as robot:
@@ -34,9 +35,15 @@ def test_the_board_and_the_fleet_show_what_the_robot_did(live_server, page, db, 
         expect(card).to_have_count(1)
         expect(card.get_by_test_id("robot-state")).to_have_count(0)  # the robot has not said
         stopped = time.time()
-        robot.send(BehaviourChanged(ts=stopped, since=stopped, state="emergency_stop",
-                                    transport_id="t-1",
-                                    reason="Emergency decision: stop, call for help"))  # fmt: skip
+        robot.send(
+            BehaviourChanged(
+                ts=stopped,
+                since=stopped,
+                state="emergency_stop",
+                transport_id="t-1",
+                reason="Emergency decision: stop, call for help",
+            )
+        )
         robot.send_batch(frames[-1:])
         robot.wait_ack(frames[-1].seq)
         expect(card.get_by_test_id("robot-state")).to_contain_text(
@@ -60,8 +67,15 @@ def test_the_board_and_the_fleet_show_what_the_robot_did(live_server, page, db, 
             )
             # Released: the fleet follows on its next poll.
             released = time.time()
-            robot.send(BehaviourChanged(ts=released, since=released, state="transporting",
-                                        transport_id="t-1", reason="reset on the robot"))  # fmt: skip
+            robot.send(
+                BehaviourChanged(
+                    ts=released,
+                    since=released,
+                    state="transporting",
+                    transport_id="t-1",
+                    reason="reset on the robot",
+                )
+            )
             robot.send_batch(frames[-1:])
             robot.wait_ack(frames[-1].seq)
             expect(row.get_by_test_id("behaviour")).to_contain_text("transporting since")
