@@ -18,7 +18,7 @@ from robot_agent.cli import main
 from robot_agent.config import SourceKind, load_settings
 from robot_agent.outbox import Outbox
 from robot_agent.pipeline import Pipeline
-from robot_agent.runner import build_robot
+from robot_agent.runner import build_robot, source_inputs
 from robot_agent.sources.mediapipe_video import URFD_RGB_CROP, MediaPipeVideoSource
 from robot_agent.sources.replay import SourceError
 from robot_agent.sources.rosbag import (
@@ -255,6 +255,23 @@ def test_cli_names_the_missing_topic_and_a_missing_bag(tmp_path, capsys):
     assert (
         RosbagSource(settings.source_path, depth_topic=settings.depth_topic).topics["depth"] is None
     )
+
+
+@pytest.mark.parametrize(
+    ("extra", "inputs"),
+    [
+        ({}, ["keypoints", "depth"]),
+        ({"camera_height_m": 1.0}, ["keypoints", "depth", "floor"]),
+        ({"camera_height_m": 1.0, "camera_info_topic": ""}, ["keypoints", "depth"]),
+        ({"camera_height_m": 1.0, "depth_topic": ""}, ["keypoints"]),
+    ],
+)
+def test_rosbag_tells_the_backend_what_it_can_feed(extra, inputs):
+    """Floor measures need depth, CameraInfo and the camera's height: a robot announcing floor
+    without them would be assigned a floor model it cannot feed (and one that has them must
+    announce floor, or it is never assigned one)."""
+    settings = load_settings(None, source=SourceKind.ROSBAG, source_path="bag", **extra)
+    assert source_inputs(settings) == inputs
 
 
 def test_not_a_bag_is_refused(tmp_path):
