@@ -92,12 +92,11 @@ def source_inputs(settings: AgentSettings) -> list[str]:
     if kind == SourceKind.GENERATED:  # the generator knows depth and its camera's mount
         return ["keypoints", "depth", "floor"]
     has_depth = settings.depth_dir is not None
+    has_floor = has_depth and settings.mount is not None
     if kind == SourceKind.ROSBAG:  # depth from the depth topic; floor with CameraInfo + height
         has_depth = bool(settings.depth_topic)
-        has_floor = (
-            has_depth and bool(settings.camera_info_topic) and bool(settings.camera_height_m)
-        )
-    has_floor = has_depth and settings.mount is not None
+        from_info = bool(settings.camera_info_topic) and bool(settings.camera_height_m)
+        has_floor = has_depth and (from_info or settings.mount is not None)
     if kind == SourceKind.REPLAY:
         path = settings.source_path or ""
         if path.endswith(".json"):

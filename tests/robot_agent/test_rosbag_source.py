@@ -5,6 +5,7 @@ importer uses as CameraInfo), never committed as a binary."""
 from __future__ import annotations
 
 import asyncio
+import dataclasses
 import importlib.util
 import json
 
@@ -18,7 +19,7 @@ from robot_agent.cli import main
 from robot_agent.config import SourceKind, load_settings
 from robot_agent.outbox import Outbox
 from robot_agent.pipeline import Pipeline
-from robot_agent.runner import build_robot
+from robot_agent.runner import build_robot, source_inputs
 from robot_agent.sources.mediapipe_video import URFD_RGB_CROP, MediaPipeVideoSource
 from robot_agent.sources.replay import SourceError
 from robot_agent.sources.rosbag import (
@@ -39,6 +40,8 @@ from robot_agent.sources.rosbag import (
 from vigil.classes import Decision, TransportMode
 from vigil.datasets import urfd
 from vigil.depth import people_with_depth, read_depth_png
+from vigil.detector import stream_features
+from vigil.features import FEATURE_NAMES, FEATURE_SETS
 from vigil.runtime import FrameClassifier
 
 from .tiny_model import write_upright_model
@@ -187,12 +190,26 @@ def video_with_depth():
         yield observation
 
 
-def test_rosbag_decides_frame_by_frame_as_the_replay(bag, model_dir, tmp_path):
+@pytest.fixture(scope="module")
+def bag_source(bag):
+    """The bag through the rosbag source, once (pose estimation is the slow part)."""
     source = RosbagSource(bag)
+    return source, list(source)
+
+
+@pytest.fixture(scope="module")
+def replayed_observations():
+    return list(video_with_depth())
+
+
+def test_rosbag_decides_frame_by_frame_as_the_replay(
+    bag_source, replayed_observations, model_dir, tmp_path
+):
+    source, observations = bag_source
     assert len(source) == 160 and source.fps == pytest.approx(30.0)
     assert source.intrinsics((320, 240)) == pytest.approx((262.5, 262.5, 159.75, 119.75))
-    from_bag = decide(source, model_dir, tmp_path / "bag")
-    replayed = decide(video_with_depth(), model_dir, tmp_path / "video")
+    from_bag = decide(observations, model_dir, tmp_path / "bag")
+    replayed = decide(replayed_observations, model_dir, tmp_path / "video")
     assert len(from_bag) == len(replayed) == 160
     assert source.frames_with_depth == 11
     for (i, decision, seen, depth), (j, decision_r, seen_r, depth_r) in zip(
@@ -210,6 +227,39 @@ def test_rosbag_decides_frame_by_frame_as_the_replay(bag, model_dir, tmp_path):
     # metres from the real Kinect picture: a person 2-5 m from the camera
     depths = np.concatenate([from_bag[i][3] for i in with_depth])
     assert 1.5 < np.nanmedian(depths) < 5.0
+
+
+@pytest.mark.parametrize("feature_set", ["full", "keypoints"])
+def test_rosbag_feature_rows_are_the_replays(bag_source, replayed_observations, feature_set):
+    """Row by row, the features the robot computes (vigil.detector.stream_features: tracker,
+    vigil.depth, the streaming extractor) are the same from the bag as from the video replay:
+    a model trained on the replay sees the same inputs on the bag."""
+    _, observations = bag_source
+    # The frame times agree to a nanosecond, but the bag's (nanosecond stamps) and the video's
+    # (index / fps) are different floats, and at 30 frames/s a horizon (0.2 s = 6 frames) falls
+    # exactly on a frame: which side of the tie a float lands on picks a different earlier frame
+    # (vigil.features._lag_index). Compare on the same times, so a difference is the source's.
+    assert [o.timestamp for o in observations] == pytest.approx(
+        [o.timestamp for o in replayed_observations], abs=1e-9
+    )
+    retimed = [
+        dataclasses.replace(o, timestamp=b.timestamp)
+        for o, b in zip(replayed_observations, observations, strict=True)
+    ]
+    rows, seen = stream_features(observations, feature_set)
+    rows_r, seen_r = stream_features(retimed, feature_set)
+    assert rows.shape == rows_r.shape and rows.shape[0] == 160
+    np.testing.assert_array_equal(seen, seen_r)
+    assert seen.sum() > 100  # the patient is found in most frames: the comparison is not empty
+    # 16UC1 holds whole millimetres, the replay the raw picture's fractions: depth features may
+    # differ by that rounding only
+    np.testing.assert_allclose(rows, rows_r, atol=2e-3, equal_nan=True)
+    names = [FEATURE_NAMES[i] for i in FEATURE_SETS[feature_set]]
+    has_depth = rows[:, names.index("has_depth")] > 0
+    # depth reached the features on the paired frames the patient was seen in, on no other
+    paired = set(np.flatnonzero(has_depth & seen).tolist())
+    assert paired and paired <= set(depth_pictures())
+    assert np.all(rows[has_depth & seen, names.index("depth")] > 1.0)  # metres, not zero
 
 
 def test_floor_measures_from_camera_info_and_height(bag):
@@ -255,6 +305,23 @@ def test_cli_names_the_missing_topic_and_a_missing_bag(tmp_path, capsys):
     assert (
         RosbagSource(settings.source_path, depth_topic=settings.depth_topic).topics["depth"] is None
     )
+
+
+@pytest.mark.parametrize(
+    ("extra", "inputs"),
+    [
+        ({}, ["keypoints", "depth"]),
+        ({"camera_height_m": 1.0}, ["keypoints", "depth", "floor"]),
+        ({"camera_height_m": 1.0, "camera_info_topic": ""}, ["keypoints", "depth"]),
+        ({"camera_height_m": 1.0, "depth_topic": ""}, ["keypoints"]),
+    ],
+)
+def test_rosbag_tells_the_backend_what_it_can_feed(extra, inputs):
+    """Floor measures need depth, CameraInfo and the camera's height: a robot announcing floor
+    without them would be assigned a floor model it cannot feed (and one that has them must
+    announce floor, or it is never assigned one)."""
+    settings = load_settings(None, source=SourceKind.ROSBAG, source_path="bag", **extra)
+    assert source_inputs(settings) == inputs
 
 
 def test_not_a_bag_is_refused(tmp_path):
