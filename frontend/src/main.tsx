@@ -5,6 +5,12 @@ import { App } from "./App";
 import { AuthProvider } from "./auth/AuthContext";
 import "./styles.css";
 
+// The service worker makes the board installable and shows alarm notifications on phones; it
+// caches nothing (sw.js).
+if ("serviceWorker" in navigator) {
+  void navigator.serviceWorker.register("/sw.js").catch(() => undefined);
+}
+
 createRoot(document.getElementById("root")!).render(
   <StrictMode>
     <BrowserRouter>

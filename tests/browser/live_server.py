@@ -48,7 +48,8 @@ def build_frontend() -> Path:
     """The production build in frontend/dist, rebuilt when a source file is newer than it. A
     file lock keeps two test runs side by side (`make test`) from building it at once."""
     index = FRONTEND / "dist" / "index.html"
-    sources = [*FRONTEND.joinpath("src").rglob("*"), FRONTEND / "index.html",
+    sources = [*FRONTEND.joinpath("src").rglob("*"), *FRONTEND.joinpath("public").rglob("*"),
+               FRONTEND / "index.html",
                FRONTEND / "package.json", FRONTEND / "vite.config.ts"]  # fmt: skip
     lock_path = Path(tempfile.gettempdir()) / f"vigil-frontend-build-{_path_key(FRONTEND)}.lock"
     with lock_path.open("w") as lock:

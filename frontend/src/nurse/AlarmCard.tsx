@@ -67,8 +67,8 @@ export function AlarmCard({ alarm, now, busy, onAcknowledge, onResolve }: Props)
         )}
         <dt>Patient</dt><dd>{alarm.patient ?? "–"}</dd>
         <dt>Location</dt><dd>{alarm.location ?? "–"}</dd>
-        <dt>Transport</dt><dd>{alarm.transport_id ?? "–"}</dd>
-        <dt>Ward</dt><dd>{alarm.ward ?? "–"}</dd>
+        <dt className="alarm-detail-extra">Transport</dt><dd className="alarm-detail-extra">{alarm.transport_id ?? "–"}</dd>
+        <dt className="alarm-detail-extra">Ward</dt><dd className="alarm-detail-extra">{alarm.ward ?? "–"}</dd>
         {alarm.state === "acknowledged" && (
           <>
             <dt>Acknowledged</dt>

@@ -24,7 +24,9 @@ import { EmergencyBanner } from "./EmergencyBanner";
 import { ResolveDialog, type Resolution } from "./ResolveDialog";
 import { useAlarmActions } from "./useAlarmActions";
 import { useAlarmBoard } from "./useAlarmBoard";
+import { useAlarmNotifications } from "./useAlarmNotifications";
 import { useAlarmSound } from "./useAlarmSound";
+import { askNotificationPermission } from "../lib/notify";
 
 type View = "cards" | "list";
 /** Above this many alarms the board shows the compact list unless the nurse picked cards. */
@@ -59,6 +61,13 @@ export function NurseBoard() {
   useEffect(() => { if (audioPause && !paused) setAudioPause(null); }, [audioPause, paused]);
   const sound = useAlarmSound(soundRequired(inWards) && !paused);
   const banner = useMemo(() => bannerEmergency(inWards), [inWards]);
+  useAlarmNotifications(inWards, status);
+  const [notifications, setNotifications] = useState(() =>
+    typeof Notification === "undefined" ? "unsupported" : Notification.permission);
+  const startShift = () => {
+    void sound.unlock();
+    void askNotificationPermission().then(setNotifications);
+  };
 
   async function resolve(alarm: Alarm, resolution: Resolution) {
     if (await resolveAlarm(alarm, resolution)) setResolving(null);
@@ -92,7 +101,7 @@ export function NurseBoard() {
       {sound.state === "locked" && (
         <div className="banner banner-locked" role="status">
           <span>Sound is locked: the browser plays no alarm sound until you start your shift.</span>
-          <button type="button" className="primary" onClick={() => void sound.unlock()}>
+          <button type="button" className="primary" onClick={startShift}>
             Start shift
           </button>
         </div>
@@ -107,6 +116,15 @@ export function NurseBoard() {
           {counts.new} need attention · {counts.missed} missed · {counts.acknowledged} acknowledged
           <span className="count-kinds"> ({counts.emergency} Emergency, {counts.technical} technical, {counts.pause} Pause)</span>
         </span>
+        {notifications === "default" && sound.state !== "locked" && (
+          <button type="button" className="notify-on"
+            onClick={() => void askNotificationPermission().then(setNotifications)}>
+            Notify me on this device
+          </button>
+        )}
+        {notifications === "denied" && (
+          <span className="notify-denied" role="status">Notifications blocked in this browser: alarms show only while the board is open</span>
+        )}
         <span className={`audio audio-${sound.state}`}>
           {sound.state === "playing" ? "● sounding" : sound.state === "ready" ? "sound on" : "sound locked"}
         </span>
