@@ -24,12 +24,13 @@ PHONE = {"width": 390, "height": 844}
 RECORD_NOTIFICATIONS = """
 window.__notices = [];
 window.__hidden = false;
-Object.defineProperty(document, "visibilityState", { get: () => window.__hidden ? "hidden" : "visible" });
+Object.defineProperty(document, "visibilityState",
+                      { get: () => window.__hidden ? "hidden" : "visible" });
 Object.defineProperty(document, "hidden", { get: () => window.__hidden });
 const original = ServiceWorkerRegistration.prototype.showNotification;
 ServiceWorkerRegistration.prototype.showNotification = function (title, options) {
-  window.__notices.push({ title, body: options.body, tag: options.tag,
-                          requireInteraction: !!options.requireInteraction, via: "service worker" });
+  window.__notices.push({ title, body: options.body, tag: options.tag, via: "service worker",
+                          requireInteraction: !!options.requireInteraction });
   return original.call(this, title, options);
 };
 """
