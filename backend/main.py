@@ -24,10 +24,12 @@ from backend.api import (
     alarms,
     audit,
     auth,
+    browser_ws,
     jobs,
     labelling,
     misc,
     registry,
+    robot_ws,
     robots,
     storage,
     users,
@@ -38,14 +40,12 @@ from backend.db import make_engine, make_session_factory
 from backend.deps import SESSION_COOKIE, CurrentUser
 from backend.gc_tuning import collector_tuned_for_ingest
 from backend.http_guards import SecurityMiddleware
-from backend.ingest import robot_ws
-from backend.ingest.registry import RobotRegistry
 from backend.ingest.writer import FrameWriter
 from backend.metrics import Metrics
 from backend.models.alarms import AlarmKind
-from backend.realtime import browser_ws
 from backend.realtime.bus import AlarmBus
 from backend.realtime.hub import BrowserHub
+from backend.realtime.robot_registry import RobotRegistry
 from backend.registry.push import AssignmentPusher
 from backend.services import Fanout, Labelling, Services, ServicesDep
 from backend.settings import Settings

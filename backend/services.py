@@ -17,7 +17,6 @@ from sqlalchemy.orm import Session, sessionmaker
 from backend.accounts.gate import HashingGate
 from backend.accounts.throttle import LoginThrottle
 from backend.alarms.monitor import AlarmMonitor
-from backend.ingest.registry import RobotRegistry
 from backend.ingest.writer import FrameWriter
 from backend.labelling.probability import LaneComputer
 from backend.labelling.rgb import FrameCache, JpegCache
@@ -25,6 +24,7 @@ from backend.labelling.viewer3d import Viewer3D
 from backend.metrics import Metrics
 from backend.realtime.bus import AlarmBus
 from backend.realtime.hub import BrowserHub
+from backend.realtime.robot_registry import RobotRegistry
 from backend.registry.push import AssignmentPusher
 from backend.settings import Settings
 from backend.storage.service import SummaryCache

@@ -4,10 +4,11 @@ Nothing else in the code base commits (tests/backend/test_unit_of_work.py scans 
 `.commit(` and `.begin(` calls elsewhere). Services take the unit's `Session` and never commit;
 what must happen only once their change is durable (push an alarm to the nurse boards, send a
 robot its model assignment, close a socket whose credentials were just revoked) they register
-on the unit with `publish_alarm(session, alarm)`, `push_assignments(session, robot_ids)` or
-`after_commit(session, hook)`. The owner of the unit (the request dependency, the frame writer,
-the alarm monitor, a job) runs those effects after the commit, in the event loop, with
-`run_after_commit(effects)`; nothing registered on a unit that rolls back ever runs.
+on the unit with `publish_alarm(session, alarm, serialise)`,
+`push_assignments(session, robot_ids)` or `after_commit(session, hook)`. The owner of the unit
+(the request dependency, the frame writer, the alarm monitor, a job) runs those effects after
+the commit, in the event loop, with `run_after_commit(effects)`; nothing registered on a unit
+that rolls back ever runs.
 
 A unit may be opened in a worker thread (the writer's commit, a job) and its effects run later
 in the event loop: registering only records what to do.
@@ -53,7 +54,8 @@ class UnitOfWork:
     def __init__(self, factory: sessionmaker[Session]) -> None:
         self.session = factory()
         self.session.info[_UNIT] = self
-        self._alarms: dict[int, Alarm] = {}  # id -> alarm; the last change of each is pushed
+        # id -> (alarm, its serialiser); the last change of each is pushed
+        self._alarms: dict[int, tuple[Alarm, Callable[[Alarm], dict]]] = {}
         self._published: list[dict] = []  # AlarmOut JSON, serialised at commit
         self._robots: list[str] = []
         self._hooks: list[AfterCommit] = []
@@ -62,9 +64,11 @@ class UnitOfWork:
         self._effects_ran = False
 
     # -- what services register --------------------------------------------------------------
-    def publish_alarm(self, alarm: Alarm) -> None:
+    def publish_alarm(self, alarm: Alarm, serialise: Callable[[Alarm], dict]) -> None:
+        """Push `alarm` after the commit, as `serialise` (the alarm domain's own JSON) makes it
+        at commit time: the unit of work knows no alarm schema."""
         self._alarms.pop(alarm.id, None)  # re-inserted: pushed in the order of last change
-        self._alarms[alarm.id] = alarm
+        self._alarms[alarm.id] = (alarm, serialise)
 
     def push_assignments(self, robot_ids: Iterable[str]) -> None:
         self._robots.extend(r for r in robot_ids if r not in self._robots)
@@ -79,11 +83,7 @@ class UnitOfWork:
     def commit(self) -> None:
         self.session.flush()
         if self._alarms:
-            from backend.alarms.schemas import AlarmOut
-
-            self._published = [
-                AlarmOut.model_validate(a).model_dump(mode="json") for a in self._alarms.values()
-            ]
+            self._published = [serialise(a) for a, serialise in self._alarms.values()]
         self.session.commit()
         self.committed = True
 
@@ -233,11 +233,12 @@ def of(session: Session) -> UnitOfWork | None:
     return session.info.get(_UNIT)
 
 
-def publish_alarm(session: Session, alarm: Alarm) -> None:
-    """Push this alarm to the boards once the session's unit commits."""
+def publish_alarm(session: Session, alarm: Alarm, serialise: Callable[[Alarm], dict]) -> None:
+    """Push this alarm (as `serialise` makes it) to the boards once the session's unit
+    commits. The alarm domain calls it (`backend.alarms.service.publish`)."""
     unit = of(session)
     if unit is not None:
-        unit.publish_alarm(alarm)
+        unit.publish_alarm(alarm, serialise)
 
 
 def push_assignments(session: Session, robot_ids: Iterable[str]) -> None:

@@ -14,7 +14,7 @@ HELPER = ROOT / "vigil" / "states.py"
 #: Attributes that hold a machine's state (the tracker's is `state_`, a learned attribute).
 STATE_ATTRIBUTES = {"status", "state", "state_"}
 #: State enums that are no machine: computed on demand, never stored or changed.
-NOT_MACHINES = {"ConnectionState"}  # backend/ingest/registry.py: connected or not, derived
+NOT_MACHINES = {"ConnectionState"}  # backend/realtime/robot_registry.py: connected or not, derived
 
 
 def sources() -> list[tuple[Path, ast.Module]]:

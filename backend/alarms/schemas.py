@@ -109,3 +109,8 @@ class ResolveIn(BaseModel):
         if self.verdict != Verdict.FALSE_ALARM and self.reason is not None:
             raise ValueError("reason is only given for a false_alarm verdict")
         return self
+
+
+def alarm_json(alarm) -> dict:
+    """An alarm as the boards receive it (pushed after commit, and in the socket's snapshot)."""
+    return AlarmOut.model_validate(alarm).model_dump(mode="json")

@@ -10,6 +10,7 @@ from sqlalchemy import select
 from sqlalchemy.orm import Session
 
 from backend.alarms import queries
+from backend.alarms.schemas import alarm_json
 from backend.alarms.state import ALARM, AlarmAction
 from backend.models._types import utcnow
 from backend.models.alarms import (
@@ -61,7 +62,12 @@ def _record(
             comment=comment,
         )
     )
-    publish_alarm(session, alarm)
+    publish(session, alarm)
+
+
+def publish(session: Session, alarm: Alarm) -> None:
+    """Push this alarm to the boards, as AlarmOut JSON, once the session's unit commits."""
+    publish_alarm(session, alarm, alarm_json)
 
 
 def find_unresolved(
@@ -81,7 +87,7 @@ def fold_evidence(
     session: Session, alarm: Alarm, evidence: DecisionEvidence, now: datetime
 ) -> Alarm:
     """A repeated decision updates the unresolved alarm instead of opening another."""
-    publish_alarm(session, alarm)
+    publish(session, alarm)
     ALARM.target(alarm.state, AlarmAction.UPDATE)
     alarm.updated_at = now
     alarm.decision_count += 1

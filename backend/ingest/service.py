@@ -28,7 +28,6 @@ from backend.models.robots import Robot, Transport
 from backend.models.videos import Frame, Video
 from backend.registry import queries as registry_queries
 from backend.security import robot_token_matches
-from backend.unit_of_work import publish_alarm
 from vigil.classes import TransportMode
 from vigil.protocol import BehaviourChanged, DetectionStatus, Hello, TransportEnd, TransportStart
 
@@ -129,7 +128,7 @@ def end_transport(session: Session, robot: Robot, message: TransportEnd) -> None
         select(Alarm).where(Alarm.transport_id == transport.id, Alarm.state != AlarmState.RESOLVED)
     ).unique()
     for alarm in unresolved:
-        publish_alarm(session, alarm)
+        alarms.publish(session, alarm)
 
 
 def _video_for(

@@ -65,7 +65,7 @@ class RejectedMessage(Exception):
 
 
 class Acknowledged(Protocol):
-    """What the writer needs of a robot's link (backend.ingest.link.RobotLink)."""
+    """What the writer needs of a robot's link (backend.realtime.robot_link.RobotConnection)."""
 
     robot_id: str
 

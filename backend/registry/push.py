@@ -21,10 +21,10 @@ from sqlalchemy import select
 from sqlalchemy.orm import Session, sessionmaker
 from starlette.concurrency import run_in_threadpool
 
-from backend.ingest.link import RobotLink
-from backend.ingest.registry import RobotRegistry
 from backend.models.registry import ModelVersion
 from backend.models.robots import Robot
+from backend.realtime.robot_link import RobotConnection
+from backend.realtime.robot_registry import RobotRegistry
 from backend.registry.capability import fallback_for
 from vigil.protocol import ModelAssignment
 
@@ -67,7 +67,7 @@ class Sent:
 
 
 class AssignmentPusher:
-    """Sends `assign_model` messages through each connected robot's `RobotLink`."""
+    """Sends `assign_model` messages through each connected robot's `RobotConnection`."""
 
     def __init__(
         self,
@@ -103,7 +103,7 @@ class AssignmentPusher:
             return (assigned, shadow, fallback, robot.running_model_version,
                     robot.running_model_sha256)  # fmt: skip
 
-    def _link(self, robot_id: str) -> RobotLink | None:
+    def _link(self, robot_id: str) -> RobotConnection | None:
         link = self._robots.socket(robot_id)
         return None if link is None or link.closed else link
 

@@ -6,8 +6,8 @@ from __future__ import annotations
 import pytest
 from starlette.websockets import WebSocketDisconnect
 
+from backend.api.browser_ws import CLOSE_BAD_MESSAGE
 from backend.models import Role
-from backend.realtime.browser_ws import CLOSE_BAD_MESSAGE
 
 
 def connect(client, token: str):

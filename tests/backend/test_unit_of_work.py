@@ -11,7 +11,7 @@ import pytest
 from sqlalchemy import select
 
 from backend.models.robots import Robot
-from backend.unit_of_work import UnitOfWork, after_commit, publish_alarm, unit_of_work
+from backend.unit_of_work import UnitOfWork, after_commit, unit_of_work
 
 ROOT = Path(__file__).resolve().parents[2]
 BOUNDARY = Path("backend/unit_of_work.py")
@@ -87,7 +87,7 @@ def test_an_alarm_is_pushed_as_committed_once_per_unit(session_factory):
             unit.session, robot, None, AlarmKind.EMERGENCY, evidence
         )
         service.raise_or_update(unit.session, robot, None, AlarmKind.EMERGENCY, evidence)
-        publish_alarm(unit.session, alarm)
+        service.publish(unit.session, alarm)
     effects = Recorder()
     asyncio.run(unit.run_after_commit(effects))
     assert new and [(a["id"], a["decision_count"]) for a in effects.alarms] == [(alarm.id, 2)]

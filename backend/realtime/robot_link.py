@@ -1,6 +1,6 @@
 """One robot's live link to this backend process: every send to a robot (welcome, ack, model
-assignment, close) goes through its `RobotLink`, one at a time under one lock, so an assignment
-pushed by a rollout never interleaves with the writer's acks or a close."""
+assignment, close) goes through its `RobotConnection`, one at a time under one lock, so an
+assignment pushed by a rollout never interleaves with the writer's acks or a close."""
 
 from __future__ import annotations
 
@@ -21,7 +21,7 @@ def http_base(websocket: WebSocket) -> str:
     return str(url.replace(scheme=scheme)).rstrip("/")
 
 
-class RobotLink:
+class RobotConnection:
     """One robot's websocket as the writer, the registry and the token routes see it."""
 
     def __init__(self, websocket: WebSocket, robot_id: str, ward: str | None = None) -> None:

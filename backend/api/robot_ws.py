@@ -22,7 +22,7 @@ from starlette.concurrency import run_in_threadpool
 
 from backend.db import transaction
 from backend.ingest import received, service
-from backend.ingest.link import MAX_REASON_BYTES, RobotLink
+from backend.realtime.robot_link import MAX_REASON_BYTES, RobotConnection
 from backend.services import socket_services
 from vigil import protocol
 from vigil.protocol import Hello, Welcome
@@ -113,7 +113,7 @@ def _transport_ids(message: protocol.RobotMessage) -> set[str]:
 
 
 async def check_transports(
-    websocket: WebSocket, connection: RobotLink, message: protocol.RobotMessage
+    websocket: WebSocket, connection: RobotConnection, message: protocol.RobotMessage
 ) -> None:
     """Refuse a message naming another robot's transport (CloseConnection 4403)."""
     unchecked = _transport_ids(message) - connection.checked_transports
@@ -142,7 +142,7 @@ async def check_transports(
 async def robot_socket(websocket: WebSocket) -> None:
     state = socket_services(websocket)
     await websocket.accept()
-    connection: RobotLink | None = None
+    connection: RobotConnection | None = None
     try:
         hello = await _hello(websocket)
 
@@ -157,7 +157,7 @@ async def robot_socket(websocket: WebSocket) -> None:
             raise CloseConnection(
                 protocol.CLOSE_UNAUTHORIZED, "unknown robot or wrong or revoked token"
             ) from None
-        connection = RobotLink(websocket, hello.robot_id, ward)
+        connection = RobotConnection(websocket, hello.robot_id, ward)
         previous = state.robots.connect(hello.robot_id, connection)
         if previous is not None:
             log.info("robot %s reconnected: closing its older connection", hello.robot_id)

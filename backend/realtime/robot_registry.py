@@ -12,7 +12,7 @@ class ConnectionState(StrEnum):
 
 
 class RobotRegistry:
-    """robot id -> its live link (backend.ingest.link.RobotLink) in this process."""
+    """robot id -> its live link (backend.realtime.robot_link.RobotConnection) in this process."""
 
     def __init__(self, on_change=None) -> None:
         self._sockets: dict[str, Any] = {}
