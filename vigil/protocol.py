@@ -337,6 +337,13 @@ def alarm_resolved(
     )
 
 
+def ack_json(seq: int) -> str:
+    """`Ack(seq=seq)` as JSON, for the hot path (one per committed batch of every robot):
+    the same text `Ack.model_dump_json()` gives (tests/vigil/test_protocol.py compares them),
+    without building and validating a model each time."""
+    return f'{{"type":"ack","seq":{int(seq)}}}'
+
+
 ServerMessage = Annotated[
     Welcome | Ack | ModelAssignment | ServerError | AlarmAcknowledged | AlarmResolved,
     Field(discriminator="type"),

@@ -10,6 +10,8 @@ import contextlib
 from fastapi import WebSocket
 from pydantic import BaseModel
 
+from vigil import protocol
+
 # Close reasons are limited to 123 bytes by the websocket protocol.
 MAX_REASON_BYTES = 123
 
@@ -48,7 +50,7 @@ class RobotConnection:
         return True
 
     async def send_ack(self, seq: int) -> None:
-        await self.send(f'{{"type":"ack","seq":{seq}}}')  # = Ack(seq=seq)
+        await self.send(protocol.ack_json(seq))
 
     async def reject(self, code: int, reason: str) -> None:
         await self.close(code, reason)
