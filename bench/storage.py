@@ -42,8 +42,9 @@ from sqlalchemy import text
 
 from backend.db import make_engine, make_session_factory, transaction
 from backend.ingest.bulk import insert_frame_rows
+from backend.labelling.status import SEGMENT
 from backend.metrics import summary_ms
-from backend.models import Alarm, AlarmKind, AnnotationSegment, Robot, SegmentStatus, Video
+from backend.models import Alarm, AlarmKind, AnnotationSegment, Robot, Video
 from backend.models.alarms import PRIORITY_OF_KIND
 from backend.process import BackendProcess
 from backend.security import create_access_token
@@ -107,10 +108,11 @@ def load_history(url: str, frames: int, robots: int, days: float, now: float) ->
                                   last_seq=s0 + 1550))  # fmt: skip
                 alarms += 1
             if k % 100 == 1:
-                session.add(AnnotationSegment(video_id=video.id, first_frame=100,
-                                              last_frame=400, label_key="walking",
-                                              taxonomy_version=1,
-                                              status=SegmentStatus.ACCEPTED))  # fmt: skip
+                segment = AnnotationSegment(video_id=video.id, first_frame=100,
+                                            last_frame=400, label_key="walking",
+                                            taxonomy_version=1)  # fmt: skip
+                SEGMENT.start(segment, "import")  # history as a dataset's accepted labels
+                session.add(segment)
                 labelled += 1
     seconds = time.perf_counter() - started
     with engine.connect() as connection:

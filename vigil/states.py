@@ -69,6 +69,9 @@ class StateMachine(Generic[S]):
     `actions`: action name -> {from state: to state}; the edges are then derived from them.
     `attribute`: the object's attribute that holds the state.
     `initial`: the state `start` puts an object in (a new or reset object).
+    `entries`: the other ways an object may come into being, by name, each with the state it
+    starts in (e.g. a dataset's labels are imported "accepted"): declared here, once, so no
+    object is created straight into a state the machine does not know as a start.
     `subject`: names the object in messages ("job", or a function of the object).
     `error`: the IllegalTransition subclass to raise.
     """
@@ -81,6 +84,7 @@ class StateMachine(Generic[S]):
         actions: Mapping[str, Mapping[S, S]] | None = None,
         attribute: str = "status",
         initial: S | None = None,
+        entries: Mapping[str, S] | None = None,
         subject: str | Callable[[Any], str] | None = None,
         error: type[IllegalTransition] = IllegalTransition,
     ) -> None:
@@ -105,6 +109,7 @@ class StateMachine(Generic[S]):
             raise ValueError(f"states not in {states.__name__}: {sorted(map(str, unknown))}")
         self.attribute = attribute
         self.initial = initial
+        self.entries: dict[str, S] = {name: states(s) for name, s in (entries or {}).items()}
         self.subject = subject or states.__name__
         self.error = error
 
@@ -158,12 +163,21 @@ class StateMachine(Generic[S]):
         setattr(obj, self.attribute, new)
         return new
 
-    def start(self, obj: Any) -> S:
-        """Put a new (or reset) object in the machine's initial state."""
-        if self.initial is None:
+    def start(self, obj: Any, entry: str | None = None) -> S:
+        """Put a new (or reset) object in the machine's initial state, or in the state of one
+        of its declared `entries` (by name)."""
+        if entry is not None:
+            if entry not in self.entries:
+                raise ValueError(
+                    f"{self.states.__name__}: no entry {entry!r} (declared: {sorted(self.entries)})"
+                )
+            state = self.entries[entry]
+        elif self.initial is None:
             raise ValueError(f"{self.states.__name__}: no initial state declared")
-        setattr(obj, self.attribute, self.initial)
-        return self.initial
+        else:
+            state = self.initial
+        setattr(obj, self.attribute, state)
+        return state
 
     def _subject(self, obj: Any) -> str:
         if callable(self.subject):

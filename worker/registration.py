@@ -9,8 +9,9 @@ from pathlib import Path
 
 from sqlalchemy.orm import Session
 
-from backend.models.registry import ModelStatus, ModelVersion
+from backend.models.registry import ModelVersion
 from backend.registry.queries import model_by_version
+from backend.registry.rollout import MODEL
 from vigil.model_file import MANIFEST_NAME, load_classifier, read_manifest
 
 REPO_ROOT = Path(__file__).resolve().parent.parent
@@ -90,10 +91,10 @@ def register(
             "code_version": code_version(),
             **lineage,
         },
-        status=ModelStatus.CANDIDATE,
         job_id=job_id,
         created_by_id=created_by_id,
     )
+    MODEL.start(model)  # a candidate
     session.add(model)
     session.flush()
     return model

@@ -9,6 +9,7 @@ from __future__ import annotations
 from sqlalchemy import func, select
 from sqlalchemy.orm import Session
 
+from backend.labelling.status import SEGMENT
 from backend.models import (
     Alarm,
     AnnotationSegment,
@@ -107,13 +108,13 @@ def propose_label_from_verdict(
         last_frame=span[1],
         label_key=proposed_label(verdict, reason),
         taxonomy_version=taxonomy_version,
-        status=SegmentStatus.PENDING,
         source=SegmentSource.NURSE_VERDICT,
         priority=VERDICT_PRIORITY[verdict],
         alarm_id=alarm.id,
         model_version=alarm.model_version,
         review_comment=alarm.comment,
     )
+    SEGMENT.start(segment, "propose")
     session.add(segment)
     session.flush()
     session.add(

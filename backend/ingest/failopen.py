@@ -27,6 +27,7 @@ from sqlalchemy.orm import Session
 
 from backend.alarms import service as alarms
 from backend.alarms.schemas import AlarmOut, alarm_key
+from backend.alarms.state import ALARM
 from backend.ingest.received import ReceivedFrames
 from backend.models._types import utcnow
 from backend.models.alarms import PRIORITY_OF_KIND, AlarmKind, AlarmState
@@ -55,7 +56,7 @@ def provisional_alarm(
         id=-next(_provisional_ids),
         kind=kind,
         priority=PRIORITY_OF_KIND[kind],
-        state=AlarmState.OPEN,
+        state=ALARM.initial,
         robot_id=robot_id,
         ward=ward or "",
         transport_id=transport_id,

@@ -48,7 +48,7 @@ from vigil.skeleton import N_FLOOR, N_KEYPOINTS
 #: `Video.source` of every video created by an import (the file's own claim is not kept).
 IMPORTED_SOURCE = "import"
 #: The status of every imported segment: proposed, waiting for a reviewer.
-IMPORTED_STATUS = SegmentStatus.PENDING
+IMPORTED_ENTRY = "propose"  # SEGMENT.entries: an exchange file's labels wait for review
 
 
 class ImportMode(StrEnum):
@@ -159,7 +159,7 @@ def _add_segment(
     session: Session, video: Video, draft: SegmentDraft, importer: User | None
 ) -> AnnotationSegment:
     return create_segment(
-        session, video, draft, importer, source=SegmentSource.IMPORT, status=IMPORTED_STATUS
+        session, video, draft, importer, source=SegmentSource.IMPORT, entry=IMPORTED_ENTRY
     )
 
 

@@ -91,7 +91,7 @@ def create_segment(
     actor: User | None,
     *,
     source: SegmentSource = SegmentSource.ANNOTATOR,
-    status: SegmentStatus = SegmentStatus.DRAFT,
+    entry: str | None = None,
     model_version: str | None = None,
     priority: int = 0,
 ) -> AnnotationSegment:
@@ -104,7 +104,6 @@ def create_segment(
         last_frame=draft.last_frame,
         label_key=draft.label_key,
         taxonomy_version=taxonomy.version,
-        status=status,
         source=source,
         # An imported segment's annotator is whoever imported it (none from the command line),
         # so they cannot accept their own import.
@@ -112,6 +111,7 @@ def create_segment(
         model_version=model_version,
         priority=priority,
     )
+    SEGMENT.start(segment, entry)  # a draft, or a declared entry (status.SEGMENT.entries)
     session.add(segment)
     record(session, segment, actor, "created" if source != SegmentSource.IMPORT else "imported")
     return segment

@@ -42,6 +42,10 @@ SEGMENT = StateMachine(
         "delete": {D: X, P: X, R: X},
     },
     initial=D,
+    # Segments made by the system: a reviewer's queue gets "pending" proposals (nurse verdicts,
+    # shadow disagreements, an exchange file's labels); a dataset's own labels are its ground
+    # truth and come in accepted (URFD's importer, and its archive restored).
+    entries={"propose": P, "import": A},
     subject="segment",
     error=SegmentTransitionError,
 )

@@ -7,7 +7,8 @@ from __future__ import annotations
 from sqlalchemy import func, select
 from sqlalchemy.orm import Session
 
-from backend.models.annotations import AnnotationSegment, SegmentSource, SegmentStatus
+from backend.labelling.status import SEGMENT
+from backend.models.annotations import AnnotationSegment, SegmentSource
 from backend.models.taxonomy import TaxonomyVersion
 from backend.models.videos import Frame
 from vigil.classes import Decision
@@ -69,7 +70,6 @@ def record_disagreements(session: Session, limit_frames: int = 50_000) -> list[A
             last_frame=end.index,
             label_key=PROPOSED_LABEL[shadow],
             taxonomy_version=taxonomy_version,
-            status=SegmentStatus.PENDING,
             source=SegmentSource.SHADOW_DISAGREEMENT,
             priority=2 if Decision.EMERGENCY in (shadow, Decision(first.decision)) else 1,
             model_version=first.shadow_model_version,
@@ -78,6 +78,7 @@ def record_disagreements(session: Session, limit_frames: int = 50_000) -> list[A
                 f"{first.model_version} said {first.decision} on frames {first.index}-{end.index}"
             ),
         )
+        SEGMENT.start(segment, "propose")
         session.add(segment)
         created.append(segment)
     session.flush()

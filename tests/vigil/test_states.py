@@ -72,3 +72,19 @@ def test_column_checks_before_an_sql_update_and_declarations_are_checked():
         StateMachine(Door, edges={}, actions={})
     with pytest.raises(ValueError, match="no initial state"):
         BY_ACTIONS.start(SimpleNamespace(status=None))
+
+
+def test_declared_entries_start_an_object_in_their_state_and_only_those():
+    machine = StateMachine(
+        Door,
+        edges={Door.OPEN: {Door.CLOSED}, Door.CLOSED: {Door.OPEN}},
+        attribute="state",
+        initial=Door.CLOSED,
+        entries={"installed_open": Door.OPEN},
+    )
+    door = SimpleNamespace(state=None)
+    assert machine.start(door) == Door.CLOSED and door.state == Door.CLOSED
+    assert machine.start(door, "installed_open") == Door.OPEN and door.state == Door.OPEN
+    with pytest.raises(ValueError, match="no entry 'broken'.*installed_open"):
+        machine.start(door, "broken")
+    assert door.state == Door.OPEN  # unchanged by the refused start

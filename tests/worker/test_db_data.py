@@ -13,7 +13,7 @@ from backend.db import transaction
 from backend.labelling.export import export_csv
 from backend.labelling.importers.urfd import import_urfd
 from backend.labelling.segments import SegmentDraft, create_segment
-from backend.models.annotations import AnnotationSegment, SegmentSource, SegmentStatus
+from backend.models.annotations import AnnotationSegment, SegmentSource
 from backend.models.videos import Video
 from vigil.classes import MODE_CLASSES, TransportMode
 from vigil.datasets import urfd
@@ -50,7 +50,7 @@ def test_export_and_training_labels_agree_row_by_row_with_overlapping_segments(f
         # Emergency; the walking run (a lower id) is then updated last.
         overlap = create_segment(
             session, video, SegmentDraft(first.first_frame, end, "lying_on_floor"), None,
-            source=SegmentSource.IMPORT, status=SegmentStatus.ACCEPTED,
+            source=SegmentSource.IMPORT, entry="import",
         )  # fmt: skip
         session.flush()
         first.updated_at = overlap.updated_at + timedelta(minutes=5)

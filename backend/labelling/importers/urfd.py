@@ -35,7 +35,7 @@ from backend.labelling.depth import read_depth_png
 from backend.labelling.runs import label_runs
 from backend.labelling.segments import SegmentDraft, create_segment
 from backend.labelling.store import add_video, video_by_name
-from backend.models.annotations import SegmentSource, SegmentStatus
+from backend.models.annotations import SegmentSource
 from backend.models.videos import Split, Video
 from vigil.classes import TransportMode
 from vigil.datasets import urfd
@@ -170,7 +170,7 @@ def import_urfd(
                 SegmentDraft(int(indices[first]), int(indices[last]), label),
                 None,
                 source=SegmentSource.IMPORT,
-                status=SegmentStatus.ACCEPTED,
+                entry="import",
             )
             report.segments += 1
         report.created.append(sequence.name)
