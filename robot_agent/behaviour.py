@@ -20,7 +20,7 @@ from __future__ import annotations
 import logging
 import time
 from collections.abc import Callable
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from enum import StrEnum
 
 from vigil.classes import BehaviourState, Decision, TransportMode
@@ -172,6 +172,8 @@ class Behaviour:
         if self.state != _E:
             return None
         who = f" by {by}" if by else ""
+        if alarm_id is not None:
+            self.alarm_id = alarm_id
         return self._act("release", ts, f"alarm {alarm_id} resolved{who} on the board")
 
     def reset(self, ts: float | None = None, who: str = "local") -> BehaviourChange | None:
@@ -205,9 +207,14 @@ class Behaviour:
         BEHAVIOUR.act(self, action)
         self.since = time.time() if ts is None else ts
         self.reason = reason
+        # A release or reset names the alarm it ends (the backend writes it on that alarm, not
+        # on one the transport raised since); the robot is then on no alarm.
+        released = self.alarm_id if action in ("release", "reset") else None
         if action in ("release", "reset"):
             self.alarm_id = None
         change = self.current()
+        if released is not None:
+            change = replace(change, alarm_id=released)
         (log.error if self.state == _E else log.warning)(
             "robot %s behaviour: %s (%s)", self.robot_id, self.state.value.upper(), reason
         )

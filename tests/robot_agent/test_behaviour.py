@@ -87,3 +87,14 @@ def test_machine_refuses_leaving_emergency_stop_by_resume():
     feed(behaviour, [E])
     with pytest.raises(IllegalTransition, match="cannot resume"):
         BEHAVIOUR.act(behaviour, "resume")
+
+
+def test_a_release_names_the_alarm_it_ends():
+    behaviour = Behaviour(TransportMode.WALKING)
+    feed(behaviour, [Decision.EMERGENCY])
+    released = behaviour.resolved(alarm_id=7, by="nurse:nina")
+    assert (released.state, released.alarm_id) == (BehaviourState.TRANSPORTING, 7)
+    assert behaviour.alarm_id is None  # on no alarm any more
+    feed(behaviour, [Decision.EMERGENCY])
+    behaviour.acknowledged(8, "nurse:nina", 0.0)
+    assert behaviour.reset(who="cli").alarm_id == 8
