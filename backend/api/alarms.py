@@ -1,14 +1,51 @@
 from datetime import datetime
+from typing import Annotated
 
-from fastapi import APIRouter, HTTPException, status
+from fastapi import APIRouter, HTTPException, Path, status
 
 from backend.alarm_review import feedback
 from backend.alarms import queries, service
 from backend.alarms.schemas import AcknowledgeIn, AlarmEventOut, AlarmOut, ResolveIn
-from backend.deps import CurrentUser, DbId, SessionDep
+from backend.alarms.state import AlarmAction
+from backend.deps import MAX_DB_INT, CurrentUser, DbId, SessionDep
+from backend.ingest import stall_actions
 from backend.models.alarms import Alarm, AlarmKind, AlarmState
+from backend.services import ServicesDep
+from backend.unit_of_work import after_commit
 
 router = APIRouter(prefix="/api/alarms", tags=["alarms"])
+
+#: A stored alarm's id, or a negative one: an alarm on the board not yet stored (storage
+#: stalled), acknowledged and resolved all the same (backend.ingest.stall_actions).
+ActionableId = Annotated[
+    int,
+    Path(
+        ge=-MAX_DB_INT,
+        le=MAX_DB_INT,
+        description="the alarm's id; negative: a provisional alarm not yet stored",
+    ),
+]
+
+
+def _act_on_provisional(
+    services, session, user, alarm_id: int, action: AlarmAction, **fields
+) -> AlarmOut:
+    writer = services.writer
+    if writer is None or writer.stall_actions is None:
+        raise HTTPException(status.HTTP_404_NOT_FOUND, f"alarm {alarm_id} not found")
+    try:
+        card, update = stall_actions.act_on_provisional(
+            writer.fail_open, writer.stall_actions, user, alarm_id, action, **fields
+        )
+    except stall_actions.NotActionable as error:
+        raise HTTPException(error.status_code, error.message) from None
+
+    async def show() -> None:  # on the board at once, before the alarm is stored
+        update()
+        await services.effects.publish_alarm(card)
+
+    after_commit(session, show)
+    return AlarmOut.model_validate(card)
 
 
 def _get(session: SessionDep, user: CurrentUser, alarm_id: int) -> Alarm:
@@ -46,11 +83,19 @@ def alarm_events(alarm_id: DbId, session: SessionDep, user: CurrentUser) -> list
 
 @router.post("/{alarm_id}/acknowledge")
 def acknowledge(
-    alarm_id: DbId,
+    alarm_id: ActionableId,
     session: SessionDep,
     user: CurrentUser,
+    services: ServicesDep,
     body: AcknowledgeIn | None = None,
 ) -> AlarmOut:
+    """A negative id: a provisional alarm (storage stalled); the acknowledgement is journalled,
+    shown at once and applied once the alarm is stored."""
+    comment = body.comment if body else None
+    if alarm_id < 0:
+        return _act_on_provisional(
+            services, session, user, alarm_id, AlarmAction.ACKNOWLEDGE, comment=comment
+        )
     alarm = _get(session, user, alarm_id)
     service.acknowledge(session, alarm, user, body.comment if body else None)
     session.flush()  # the unit of work commits, then pushes the alarm (alarms.service)
@@ -59,11 +104,24 @@ def acknowledge(
 
 @router.post("/{alarm_id}/resolve")
 def resolve(
-    alarm_id: DbId,
+    alarm_id: ActionableId,
     body: ResolveIn,
     session: SessionDep,
     user: CurrentUser,
+    services: ServicesDep,
 ) -> AlarmOut:
+    """A negative id: a provisional alarm (storage stalled), as for acknowledge."""
+    if alarm_id < 0:
+        return _act_on_provisional(
+            services,
+            session,
+            user,
+            alarm_id,
+            AlarmAction.RESOLVE,
+            comment=body.comment,
+            verdict=body.verdict,
+            reason=body.reason,
+        )  # noqa
     alarm = _get(session, user, alarm_id)
     service.resolve(session, alarm, user, body.verdict, body.reason, body.comment)
     feedback.propose_label_from_verdict(session, alarm, user.id)
