@@ -144,6 +144,12 @@ class Settings(StorageSettings):
         description="readiness (/api/health/ready) answers 503 with the reason while the frame "
         "writer's current write has been blocked longer than this",
     )
+    alarm_list_timeout_ms: float = Field(
+        default=500,
+        gt=0,
+        description="GET /api/alarms gives storage this long (PostgreSQL statement and lock "
+        "timeout, SQLite busy timeout), then answers from the live board state, marked stale",
+    )
     stall_actions_path: Path | None = Field(
         default=None,
         description="journal of acknowledgements and resolutions of alarms not yet stored "

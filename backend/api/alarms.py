@@ -1,7 +1,8 @@
+import logging
 from datetime import datetime
 from typing import Annotated
 
-from fastapi import APIRouter, HTTPException, Path, status
+from fastapi import APIRouter, HTTPException, Path, Response, status
 
 from backend.alarm_review import feedback
 from backend.alarms import queries, service
@@ -10,9 +11,11 @@ from backend.alarms.state import AlarmAction
 from backend.deps import MAX_DB_INT, CurrentUser, DbId, SessionDep
 from backend.ingest import stall_actions
 from backend.models.alarms import Alarm, AlarmKind, AlarmState
+from backend.realtime.hub import AlarmFilter
 from backend.services import ServicesDep
 from backend.unit_of_work import after_commit
 
+log = logging.getLogger(__name__)
 router = APIRouter(prefix="/api/alarms", tags=["alarms"])
 
 #: A stored alarm's id, or a negative one: an alarm on the board not yet stored (storage
@@ -55,10 +58,30 @@ def _get(session: SessionDep, user: CurrentUser, alarm_id: int) -> Alarm:
     return alarm
 
 
-@router.get("")
+STALE_HEADER = "Vigil-Stale"
+
+
+@router.get(
+    "",
+    responses={
+        200: {
+            "headers": {
+                STALE_HEADER: {
+                    "description": "present when storage did not answer within "
+                    "alarm_list_timeout_ms: the list is the alarms this backend pushed to the "
+                    "boards since it started (the last push of each; stored: false ones are "
+                    "not yet stored), and says why",
+                    "schema": {"type": "string"},
+                }
+            }
+        }
+    },
+)
 def list_alarms(
     session: SessionDep,
     user: CurrentUser,
+    services: ServicesDep,
+    response: Response,
     state: AlarmState | None = None,
     kind: AlarmKind | None = None,
     ward: str | None = None,
@@ -66,7 +89,23 @@ def list_alarms(
     since: datetime | None = None,
     until: datetime | None = None,
 ) -> list[AlarmOut]:
-    alarms = queries.list_alarms(session, user, state, kind, ward, robot_id, since, until)
+    """Never waits behind a stalled write: a read storage does not answer within
+    alarm_list_timeout_ms is answered from the hub's state, with the Vigil-Stale header."""
+    timeout_ms = services.settings.alarm_list_timeout_ms
+    try:
+        alarms = queries.bounded_read(
+            session,
+            timeout_ms,
+            lambda: queries.list_alarms(session, user, state, kind, ward, robot_id, since, until),
+        )
+    except queries.ReadTimedOut as error:
+        where = AlarmFilter(state, kind, ward, robot_id, since, until)
+        response.headers[STALE_HEADER] = (
+            f"storage did not answer within {timeout_ms:g} ms: alarms pushed since this "
+            "backend started, stored: false ones not yet stored"
+        )
+        log.warning("alarm list answered from the hub's state: %s", error)
+        return [AlarmOut.model_validate(a) for a in services.hub.known_alarms(user, where)]
     return [AlarmOut.model_validate(a) for a in alarms]
 
 

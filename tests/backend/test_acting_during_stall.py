@@ -7,7 +7,9 @@ a separate connection holds BEGIN IMMEDIATE; PostgreSQL, LOCK TABLE frames IN EX
   stored, and the audit says it was acknowledged while storage was stalled;
 - during a shorter lock: acknowledged then resolved; /api/health/ready answers 503 with the
   reason once the write has been blocked over `ready_storage_stall_s`; a robot connecting gets
-  its welcome within 1 s; the alarm list answers within 1 s.
+  its welcome within 1 s; the alarm list answers within 1 s;
+- behind a lock that blocks its reads (PostgreSQL), the alarm list answers within 1 s from the
+  hub's state, marked stale.
 """
 
 from __future__ import annotations
@@ -15,19 +17,22 @@ from __future__ import annotations
 import asyncio
 import json
 import time
+from contextlib import contextmanager
 
 import httpx
 import pytest
-from sqlalchemy import select
+from sqlalchemy import create_engine, select, text
 from websockets.asyncio.client import connect
 
 from backend.db import transaction
-from backend.models import Alarm, AlarmEvent
+from backend.ingest.failopen import provisional_alarm
+from backend.models import Alarm, AlarmEvent, Role
 from backend.models.alarms import AlarmKind
 from backend.models.robots import Robot
 from backend.process import BackendProcess
 from backend.security import hash_robot_token
 from bench.storage_stall import write_lock
+from tests import conftest as shared
 from tests.backend.conftest import ROBOT_TOKEN, SUBPROCESS_SECRET
 from tests.backend.test_first_alarm import frame
 from vigil.protocol import Hello, TransportStart
@@ -289,3 +294,49 @@ def test_during_a_stall_the_nurse_acts_readiness_tells_and_robots_and_reads_do_n
     # What robot-b said in its hello is stored, after its welcome.
     with transaction(session_factory) as session:
         assert session.get(Robot, "robot-b").agent_version == "9.9"
+
+
+@contextmanager
+def read_blocking_lock(database_url: str):
+    """The strongest lock that still lets a request authenticate: on PostgreSQL, ACCESS
+    EXCLUSIVE on the alarms table (what a migration or a VACUUM FULL takes), which blocks its
+    reads; on SQLite, the write lock (WAL readers never wait for it)."""
+    if not database_url.startswith("postgresql"):
+        with write_lock(database_url):
+            yield
+        return
+    engine = create_engine(database_url)
+    connection = engine.connect()
+    connection.execute(text("LOCK TABLE alarms IN ACCESS EXCLUSIVE MODE"))
+    try:
+        yield
+    finally:
+        connection.rollback()
+        connection.close()
+        engine.dispose()
+
+
+@pytest.mark.timeout(60)
+def test_the_alarm_list_never_waits_behind_a_lock(client, make_account, database_url):
+    nurse = make_account(Role.NURSE, "ward-a")
+    hub = client.app.state.services.hub
+    mine = provisional_alarm(AlarmKind.EMERGENCY, "robot-a", "ward-a", "t-1", "P-1")
+    elsewhere = provisional_alarm(AlarmKind.EMERGENCY, "robot-b", "ward-b", "t-2")
+    for alarm in (mine, elsewhere):
+        client.portal.call(hub.publish_alarm, alarm)
+    with read_blocking_lock(database_url):
+        started = time.perf_counter()
+        response = client.get("/api/alarms", headers=nurse.headers)
+        elapsed = time.perf_counter() - started
+    assert response.status_code == 200, response.text
+    assert elapsed < 1.0, elapsed
+    if shared.test_database_kind() == "postgresql":
+        # Answered from the hub's state, marked stale; the unstored alarm says so.
+        assert response.headers["Vigil-Stale"].startswith("storage did not answer within 500 ms")
+        assert [(a["key"], a["stored"]) for a in response.json()] == [(mine["key"], False)]
+    else:
+        assert "Vigil-Stale" not in response.headers  # answered by storage
+        assert response.json() == []
+    # Once the lock is gone, storage answers again.
+    again = client.get("/api/alarms", headers=nurse.headers)
+    assert again.status_code == 200 and "Vigil-Stale" not in again.headers
