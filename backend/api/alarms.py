@@ -37,14 +37,14 @@ def _act_on_provisional(
     if writer is None or writer.stall_actions is None:
         raise HTTPException(status.HTTP_404_NOT_FOUND, f"alarm {alarm_id} not found")
     try:
-        card, update = stall_actions.act_on_provisional(
+        card, refresh_card = stall_actions.act_on_provisional(
             writer.fail_open, writer.stall_actions, user, alarm_id, action, **fields
         )
     except stall_actions.NotActionable as error:
         raise HTTPException(error.status_code, error.message) from None
 
     async def show() -> None:  # on the board at once, before the alarm is stored
-        update()
+        refresh_card()
         await services.effects.publish_alarm(card)
 
     after_commit(session, show)
