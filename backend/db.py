@@ -20,10 +20,15 @@ def make_engine(database_url: str) -> Engine:
         @event.listens_for(engine, "connect")
         def _sqlite_pragmas(dbapi_connection, _record) -> None:
             cursor = dbapi_connection.cursor()
-            # Takes effect on a new file only (before its first table; migration 0011 converts
-            # an existing one): retention gives freed pages back chunk by chunk.
-            cursor.execute("PRAGMA auto_vacuum=INCREMENTAL")
-            cursor.execute("PRAGMA journal_mode=WAL")
+            # Set only where they change something: on an existing file both need the lock a
+            # stalled write holds, and a new connection (a request, a robot's hello) must not
+            # wait on it (issue 32). auto_vacuum takes effect on a new file only (before its
+            # first table; migration 0011 converts an existing one): retention gives freed
+            # pages back chunk by chunk. WAL is kept by the file once set.
+            if cursor.execute("PRAGMA page_count").fetchone()[0] == 0:
+                cursor.execute("PRAGMA auto_vacuum=INCREMENTAL")
+            if cursor.execute("PRAGMA journal_mode").fetchone()[0].lower() != "wal":
+                cursor.execute("PRAGMA journal_mode=WAL")
             cursor.execute("PRAGMA synchronous=NORMAL")
             cursor.execute("PRAGMA foreign_keys=ON")
             cursor.close()

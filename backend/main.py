@@ -40,6 +40,7 @@ from backend.db import make_engine, make_session_factory
 from backend.deps import SESSION_COOKIE, CurrentUser
 from backend.gc_tuning import collector_tuned_for_ingest
 from backend.http_guards import SecurityMiddleware
+from backend.ingest.stall_actions import StallActions, journal_path
 from backend.ingest.writer import FrameWriter
 from backend.metrics import Metrics
 from backend.models.alarms import AlarmKind
@@ -160,6 +161,9 @@ async def start_services(settings: Settings) -> Services:
         flush_frames=settings.ingest_flush_frames,
         unstored_alarm_ms=settings.unstored_alarm_ms,
         storage_stall_s=settings.storage_stall_seconds,
+        stall_actions=StallActions(
+            journal_path(settings.database_url, settings.stall_actions_path)
+        ),
     )
     writer.start()
     monitor = AlarmMonitor(

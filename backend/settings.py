@@ -138,6 +138,23 @@ class Settings(StorageSettings):
         description="an Emergency not stored within this time is pushed to the nurse board "
         "marked not yet stored, then replaced by the stored alarm (fail open)",
     )
+    ready_storage_stall_s: float = Field(
+        default=2.0,
+        gt=0,
+        description="readiness (/api/health/ready) answers 503 with the reason while the frame "
+        "writer's current write has been blocked longer than this",
+    )
+    alarm_list_timeout_ms: float = Field(
+        default=500,
+        gt=0,
+        description="GET /api/alarms gives storage this long (PostgreSQL statement and lock "
+        "timeout, SQLite busy timeout), then answers from the live board state, marked stale",
+    )
+    stall_actions_path: Path | None = Field(
+        default=None,
+        description="journal of acknowledgements and resolutions of alarms not yet stored "
+        "(applied once stored); default: beside the SQLite file, or var/ for PostgreSQL",
+    )
     health_timeout_s: float = Field(
         default=2.0,
         description="readiness (/api/health/ready): longest wait for the database "

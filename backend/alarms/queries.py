@@ -2,16 +2,57 @@
 
 from __future__ import annotations
 
-from collections.abc import Collection, Sequence
+from collections.abc import Callable, Collection, Iterator, Sequence
+from contextlib import contextmanager
 from datetime import datetime
+from typing import TypeVar
 
-from sqlalchemy import func, select
+from sqlalchemy import func, select, text
+from sqlalchemy.exc import OperationalError
 from sqlalchemy.orm import Session, aliased
 
 from backend import wards
 from backend.models.alarms import Alarm, AlarmEvent, AlarmKind, AlarmState
 from backend.models.robots import Robot, Transport
 from backend.models.users import User
+from backend.unit_of_work import savepoint
+
+T = TypeVar("T")
+SQLITE_BUSY_TIMEOUT_MS = 30_000  # the engine's own (backend.db: sqlite3 timeout=30)
+
+
+class ReadTimedOut(Exception):
+    """Storage did not answer a read within its timeout (a lock held by a stalled write)."""
+
+
+@contextmanager
+def _read_timeout(session: Session, timeout_ms: int) -> Iterator[None]:
+    connection = session.connection()
+    if connection.dialect.name == "postgresql":
+        # Both: a read waits neither for a lock (lock_timeout) nor longer in total. SET LOCAL
+        # inside a savepoint: undone with it, and the request's transaction stays usable.
+        with savepoint(connection):
+            connection.execute(text(f"SET LOCAL lock_timeout = {int(timeout_ms)}"))
+            connection.execute(text(f"SET LOCAL statement_timeout = {int(timeout_ms)}"))
+            yield
+        return
+    # SQLite (WAL): readers do not wait for the writer, except on a lock a checkpoint, a
+    # recovery or a journal-mode change holds; a small busy timeout bounds that wait.
+    connection.exec_driver_sql(f"PRAGMA busy_timeout = {int(timeout_ms)}")
+    try:
+        yield
+    finally:
+        connection.exec_driver_sql(f"PRAGMA busy_timeout = {SQLITE_BUSY_TIMEOUT_MS}")
+
+
+def bounded_read(session: Session, timeout_ms: int, read: Callable[[], T]) -> T:
+    """`read()` with storage given at most `timeout_ms` (statement and lock timeout on
+    PostgreSQL, busy timeout on SQLite); raises ReadTimedOut when it does not answer."""
+    try:
+        with _read_timeout(session, timeout_ms):
+            return read()
+    except OperationalError as error:  # QueryCanceled, LockNotAvailable, database is locked
+        raise ReadTimedOut(str(error).splitlines()[0]) from error
 
 
 def visible_to(user: User):

@@ -142,14 +142,29 @@ def raise_or_update(
     return alarm, True
 
 
-def acknowledge(session: Session, alarm: Alarm, user: User, comment: str | None = None) -> Alarm:
+def _audited(prefix: str | None, text: str | None) -> str | None:
+    """The audit comment, after what a deferred action says of itself (acting during a stall)."""
+    if prefix is None:
+        return text
+    return f"{prefix}: {text}" if text else prefix
+
+
+def acknowledge(
+    session: Session,
+    alarm: Alarm,
+    user: User,
+    comment: str | None = None,
+    audit_prefix: str | None = None,
+) -> Alarm:
+    """`audit_prefix`: the audit comment starts with it (an acknowledgement made while the
+    alarm was not yet stored: who, when, and when it was applied)."""
     before = alarm.state
     ALARM.act(alarm, AlarmAction.ACKNOWLEDGE)
     alarm.updated_at = alarm.acknowledged_at = utcnow()
     alarm.acknowledged_by_id = user.id
     alarm.acknowledged_by_user = user
     _record(session, alarm, AlarmAction.ACKNOWLEDGE, before, f"{user.role}:{user.username}", user,
-            comment)  # fmt: skip
+            _audited(audit_prefix, comment))  # fmt: skip
     if alarm.kind not in TECHNICAL_KINDS:  # help is coming: the robot tells the patient
         message = protocol.alarm_acknowledged(
             alarm.id, str(alarm.kind), alarm.transport_id, f"{user.role}:{user.username}",
@@ -166,6 +181,7 @@ def resolve(
     verdict: Verdict,
     reason: FalseAlarmReason | None,
     comment: str | None,
+    audit_prefix: str | None = None,
 ) -> Alarm:
     before = alarm.state
     ALARM.act(alarm, AlarmAction.RESOLVE)
@@ -179,7 +195,7 @@ def resolve(
     if comment:
         note += f": {comment}"
     _record(session, alarm, AlarmAction.RESOLVE, before, f"{user.role}:{user.username}", user,
-            note)  # fmt: skip
+            _audited(audit_prefix, note))  # fmt: skip
     if alarm.kind not in TECHNICAL_KINDS:  # releases the robot's emergency stop
         message = protocol.alarm_resolved(
             alarm.id, str(alarm.kind), alarm.transport_id, f"{user.role}:{user.username}",

@@ -40,6 +40,15 @@ def live() -> LiveOut:
 async def _ready(state: Services) -> JSONResponse:
     result = await health_checks.readiness(state.engine, state.bus, state.settings.health_timeout_s)
     writer = state.writer
+    if writer is not None:
+        blocked = writer.blocked_for()
+        limit = state.settings.ready_storage_stall_s
+        if blocked is not None and blocked > limit:
+            reason = (
+                f"stalled: a frame write has been blocked {blocked:.1f} s "
+                f"(over ready_storage_stall_s = {limit:g} s)"
+            )
+            result = health_checks.Readiness(False, {**result.checks, "storage": reason})
     body = HealthOut(
         status="ok" if result.ready else "unavailable",
         checks=result.checks,
@@ -56,7 +65,8 @@ READY_RESPONSES = {200: {"model": HealthOut}, 503: {"model": HealthOut, "descrip
 @router.get("/health/ready", response_model=HealthOut, responses=READY_RESPONSES)
 async def ready(services: ServicesDep) -> JSONResponse:
     """Readiness: 200 when the database (and Redis when configured) answers within
-    health_timeout_s, else 503 with the reason."""
+    health_timeout_s and no frame write has been blocked longer than ready_storage_stall_s,
+    else 503 with the reason."""
     return await _ready(services)
 
 

@@ -20,7 +20,6 @@ from pydantic import ValidationError
 from sqlalchemy.exc import DataError, SQLAlchemyError
 from starlette.concurrency import run_in_threadpool
 
-from backend.db import transaction
 from backend.ingest import received, service
 from backend.realtime.robot_link import MAX_REASON_BYTES, RobotConnection
 from backend.services import socket_services
@@ -146,8 +145,10 @@ async def robot_socket(websocket: WebSocket) -> None:
     try:
         hello = await _hello(websocket)
 
+        # Reads only, so the welcome never waits on a stalled write: what the hello says
+        # (agent and model versions, inputs, last seen) goes to the frame writer after it.
         def _authenticate() -> tuple[int | None, str, dict[str, str] | None]:
-            with transaction(state.session_factory) as session:
+            with state.session_factory() as session:
                 robot = service.authenticate(session, hello)
                 return robot.last_seq, robot.ward, service.registry_sha256_for(session, hello)
 
@@ -176,8 +177,11 @@ async def robot_socket(websocket: WebSocket) -> None:
             Welcome(robot_id=hello.robot_id, last_seq=last_seq, model_sha256=model_sha256)
         )
         log.info("robot %s connected (agent %s)", hello.robot_id, hello.agent_version)
-        await state.assignments.on_robot_connected(hello.robot_id)
         writer = state.writer
+        await writer.submit(connection, hello, time.perf_counter())
+        await state.assignments.on_robot_connected(
+            hello.robot_id, (hello.running_model, hello.running_sha256)
+        )
         while True:
             message = await receive_message(websocket)
             received_at = time.perf_counter()

@@ -225,8 +225,20 @@ class FailOpen:
             out.append(AlarmOut.model_validate(alarm).model_dump(mode="json"))
         return out
 
+    def provisional(self, alarm_id: int) -> dict | None:
+        """The pushed, not yet stored Emergency with this (negative) id, if still unstored."""
+        for entry in self.unstored.values():
+            if entry.pushed and entry.alarm["id"] == alarm_id:
+                return entry.alarm
+        return None
+
+    def is_stall_alarm(self, alarm_id: int) -> bool:
+        return any(a["id"] == alarm_id for a in self.stalled.values())
+
     def board(self) -> list[dict]:
         """What a browser connecting now should see beside the stored alarms."""
-        return [dict(e.alarm) for e in self.unstored.values() if e.pushed] + list(
-            self.stalled.values()
-        )
+        return [
+            dict(e.alarm)
+            for e in self.unstored.values()
+            if e.pushed and e.alarm["state"] != AlarmState.RESOLVED.value
+        ] + list(self.stalled.values())

@@ -8,7 +8,7 @@ from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
 
-from sqlalchemy import select
+from sqlalchemy import select, update
 from sqlalchemy.orm import Session
 
 from backend.alarms import service as alarms
@@ -41,16 +41,28 @@ class RobotAuthError(Exception):
 
 
 def authenticate(session: Session, hello: Hello) -> Robot:
+    """The robot of a hello whose token matches (reads only: the welcome never waits on a
+    stalled write; what the hello says is stored by the frame writer, `apply_hello`)."""
     robot = session.get(Robot, hello.robot_id)
     if robot is None or not robot_token_matches(robot.token_hash, hello.token):
         raise RobotAuthError("unknown robot or wrong or revoked token")
-    robot.agent_version = hello.agent_version
+    return robot
+
+
+def apply_hello(session: Session, robot: RobotState, hello: Hello) -> None:
+    """What a robot says at every connect, stored by the frame writer after the welcome (the
+    running model and last seen through the writer's robot state, written back with it)."""
     robot.running_model_version = hello.running_model
     robot.running_model_sha256 = hello.running_sha256
-    # Said at every connect; an agent that says nothing feeds keypoints only (None).
-    robot.inputs = list(hello.inputs) if hello.inputs is not None else None
+    robot.running_model_changed = True
     robot.last_seen_at = utcnow()
-    return robot
+    # Said at every connect; an agent that says nothing feeds keypoints only (None).
+    inputs = list(hello.inputs) if hello.inputs is not None else None
+    session.execute(
+        update(Robot)
+        .where(Robot.id == robot.id)
+        .values(agent_version=hello.agent_version, inputs=inputs)
+    )
 
 
 def token_still_valid(session: Session, hello: Hello) -> bool:

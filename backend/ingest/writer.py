@@ -28,6 +28,7 @@ from backend.ingest import service
 from backend.ingest.context import IngestContext
 from backend.ingest.failopen import FailOpen
 from backend.ingest.received import ReceivedFrame, ReceivedFrames
+from backend.ingest.stall_actions import StallActions
 from backend.metrics import Metrics
 from backend.unit_of_work import Effects, UnitOfWork, unit_of_work
 from vigil import protocol
@@ -37,6 +38,7 @@ from vigil.protocol import (
     DetectionStatus,
     EmergencyReset,
     Heartbeat,
+    Hello,
     TransportEnd,
     TransportStart,
 )
@@ -51,6 +53,7 @@ RobotWork = (
     | DetectionStatus
     | EmergencyReset
     | BehaviourChanged
+    | Hello  # what a robot said at connect, stored after its welcome
 )
 CACHE_SECONDS = 5.0
 
@@ -112,6 +115,7 @@ class FrameWriter:
         max_pending_frames: int = 20_000,
         unstored_alarm_ms: float = 300,
         storage_stall_s: float = 2.0,
+        stall_actions: StallActions | None = None,
     ) -> None:
         self._session_factory = session_factory
         self._metrics = metrics
@@ -132,6 +136,10 @@ class FrameWriter:
         self.fail_open = FailOpen(unstored_alarm_ms / 1000, storage_stall_s)
         self._inflight: list[Job] = []
         self._watch: asyncio.Task | None = None
+        # Nurses' actions on alarms not yet stored, applied in the commit that stores them.
+        self.stall_actions = stall_actions
+        self._actions_due = False
+        self._actions_tried = 0.0
 
     # -- called by robot connections -------------------------------------------------------
     async def submit(self, link: Acknowledged, message: RobotWork, received: float) -> Job:
@@ -182,7 +190,7 @@ class FrameWriter:
                 with contextlib.suppress(TimeoutError):
                     await asyncio.wait_for(self._arrived.wait(), remaining)
                 self._arrived.clear()
-            if self._pending:
+            if self._pending or self._actions_due:
                 try:
                     await self._flush()
                 except Exception:  # never let the writer die: log, the robots will resend
@@ -199,13 +207,34 @@ class FrameWriter:
                            for job in (*self._inflight, *self._pending)}  # fmt: skip
                 for alarm in self.fail_open.due(time.perf_counter(), waiting):
                     await self._effects.publish_alarm(alarm)
+                self._poke_for_actions()
             except Exception:  # never let the watch die
                 log.exception("storage watch failed")
+
+    def _poke_for_actions(self) -> None:
+        """Actions on alarms stored before them (or found in the journal at start-up) wait for
+        no robot's message: a commit of their own, at most once a second, never while a
+        commit is blocked."""
+        now = time.perf_counter()
+        if (
+            self.stall_actions is not None
+            and self.fail_open.write_started is None
+            and now - self._actions_tried >= 1.0
+            and self.stall_actions.pending()
+        ):
+            self._actions_tried = now
+            self._actions_due = True
+            self._arrived.set()
 
     def stalled_for(self) -> float | None:
         """Seconds the running commit has been blocked, once over storage_stall_seconds."""
         blocked = self.fail_open.stalled_for(time.perf_counter())
         return None if blocked is None else round(blocked, 3)
+
+    def blocked_for(self) -> float | None:
+        """Seconds the running commit has been blocked so far (None: no commit running)."""
+        started = self.fail_open.write_started
+        return None if started is None else time.perf_counter() - started
 
     def waiting_robots(self) -> frozenset[str]:
         """Robots with messages received but not committed yet (safe from any thread)."""
@@ -225,6 +254,7 @@ class FrameWriter:
         self._pending_frames = 0
         self._urgent = False
         self._oldest = None
+        self._actions_due = False
         self._room.set()
         started = time.perf_counter()
         self._inflight = jobs
@@ -282,10 +312,15 @@ class FrameWriter:
     def _commit(self, jobs: list[Job]) -> Outcome:
         try:
             context = self._cached_context()
+            settled: list[str] = []
             with unit_of_work(self._session_factory) as unit:
                 outcome = self._apply(unit.session, jobs, context)
+                if self.stall_actions is not None:
+                    settled = self.stall_actions.apply(unit.session)
             outcome.units.append(unit)
             self._cache = context.detach()
+            if self.stall_actions is not None:
+                self.stall_actions.done(settled)
             return outcome
         except RejectedMessage:
             self._cache = None
@@ -374,6 +409,8 @@ class FrameWriter:
                 context.transports[transport.id] = transport
             elif isinstance(message, TransportEnd):
                 service.end_transport(session, robot, message)
+            elif isinstance(message, Hello):
+                service.apply_hello(session, robot, message)
             elif isinstance(message, Heartbeat):
                 robot.last_seen_at = service.utcnow()
                 if message.running_model is not None:

@@ -4,7 +4,9 @@ from __future__ import annotations
 
 import asyncio
 import logging
+from collections import OrderedDict
 from dataclasses import dataclass, field
+from datetime import UTC, datetime
 
 from fastapi import WebSocket
 
@@ -46,9 +48,40 @@ class BrowserConnection:
         return sees(self, ward)
 
 
+#: Alarms the hub remembers (the last push of each key), for reads storage cannot answer.
+RECENT_ALARMS = 5000
+
+
+@dataclass(frozen=True, slots=True)
+class AlarmFilter:
+    state: str | None = None
+    kind: str | None = None
+    ward: str | None = None
+    robot_id: str | None = None
+    since: datetime | None = None
+    until: datetime | None = None
+
+    def matches(self, alarm: dict) -> bool:
+        raised = _aware(datetime.fromisoformat(alarm["raised_at"]))
+        return (
+            (self.state is None or alarm["state"] == self.state)
+            and (self.kind is None or alarm["kind"] == self.kind)
+            and (self.ward is None or alarm["ward"] == self.ward)
+            and (self.robot_id is None or alarm["robot_id"] == self.robot_id)
+            and (self.since is None or raised >= _aware(self.since))
+            and (self.until is None or raised < _aware(self.until))
+        )
+
+
+def _aware(at: datetime) -> datetime:
+    return at if at.tzinfo is not None else at.replace(tzinfo=UTC)
+
+
 class BrowserHub:
     def __init__(self) -> None:
         self._connections: set[BrowserConnection] = set()
+        # key -> the last push of that alarm (stored or not yet stored), newest last.
+        self._recent: OrderedDict[str, dict] = OrderedDict()
 
     def add(self, connection: BrowserConnection) -> None:
         self._connections.add(connection)
@@ -70,6 +103,7 @@ class BrowserHub:
 
     async def publish_alarm(self, alarm: dict) -> None:
         """Push one committed alarm to every browser allowed to see it."""
+        self._remember(alarm)
         message = {"type": "alarm", "alarm": alarm}
         targets = [c for c in self._connections if c.can_see(alarm["ward"])]
         results = await asyncio.gather(
@@ -79,6 +113,24 @@ class BrowserHub:
             if isinstance(result, Exception):
                 log.info("dropping browser connection of user %s: %s", connection.user_id, result)
                 self.remove(connection)
+
+    def _remember(self, alarm: dict) -> None:
+        key = (
+            alarm.get("key")
+            or f"{alarm['robot_id']}/{alarm.get('transport_id') or ''}/{alarm['kind']}"
+        )
+        self._recent.pop(key, None)
+        self._recent[key] = alarm
+        while len(self._recent) > RECENT_ALARMS:
+            self._recent.popitem(last=False)
+
+    def known_alarms(self, viewer: HasWard, where: AlarmFilter, limit: int = 200) -> list[dict]:
+        """The alarms this hub pushed since the process started (the last push of each), that
+        `viewer` may see and `where` selects, newest raised first: what the alarm list answers
+        when storage does not (marked stale by the caller; not-yet-stored ones say so)."""
+        found = [a for a in self._recent.values() if sees(viewer, a["ward"]) and where.matches(a)]
+        found.sort(key=lambda a: a["raised_at"], reverse=True)
+        return found[:limit]
 
     async def close_where(self, matches, code: int, reason: str) -> int:
         """Close (and forget) every connection `matches(connection)` selects; returns how many."""

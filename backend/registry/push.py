@@ -152,14 +152,19 @@ class AssignmentPusher:
         for robot_id in robot_ids:
             await self.push_to_robot(robot_id)
 
-    async def on_robot_connected(self, robot_id: str) -> None:
+    async def on_robot_connected(
+        self, robot_id: str, reported: tuple[str | None, str | None] | None = None
+    ) -> None:
         """Called by the robot socket after `welcome`: send what the robot should run, if it
-        differs from what it reported in hello (or a shadow model is assigned)."""
+        differs from what it reported in hello (`reported`: running version and sha256, which
+        the frame writer may not have stored yet), or a shadow model is assigned."""
         self.sent.shadows.pop(robot_id, None)  # the agent dropped its shadow model on welcome
         self.sent.fallbacks.pop(robot_id, None)  # sent again after every welcome
         assigned, shadow, fallback, running, running_sha256 = await run_in_threadpool(
             self._wanted, robot_id
         )
+        if reported is not None:
+            running, running_sha256 = reported
         if shadow is not None:
             await self.push_to_robot(robot_id, force=True)
         elif (

@@ -5,6 +5,7 @@ target version runs from the registry's file (issue 18, item 5)."""
 from __future__ import annotations
 
 import json
+import time
 
 import pytest
 
@@ -43,9 +44,16 @@ def receive_until(ws, kind: str) -> list[dict]:
     return messages
 
 
-def fleet_row(client, headers) -> dict:
-    rows = client.get("/api/fleet", headers=headers).json()
-    return next(r for r in rows if r["id"] == "robot-a")
+def fleet_row(client, headers, reported: str | None = None) -> dict:
+    """robot-a's fleet row; `reported`: the running version its hello gave, which the frame
+    writer stores just after the welcome (the welcome never waits on storage): waited for."""
+    deadline = time.monotonic() + 5
+    while True:
+        rows = client.get("/api/fleet", headers=headers).json()
+        row = next(r for r in rows if r["id"] == "robot-a")
+        if reported is None or row["running_version"] == reported or time.monotonic() > deadline:
+            return row
+        time.sleep(0.02)
 
 
 def test_a_robot_running_another_file_under_the_target_version_is_not_in_sync(
@@ -64,7 +72,7 @@ def test_a_robot_running_another_file_under_the_target_version_is_not_in_sync(
         # Not running the registry's file: the assignment is sent again, to fetch it anew.
         assignment = json.loads(ws.receive_text())
         assert assignment["type"] == "assign_model" and assignment["sha256"] == registry_sha
-        row = fleet_row(client, engineer.headers)
+        row = fleet_row(client, engineer.headers, reported=version)
         assert (row["running_version"], row["running_sha256"]) == (version, TAMPERED)
         assert row["target_version"] == version and row["in_sync"] is False
 
@@ -87,6 +95,6 @@ def test_an_agent_that_reports_no_sha256_gets_the_old_welcome_and_is_not_shown_i
                            running_model=version).model_dump_json(exclude_none=True))  # fmt: skip
         welcome = json.loads(ws.receive_text())
         assert welcome["type"] == "welcome" and "model_sha256" not in welcome
-        row = fleet_row(client, engineer.headers)
+        row = fleet_row(client, engineer.headers, reported=version)
         assert row["running_version"] == version and row["running_sha256"] is None
         assert row["in_sync"] is False  # its file cannot be shown to be the registry's

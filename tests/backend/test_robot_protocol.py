@@ -355,7 +355,9 @@ def test_metrics_count_frames_ack_latency_open_alarms_and_robots(client, robot, 
         if line and not line.startswith("#")
     }
     assert metrics["vigil_frames_ingested_total"] == 2
-    assert metrics["vigil_ingest_commit_seconds_count"] == 1
+    # The frames' commit, and the hello's (its fields are stored by the writer after the
+    # welcome) unless it went in the same batch.
+    assert metrics["vigil_ingest_commit_seconds_count"] in (1, 2)
     assert metrics['vigil_open_alarms{kind="emergency"}'] == 1
     assert metrics["vigil_connected_robots"] == 1
 

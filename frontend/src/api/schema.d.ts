@@ -89,7 +89,8 @@ export interface paths {
         /**
          * Ready
          * @description Readiness: 200 when the database (and Redis when configured) answers within
-         *     health_timeout_s, else 503 with the reason.
+         *     health_timeout_s and no frame write has been blocked longer than ready_storage_stall_s,
+         *     else 503 with the reason.
          */
         get: operations["ready_api_health_ready_get"];
         put?: never;
@@ -300,7 +301,11 @@ export interface paths {
             path?: never;
             cookie?: never;
         };
-        /** List Alarms */
+        /**
+         * List Alarms
+         * @description Never waits behind a stalled write: a read storage does not answer within
+         *     alarm_list_timeout_ms is answered from the hub's state, with the Vigil-Stale header.
+         */
         get: operations["list_alarms_api_alarms_get"];
         put?: never;
         post?: never;
@@ -353,7 +358,11 @@ export interface paths {
         };
         get?: never;
         put?: never;
-        /** Acknowledge */
+        /**
+         * Acknowledge
+         * @description A negative id: a provisional alarm (storage stalled); the acknowledgement is journalled,
+         *     shown at once and applied once the alarm is stored.
+         */
         post: operations["acknowledge_api_alarms__alarm_id__acknowledge_post"];
         delete?: never;
         options?: never;
@@ -370,7 +379,10 @@ export interface paths {
         };
         get?: never;
         put?: never;
-        /** Resolve */
+        /**
+         * Resolve
+         * @description A negative id: a provisional alarm (storage stalled), as for acknowledge.
+         */
         post: operations["resolve_api_alarms__alarm_id__resolve_post"];
         delete?: never;
         options?: never;
@@ -3493,6 +3505,8 @@ export interface operations {
             /** @description Successful Response */
             200: {
                 headers: {
+                    /** @description present when storage did not answer within alarm_list_timeout_ms: the list is the alarms this backend pushed to the boards since it started (the last push of each; stored: false ones are not yet stored), and says why */
+                    "Vigil-Stale"?: string;
                     [name: string]: unknown;
                 };
                 content: {
@@ -3577,6 +3591,7 @@ export interface operations {
             query?: never;
             header?: never;
             path: {
+                /** @description the alarm's id; negative: a provisional alarm not yet stored */
                 alarm_id: number;
             };
             cookie?: never;
@@ -3612,6 +3627,7 @@ export interface operations {
             query?: never;
             header?: never;
             path: {
+                /** @description the alarm's id; negative: a provisional alarm not yet stored */
                 alarm_id: number;
             };
             cookie?: never;
