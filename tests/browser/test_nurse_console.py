@@ -298,8 +298,10 @@ def test_storage_stall_shows_the_emergency_not_yet_stored_then_the_stored_card(
     tmp_path, frontend_dist, page
 ):
     """Alarms fail open: with the database write lock held, the Emergency card shows at once
-    with a "Not yet stored" badge and the storage-stalled technical card beside it; after the
-    release the stored alarm takes the card's place (one card) and the technical card leaves."""
+    with a "Not yet stored" badge and the storage-stalled technical card beside it; the nurse
+    acknowledges it there and then (issue 32: acting during a stall); after the release the
+    stored alarm, acknowledged, takes the card's place (one card) and the technical card
+    leaves."""
     from bench.storage_stall import write_lock
 
     server = LiveServer.create(tmp_path, frontend_dist, storage_stall_seconds="1")
@@ -318,16 +320,21 @@ def test_storage_stall_shows_the_emergency_not_yet_stored_then_the_stored_card(
                 expect(unstored).to_have_count(1, timeout=2000)
                 expect(unstored.locator(".unstored")).to_have_text("Not yet stored")
                 expect(unstored).to_contain_text("P-5")
-                expect(unstored.get_by_role("button", name="Acknowledge")).to_have_count(0)
                 stalled = page.locator("article.alarm-technical", has_text="Storage stalled")
                 expect(stalled).to_have_count(1, timeout=4000)
+                # Acknowledged while storage is stalled: on the board at once.
+                unstored.get_by_role("button", name="Acknowledge").click()
+                expect(unstored).to_have_attribute("data-state", "acknowledged", timeout=2000)
+                expect(unstored).to_contain_text("by nina")
             robot.wait_ack(frames[-1].seq)
         cards = page.locator("article.alarm-emergency")
         expect(cards).to_have_count(1)
         expect(cards).to_have_attribute("data-stored", "true")
         expect(cards.locator(".unstored")).to_have_count(0)
         assert int(cards.get_attribute("data-alarm-id")) > 0
-        expect(cards.get_by_role("button", name="Acknowledge")).to_be_visible()
+        # Stored, with the acknowledgement made during the stall applied.
+        expect(cards).to_have_attribute("data-state", "acknowledged")
+        expect(cards.get_by_role("button", name="Acknowledge")).to_have_count(0)
         expect(stalled).to_have_count(0)
     finally:
         server.stop()

@@ -76,13 +76,9 @@ export function AlarmCard({ alarm, now, busy, onAcknowledge, onResolve }: Props)
           </>
         )}
       </dl>
-      {!stored ? (
+      {alarm.kind === "storage_stalled" ? (
         <footer>
-          <span className="unstored-note">
-            {alarm.kind === "storage_stalled"
-              ? "Clears by itself when storage recovers."
-              : "Acknowledge and resolve once stored (moments after storage recovers)."}
-          </span>
+          <span className="unstored-note">Clears by itself when storage recovers.</span>
         </footer>
       ) : (
         <footer>
@@ -94,7 +90,10 @@ export function AlarmCard({ alarm, now, busy, onAcknowledge, onResolve }: Props)
           <button type="button" className="resolve" disabled={busy} onClick={() => onResolve(alarm)}>
             Resolve…
           </button>
-          <Link to={`/nurse/alarms/${alarm.id}`} className="replay-link">Replay</Link>
+          {stored ? <Link to={`/nurse/alarms/${alarm.id}`} className="replay-link">Replay</Link> : (
+            // Storage is stalled: what the nurse does is kept and applied once the alarm is stored.
+            <span className="unstored-note">Replay once stored; acknowledging works now.</span>
+          )}
         </footer>
       )}
     </article>

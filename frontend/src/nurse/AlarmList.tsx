@@ -134,10 +134,10 @@ const Row = memo(function Row({ alarm, top, rowIndex, group, since, ended, busy,
       </span>
       <span role="cell" className="since" title={alarm.raised_at}>{since}</span>
       <span role="cell" className="actions">
-        {stored && mayAcknowledge(alarm) && (
+        {alarm.kind !== "storage_stalled" && mayAcknowledge(alarm) && (
           <button type="button" className="ack" disabled={busy} onClick={() => onAcknowledge(alarm)}>Acknowledge</button>
         )}
-        {stored && <button type="button" className="resolve" disabled={busy} onClick={() => onResolve(alarm)}>Resolve…</button>}
+        {alarm.kind !== "storage_stalled" && <button type="button" className="resolve" disabled={busy} onClick={() => onResolve(alarm)}>Resolve…</button>}
         {stored && <Link to={`/nurse/alarms/${alarm.id}`}>Replay</Link>}
         {!stored && <span className="unstored">Not yet stored</span>}
       </span>

@@ -1,5 +1,5 @@
 import type { Alarm } from "../api/types";
-import type { EmergencyBannerState } from "../lib/alarmBoard";
+import { mayAcknowledge, type EmergencyBannerState } from "../lib/alarmBoard";
 import { clockTime, elapsed } from "../lib/time";
 
 interface Props {
@@ -37,7 +37,7 @@ export function EmergencyBanner({ banner, now, busy, onAcknowledge }: Props) {
       {others === 0 && alarm.state === "missed" && (
         <span className="others" data-testid="banner-waiting">missed: nobody has answered it</span>
       )}
-      {alarm.stored !== false && (
+      {mayAcknowledge(alarm) && (
         <button type="button" className="primary" disabled={busy} onClick={() => onAcknowledge(alarm)}>
           Acknowledge
         </button>
