@@ -107,14 +107,23 @@ class AssignmentPusher:
         link = self._robots.socket(robot_id)
         return None if link is None or link.closed else link
 
-    async def push_to_robot(self, robot_id: str, force: bool = True) -> bool:
-        """Send the robot its assignment(s) if it is connected here; True if anything was sent."""
+    async def push_to_robot(
+        self,
+        robot_id: str,
+        force: bool = True,
+        reported: tuple[str | None, str | None] | None = None,
+    ) -> bool:
+        """Send the robot its assignment(s) if it is connected here; True if anything was sent.
+        `reported`: what the robot runs (version, sha256) as its hello said, newer than the
+        stored one (the frame writer stores it after the welcome)."""
         link = self._link(robot_id)
         if link is None:
             return False
         assigned, shadow, fallback, running, running_sha256 = await run_in_threadpool(
             self._wanted, robot_id
         )
+        if reported is not None:
+            running, running_sha256 = reported
         shadows, fallbacks = self.sent.shadows, self.sent.fallbacks
         # A withdrawn shadow deployment: the production assignment also stops the shadow model
         # (protocol 1 extension). Without a production assignment the robot drops it on
@@ -166,11 +175,11 @@ class AssignmentPusher:
         if reported is not None:
             running, running_sha256 = reported
         if shadow is not None:
-            await self.push_to_robot(robot_id, force=True)
+            await self.push_to_robot(robot_id, force=True, reported=reported)
         elif (
             assigned is not None and not runs_assigned(assigned, running, running_sha256)
         ) or fallback is not None:
-            await self.push_to_robot(robot_id, force=False)
+            await self.push_to_robot(robot_id, force=False, reported=reported)
 
     def _assigned(self) -> list[tuple[str, str, bool, str | None]]:
         """(robot, assigned version, whether it runs it, fallback version) of robots with a
