@@ -190,6 +190,10 @@ async def robot_socket(websocket: WebSocket) -> None:
             await check_transports(websocket, connection, message)
             if isinstance(message, protocol.FrameBatch):
                 message = received.from_batch(message)
+            elif isinstance(message, protocol.Heartbeat) and message.running_model is not None:
+                state.assignments.robot_reported(
+                    hello.robot_id, message.running_model, message.running_sha256
+                )
             await writer.submit(connection, message, received_at)
     except CloseConnection as close:
         log.warning("closing robot connection: %s (%s)", close.reason, close.code)

@@ -64,6 +64,9 @@ class Sent:
     shadows: dict[str, str] = field(default_factory=dict)
     #: robot id -> fallback version sent on its current connection
     fallbacks: dict[str, str] = field(default_factory=dict)
+    #: robot id -> (version, sha256) it last said it runs on its current connection (hello,
+    #: heartbeats): newer than the stored one, which the frame writer writes later
+    running: dict[str, tuple[str | None, str | None]] = field(default_factory=dict)
 
 
 class AssignmentPusher:
@@ -122,6 +125,8 @@ class AssignmentPusher:
         assigned, shadow, fallback, running, running_sha256 = await run_in_threadpool(
             self._wanted, robot_id
         )
+        if reported is None:
+            reported = self.sent.running.get(robot_id)
         if reported is not None:
             running, running_sha256 = reported
         shadows, fallbacks = self.sent.shadows, self.sent.fallbacks
@@ -169,6 +174,10 @@ class AssignmentPusher:
         the frame writer may not have stored yet), or a shadow model is assigned."""
         self.sent.shadows.pop(robot_id, None)  # the agent dropped its shadow model on welcome
         self.sent.fallbacks.pop(robot_id, None)  # sent again after every welcome
+        if reported is not None:
+            self.sent.running[robot_id] = reported
+        else:
+            self.sent.running.pop(robot_id, None)
         assigned, shadow, fallback, running, running_sha256 = await run_in_threadpool(
             self._wanted, robot_id
         )
@@ -181,9 +190,13 @@ class AssignmentPusher:
         ) or fallback is not None:
             await self.push_to_robot(robot_id, force=False, reported=reported)
 
+    def robot_reported(self, robot_id: str, version: str, sha256: str | None) -> None:
+        """A connected robot's heartbeat named the model it runs now."""
+        self.sent.running[robot_id] = (version, sha256)
+
     def _assigned(self) -> list[tuple[str, str, bool, str | None]]:
         """(robot, assigned version, whether it runs it, fallback version) of robots with a
-        model."""
+        model; what a robot connected here last reported counts over what is stored."""
         cache: dict = {}
         with self._session_factory() as session:
             rows = session.execute(
@@ -193,6 +206,7 @@ class AssignmentPusher:
             ).all()
             out = []
             for robot_id, model, running, running_sha256 in rows:
+                running, running_sha256 = self.sent.running.get(robot_id, (running, running_sha256))
                 fallback = fallback_for(session, model, cache)
                 out.append((robot_id, model.version, runs_assigned(model, running, running_sha256),
                             fallback.version if fallback else None))  # fmt: skip

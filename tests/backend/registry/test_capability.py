@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 
+import anyio
 from sqlalchemy import select
 
 from backend import models
@@ -14,7 +15,7 @@ from tests.backend.conftest import ROBOT_TOKEN
 from tests.backend.registry.conftest import FEEDS_ALL
 from tests.registry_fixtures import derive_model
 from vigil.inputs import describe_missing
-from vigil.protocol import Hello
+from vigil.protocol import Heartbeat, Hello
 
 
 def set_inputs(session_factory, **inputs) -> None:
@@ -221,3 +222,35 @@ def test_a_robot_with_no_target_is_in_sync_only_when_it_runs_nothing():
 
     assert in_sync(None, Robot(id="r", running_model_version=None)) is True
     assert in_sync(None, Robot(id="r", running_model_version="rolled-back-1")) is False
+
+
+def test_reconcile_believes_the_robots_hello_over_a_stored_running_model_that_lags(
+    client, make_account, fleet, urfd_db, register, trained_model_dir, session_factory,
+):  # fmt: skip
+    """The frame writer stores what a robot runs after its welcome; the reconcile loop may run
+    in between and must not resend a model the robot said it already runs."""
+    engineer = make_account(Role.ENGINEER)
+    floor = register(trained_model_dir)
+    assert promote(client, engineer, floor, scope="robot", target="robot-a").status_code == 201
+    pusher = client.app.state.services.assignments
+    with client.websocket_connect("/ws/robot") as ws:
+        ws.send_text(Hello(robot_id="robot-a", token=ROBOT_TOKEN, inputs=FEEDS_ALL,
+                           running_model="rf-test-1").model_dump_json())  # fmt: skip
+        assert json.loads(ws.receive_text())["type"] == "welcome"
+        # What the writer has not stored yet (or a replica stored before): nothing runs.
+        with transaction(session_factory) as session:
+            session.get(Robot, "robot-a").running_model_version = None
+        assert client.portal.call(pusher.reconcile) == []
+        # A heartbeat naming another model counts as soon as it is received.
+        ws.send_text(Heartbeat(ts=1.0, running_model="something-else").model_dump_json())
+        for _ in range(200):
+            if pusher.sent.running.get("robot-a", (None,))[0] == "something-else":
+                break
+            client.portal.call(anyio.sleep, 0.01)
+        assert pusher.sent.running["robot-a"][0] == "something-else"
+        with transaction(session_factory) as session:
+            session.get(Robot, "robot-a").running_model_version = "rf-test-1"
+        pusher.sent.assignments.pop("robot-a", None)  # not a resend "too soon"
+        assert client.portal.call(pusher.reconcile) == ["robot-a"]
+        resent = json.loads(ws.receive_text())
+        assert (resent["type"], resent["version"]) == ("assign_model", "rf-test-1")
