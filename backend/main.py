@@ -13,10 +13,12 @@ from fastapi.responses import FileResponse, JSONResponse
 from fastapi.staticfiles import StaticFiles
 from prometheus_client import CONTENT_TYPE_LATEST, generate_latest
 from sqlalchemy.exc import DataError
+from starlette.concurrency import run_in_threadpool
 
 from backend import health
 from backend.accounts.gate import HashingGate
 from backend.accounts.throttle import LoginThrottle, Policy
+from backend.alarms import distribution as alarm_distribution
 from backend.alarms import queries as alarm_queries
 from backend.alarms.monitor import AlarmMonitor
 from backend.api import (
@@ -38,6 +40,9 @@ from backend.api import (
 from backend.body_limit import BodySizeLimit
 from backend.db import make_engine, make_session_factory
 from backend.deps import SESSION_COOKIE, CurrentUser
+from backend.distribution import routing as distribution_routing
+from backend.distribution.listener import StatusListener
+from backend.distribution.sender import AlertSender
 from backend.gc_tuning import collector_tuned_for_ingest
 from backend.http_guards import SecurityMiddleware
 from backend.ingest.stall_actions import StallActions, journal_path
@@ -48,9 +53,10 @@ from backend.realtime.bus import AlarmBus
 from backend.realtime.hub import BrowserHub
 from backend.realtime.robot_registry import RobotRegistry
 from backend.registry.push import AssignmentPusher
-from backend.services import Fanout, Labelling, Services, ServicesDep
+from backend.services import Distribution, Fanout, Labelling, Services, ServicesDep
 from backend.settings import Settings
 from backend.storage.service import SummaryCache
+from backend.unit_of_work import in_event_loop
 from vigil.states import IllegalTransition
 
 log = logging.getLogger("vigil.backend")
@@ -170,6 +176,7 @@ async def start_services(settings: Settings) -> Services:
         factory, settings, effects, waiting_robots=writer.waiting_robots, viewers=hub.viewers
     )
     monitor.start()
+    distribution = await start_distribution(settings, factory, effects)
     return Services(
         settings=settings,
         engine=engine,
@@ -203,10 +210,55 @@ async def start_services(settings: Settings) -> Services:
         ),
         labelling=Labelling.build(settings),
         storage_summary=SummaryCache(settings.storage_summary_ttl_s),
+        distribution=distribution,
     )
 
 
+async def start_distribution(settings: Settings, factory, effects) -> Distribution | None:
+    """IHE PCD ACM alarm distribution, when an Alert Manager is configured: every session
+    of `factory` then queues each alarm change for it (`backend.alarms.outbox`)."""
+    routing = distribution_routing.Routing.from_settings(
+        settings.alert_manager, settings.alert_manager_by_ward, settings.alert_facility
+    )
+    if routing is None:
+        return None
+    sender = AlertSender(
+        factory,
+        routing,
+        on_down=lambda session, destination, error, since: alarm_distribution.distribution_down(
+            session, routing, destination, error, since
+        ),
+        on_up=lambda session, destination, since: alarm_distribution.distribution_up(
+            session, routing, destination, since
+        ),
+        effects=effects,
+        ack_timeout_s=settings.alert_ack_timeout_s,
+        retry_s=settings.alert_retry_s,
+        down_after_s=settings.alarm_distribution_down_s,
+    )
+    distribution_routing.attach(factory, routing, sender.wake)
+    sender.start()
+    listener = None
+    if settings.alert_status_listen:
+        listen = distribution_routing.Destination.parse(
+            settings.alert_status_listen, "alert_status_listen"
+        )
+
+        async def apply(status) -> str:
+            async with in_event_loop(factory, effects) as unit:
+                return await run_in_threadpool(
+                    alarm_distribution.apply_status, unit.session, status
+                )
+
+        allowed = [d.host for d in routing.destinations()] + settings.alert_status_allowed_peers
+        listener = StatusListener(listen.host, listen.port, apply, allowed)
+        await listener.start()
+    return Distribution(routing, sender, listener)
+
+
 async def stop_services(services: Services) -> None:
+    if services.distribution is not None:
+        await services.distribution.stop()
     await services.monitor.stop()
     await services.writer.stop()
     await services.bus.stop()

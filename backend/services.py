@@ -17,6 +17,9 @@ from sqlalchemy.orm import Session, sessionmaker
 from backend.accounts.gate import HashingGate
 from backend.accounts.throttle import LoginThrottle
 from backend.alarms.monitor import AlarmMonitor
+from backend.distribution.listener import StatusListener
+from backend.distribution.routing import Routing
+from backend.distribution.sender import AlertSender
 from backend.ingest.writer import FrameWriter
 from backend.labelling.probability import LaneComputer
 from backend.labelling.rgb import FrameCache, JpegCache
@@ -76,6 +79,20 @@ class Fanout:
 
 
 @dataclass
+class Distribution:
+    """Alarm distribution to the hospital's Alert Managers (IHE PCD ACM)."""
+
+    routing: Routing
+    sender: AlertSender
+    listener: StatusListener | None
+
+    async def stop(self) -> None:
+        if self.listener is not None:
+            await self.listener.stop()
+        await self.sender.stop()
+
+
+@dataclass
 class Services:
     settings: Settings
     engine: Engine
@@ -92,6 +109,7 @@ class Services:
     login_throttle: LoginThrottle
     labelling: Labelling
     storage_summary: SummaryCache
+    distribution: Distribution | None = None
 
 
 def get_services(request: Request) -> Services:

@@ -150,6 +150,40 @@ class Settings(StorageSettings):
         description="GET /api/alarms gives storage this long (PostgreSQL statement and lock "
         "timeout, SQLite busy timeout), then answers from the live board state, marked stale",
     )
+    alert_manager: str | None = Field(
+        default=None,
+        description="IHE PCD ACM Alert Manager (phones, pagers) as host:port: every alarm change "
+        "is sent to it as HL7 ORU^R40 over MLLP; empty: alarms stay on the board",
+    )
+    alert_manager_by_ward: dict[str, str] = Field(
+        default_factory=dict,
+        description='per-ward Alert Manager, JSON: {"ward-3a": "10.1.3.7:2575"}; others use '
+        "alert_manager",
+    )
+    alert_facility: str = Field(
+        default="HOSPITAL", max_length=60, description="MSH-4 sending facility of ORU^R40"
+    )
+    alert_status_listen: str | None = Field(
+        default=None,
+        description="host:port where the Alert Manager sends its ORA^R41 dispositions "
+        "(delivered, read, accepted, rejected); empty: none are received",
+    )
+    alert_status_allowed_peers: list[str] = Field(
+        default_factory=list,
+        description="hosts allowed to send ORA^R41 besides the Alert Managers' own, JSON list",
+    )
+    alert_ack_timeout_s: float = Field(
+        default=5.0, gt=0, description="wait this long for the Alert Manager's ACK, then resend"
+    )
+    alert_retry_s: float = Field(
+        default=2.0, gt=0, description="an unacknowledged alarm message is sent again after this"
+    )
+    alarm_distribution_down_s: float = Field(
+        default=10.0,
+        gt=0,
+        description="an Alert Manager unreachable this long raises the technical alarm "
+        '"alarm distribution down" on the boards of its wards',
+    )
     stall_actions_path: Path | None = Field(
         default=None,
         description="journal of acknowledgements and resolutions of alarms not yet stored "

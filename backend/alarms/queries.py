@@ -242,3 +242,15 @@ def unresolved_counts(session: Session) -> dict[AlarmKind, int]:
             .group_by(Alarm.kind)
         ).all()
     )
+
+
+def unresolved_of_ward(session: Session, ward: str, kind: AlarmKind) -> Alarm | None:
+    """The unresolved alarm of this kind about a ward rather than a robot."""
+    return session.scalars(
+        select(Alarm).where(
+            Alarm.robot_id.is_(None),
+            Alarm.transport_key == f"ward:{ward}",
+            Alarm.kind == kind,
+            Alarm.state != AlarmState.RESOLVED,
+        )
+    ).first()

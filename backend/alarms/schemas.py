@@ -12,9 +12,23 @@ from backend.models.alarms import (
 from vigil.classes import BehaviourState
 
 
-def alarm_key(robot_id: str, transport_id: str | None, kind: str) -> str:
-    """An alarm's identity on the nurse board: at most one unresolved alarm per key."""
+def alarm_key(robot_id: str | None, transport_id: str | None, kind: str, ward: str = "") -> str:
+    """An alarm's identity on the nurse board: at most one unresolved alarm per key (an alarm
+    about no robot is its ward's)."""
+    if robot_id is None:
+        return f"ward:{ward}//{kind}"
     return f"{robot_id}/{transport_id or ''}/{kind}"
+
+
+class DispositionOut(BaseModel):
+    """What the alarm distribution reported of the alarm on a clinician's device."""
+
+    model_config = ConfigDict(from_attributes=True)
+
+    disposition: str = Field(description="delivered, read, accepted or rejected")
+    clinician: str
+    device: str
+    at: datetime
 
 
 class AlarmOut(BaseModel):
@@ -24,7 +38,7 @@ class AlarmOut(BaseModel):
     kind: AlarmKind
     priority: AlarmPriority
     state: AlarmState
-    robot_id: str
+    robot_id: str | None = Field(description="None: an alarm about no robot (its ward's)")
     ward: str
     transport_id: str | None
     patient: str | None
@@ -65,6 +79,10 @@ class AlarmOut(BaseModel):
         description="when the alarm's transport ended (the alarm stays latched until a nurse "
         "acts on it)",
     )
+    dispositions: list[DispositionOut] = Field(
+        default_factory=list,
+        description="the alarm distribution's reports from clinicians' devices, oldest first",
+    )
     stored: bool = Field(
         default=True,
         description="false: pushed before it could be stored (storage stalled; a provisional "
@@ -75,7 +93,7 @@ class AlarmOut(BaseModel):
                     "shares with the stored one that replaces it")  # fmt: skip
     @property
     def key(self) -> str:
-        return alarm_key(self.robot_id, self.transport_id, self.kind)
+        return alarm_key(self.robot_id, self.transport_id, self.kind, self.ward)
 
 
 class AlarmEventOut(BaseModel):

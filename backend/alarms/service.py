@@ -9,7 +9,7 @@ from datetime import UTC, datetime
 from sqlalchemy import select
 from sqlalchemy.orm import Session
 
-from backend.alarms import queries
+from backend.alarms import outbox, queries
 from backend.alarms.schemas import alarm_json
 from backend.alarms.state import ALARM, AlarmAction
 from backend.models._types import utcnow
@@ -50,18 +50,18 @@ def _record(
     user: User | None = None,
     comment: str | None = None,
 ) -> None:
-    session.add(
-        AlarmEvent(
-            alarm_id=alarm.id,
-            at=alarm.updated_at,
-            actor_user_id=user.id if user else None,
-            actor=actor,
-            action=action.value,
-            from_state=from_state,
-            to_state=alarm.state,
-            comment=comment,
-        )
+    event = AlarmEvent(
+        alarm_id=alarm.id,
+        at=alarm.updated_at,
+        actor_user_id=user.id if user else None,
+        actor=actor,
+        action=action.value,
+        from_state=from_state,
+        to_state=alarm.state,
+        comment=comment,
     )
+    session.add(event)
+    outbox.enqueue(session, alarm, action, event)  # to the phones, in this same transaction
     publish(session, alarm)
 
 
@@ -152,26 +152,82 @@ def _audited(prefix: str | None, text: str | None) -> str | None:
 def acknowledge(
     session: Session,
     alarm: Alarm,
-    user: User,
+    user: User | None,
     comment: str | None = None,
     audit_prefix: str | None = None,
+    via: str | None = None,
 ) -> Alarm:
     """`audit_prefix`: the audit comment starts with it (an acknowledgement made while the
-    alarm was not yet stored: who, when, and when it was applied)."""
+    alarm was not yet stored: who, when, and when it was applied). `via` instead of a user:
+    accepted by a clinician on a device of the alarm distribution ("Anna Berg on Anna's
+    phone")."""
+    if (user is None) == (via is None):
+        raise ValueError("acknowledge: a user or a device, one of them")
     before = alarm.state
     ALARM.act(alarm, AlarmAction.ACKNOWLEDGE)
     alarm.updated_at = alarm.acknowledged_at = utcnow()
-    alarm.acknowledged_by_id = user.id
-    alarm.acknowledged_by_user = user
-    _record(session, alarm, AlarmAction.ACKNOWLEDGE, before, f"{user.role}:{user.username}", user,
+    if user is not None:
+        alarm.acknowledged_by_id = user.id
+        alarm.acknowledged_by_user = user
+        actor = f"{user.role}:{user.username}"
+    else:
+        alarm.acknowledged_via = via
+        actor = f"phone:{via}"
+    _record(session, alarm, AlarmAction.ACKNOWLEDGE, before, actor, user,
             _audited(audit_prefix, comment))  # fmt: skip
-    if alarm.kind not in TECHNICAL_KINDS:  # help is coming: the robot tells the patient
+    if alarm.kind not in TECHNICAL_KINDS and alarm.robot_id:  # help is coming: tell the patient
         message = protocol.alarm_acknowledged(
-            alarm.id, str(alarm.kind), alarm.transport_id, f"{user.role}:{user.username}",
+            alarm.id, str(alarm.kind), alarm.transport_id, actor,
             alarm.acknowledged_at.timestamp(),
         )  # fmt: skip
         tell_robot(session, alarm.robot_id, message.model_dump_json())
     return alarm
+
+
+def record_disposition(session: Session, alarm: Alarm, text: str) -> Alarm:
+    """The alarm distribution reports what happened on a clinician's device: audited and
+    shown on the board; the alarm's state does not change (an accept also acknowledges)."""
+    before = alarm.state
+    ALARM.act(alarm, AlarmAction.DISPOSITION)
+    alarm.updated_at = utcnow()
+    _record(session, alarm, AlarmAction.DISPOSITION, before, "alarm distribution", comment=text)
+    return alarm
+
+
+def raise_for_ward(
+    session: Session, ward: str, kind: AlarmKind, details: dict, comment: str
+) -> tuple[Alarm, bool]:
+    """Open an alarm about no robot (a ward's: "alarm distribution down"), or update the
+    unresolved one. Returns the alarm and whether it is new."""
+    now = utcnow()
+    alarm = unresolved_for_ward(session, ward, kind)
+    if alarm is not None:
+        if alarm.details != details:
+            alarm.details = details
+            alarm.updated_at = now
+            publish(session, alarm)
+        return alarm, False
+    alarm = Alarm(
+        kind=kind,
+        priority=PRIORITY_OF_KIND[kind],
+        robot_id=None,
+        transport_id=None,
+        transport_key=f"ward:{ward}",
+        ward=ward,
+        raised_at=now,
+        updated_at=now,
+        decision_count=1,
+        details=details,
+    )
+    ALARM.start(alarm)
+    session.add(alarm)
+    session.flush()
+    _record(session, alarm, AlarmAction.RAISE, None, "system", comment=comment)
+    return alarm, True
+
+
+def unresolved_for_ward(session: Session, ward: str, kind: AlarmKind) -> Alarm | None:
+    return queries.unresolved_of_ward(session, ward, kind)
 
 
 def resolve(

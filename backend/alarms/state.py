@@ -35,6 +35,9 @@ class AlarmAction(StrEnum):
     # The robot reports what it does (stopped, paused, driving again): audited, and shown on
     # the alarm; the alarm's state does not change.
     ROBOT_BEHAVIOUR = "robot_behaviour"
+    # The alarm distribution reports a disposition on a clinician's device (delivered, read,
+    # accepted, rejected): audited and shown; the state does not change.
+    DISPOSITION = "disposition"
 
 
 OPEN, ACKNOWLEDGED, RESOLVED = AlarmState.OPEN, AlarmState.ACKNOWLEDGED, AlarmState.RESOLVED
@@ -58,6 +61,7 @@ ALARM = StateMachine(
         AlarmAction.MISS: {OPEN: MISSED},
         AlarmAction.ROBOT_RESET: {s: s for s in AlarmState},
         AlarmAction.ROBOT_BEHAVIOUR: {s: s for s in AlarmState},
+        AlarmAction.DISPOSITION: {s: s for s in AlarmState},
     },
     attribute="state",
     initial=OPEN,

@@ -2,11 +2,14 @@
 
 from backend.models.alarms import (
     Alarm,
+    AlarmDisposition,
     AlarmEvent,
     AlarmKind,
+    AlarmMessage,
     AlarmPriority,
     AlarmState,
     FalseAlarmReason,
+    MessageStatus,
     Verdict,
 )
 from backend.models.annotations import AnnotationSegment, SegmentEvent, SegmentSource, SegmentStatus
@@ -25,7 +28,8 @@ from backend.models.users import RevokedSession, Role, User
 from backend.models.videos import Frame, Split, Video
 
 __all__ = [
-    "Alarm", "AlarmEvent", "AlarmKind", "AlarmPriority", "AlarmState", "AnnotationSegment",
+    "Alarm", "AlarmDisposition", "AlarmEvent", "AlarmKind", "AlarmMessage", "AlarmPriority",
+    "AlarmState", "AnnotationSegment", "MessageStatus",
     "Deployment", "DeploymentScope", "DeploymentStatus", "FalseAlarmReason", "Frame",
     "FrameArchive", "Job", "JobKind", "JobStatus", "ModelStatus", "ModelVersion", "RetentionRun",
     "RevokedSession", "Robot", "Role", "SegmentEvent", "SegmentSource", "SegmentStatus", "Split",

@@ -1,7 +1,7 @@
 from datetime import datetime
 from enum import StrEnum
 
-from sqlalchemy import JSON, ForeignKey, Index, String, Text, text
+from sqlalchemy import JSON, ForeignKey, Index, String, Text, func, text
 from sqlalchemy.orm import Mapped, mapped_column, relationship
 
 from backend.models._types import UTCDateTime, utcnow
@@ -25,6 +25,10 @@ class AlarmKind(StrEnum):
     # Frames flow but none has shown the patient for patient_unseen_seconds: the robot lost its
     # patient (or never found them); raised and cleared by the alarm monitor.
     PATIENT_NOT_SEEN = "patient_not_seen"
+    # The ward's Alert Manager (IHE PCD ACM: phones, pagers) has been unreachable longer than
+    # alarm_distribution_down_s: alarms reach the board but not the nurses' phones. About no
+    # robot (robot_id NULL, transport_key "ward:<ward>"); raised and cleared by the sender.
+    ALARM_DISTRIBUTION_DOWN = "alarm_distribution_down"
 
 
 class AlarmPriority(StrEnum):
@@ -41,6 +45,7 @@ PRIORITY_OF_KIND = {
     AlarmKind.DETECTION_DEGRADED: AlarmPriority.TECHNICAL,
     AlarmKind.STORAGE_STALLED: AlarmPriority.TECHNICAL,
     AlarmKind.PATIENT_NOT_SEEN: AlarmPriority.TECHNICAL,
+    AlarmKind.ALARM_DISTRIBUTION_DOWN: AlarmPriority.TECHNICAL,
 }
 #: Alarms about the system rather than the patient (no verdict statistics per model version).
 TECHNICAL_KINDS = frozenset(
@@ -73,10 +78,11 @@ class FalseAlarmReason(StrEnum):
 class Alarm(Base):
     __tablename__ = "alarms"
     __table_args__ = (
-        # One alarm per transport (robot for technical alarms) and kind is not resolved.
+        # One alarm per transport (robot for technical alarms; ward for an alarm about no
+        # robot) and kind is not resolved.
         Index(
             "uq_alarms_one_unresolved",
-            "robot_id",
+            func.coalesce(text("robot_id"), text("''")),
             "transport_key",
             "kind",
             unique=True,
@@ -90,7 +96,8 @@ class Alarm(Base):
     kind: Mapped[AlarmKind] = mapped_column(String(32))
     priority: Mapped[AlarmPriority] = mapped_column(String(16))
     state: Mapped[AlarmState] = mapped_column(String(16), default=AlarmState.OPEN)
-    robot_id: Mapped[str] = mapped_column(ForeignKey("robots.id"))
+    # None: an alarm about no robot (alarm_distribution_down of a ward)
+    robot_id: Mapped[str | None] = mapped_column(ForeignKey("robots.id"))
     transport_id: Mapped[str | None] = mapped_column(ForeignKey("transports.id"))
     # transport_id or '' (NULLs never collide in a unique index, so the key is never NULL).
     transport_key: Mapped[str] = mapped_column(String(64), default="")
@@ -101,6 +108,9 @@ class Alarm(Base):
     updated_at: Mapped[datetime] = mapped_column(UTCDateTime, default=utcnow)
     acknowledged_at: Mapped[datetime | None] = mapped_column(UTCDateTime)
     acknowledged_by_id: Mapped[int | None] = mapped_column(ForeignKey("users.id"))
+    # Acknowledged by someone who is not a Vigil user: a clinician accepting it on a phone of
+    # the alarm distribution ("Anna Berg on Anna's phone").
+    acknowledged_via: Mapped[str | None] = mapped_column(String(200))
     resolved_at: Mapped[datetime | None] = mapped_column(UTCDateTime)
     resolved_by_id: Mapped[int | None] = mapped_column(ForeignKey("users.id"))
     verdict: Mapped[Verdict | None] = mapped_column(String(16))
@@ -140,9 +150,15 @@ class Alarm(Base):
     def transport_ended_at(self) -> datetime | None:
         return self.transport.ended_at if self.transport is not None else None
 
+    dispositions: Mapped[list["AlarmDisposition"]] = relationship(
+        lazy="selectin", viewonly=True, order_by="AlarmDisposition.id"
+    )
+
     @property
     def acknowledged_by(self) -> str | None:
-        return self.acknowledged_by_user.username if self.acknowledged_by_user else None
+        if self.acknowledged_by_user is not None:
+            return self.acknowledged_by_user.username
+        return self.acknowledged_via
 
     @property
     def resolved_by(self) -> str | None:
@@ -164,3 +180,59 @@ class AlarmEvent(Base):
     from_state: Mapped[AlarmState | None] = mapped_column(String(16))
     to_state: Mapped[AlarmState] = mapped_column(String(16))
     comment: Mapped[str | None] = mapped_column(Text)
+
+
+class MessageStatus(StrEnum):
+    """An alarm change's ORU^R40 in the outbox (`backend.distribution.state`)."""
+
+    PENDING = "pending"  # queued; sent again until the Alert Manager acknowledges it
+    DELIVERED = "delivered"  # the Alert Manager answered AA
+    REFUSED = "refused"  # AE: the Alert Manager will not take it as it is (not resent)
+
+
+class AlarmMessage(Base):
+    """The outbox of alarm distribution: one ORU^R40 per alarm change, queued in the change's
+    own transaction, kept until the Alert Manager acknowledges it."""
+
+    __tablename__ = "alarm_messages"
+    __table_args__ = (Index("ix_alarm_messages_status_id", "status", "id"),)
+
+    id: Mapped[int] = mapped_column(primary_key=True)
+    alarm_id: Mapped[int] = mapped_column(ForeignKey("alarms.id", ondelete="CASCADE"), index=True)
+    # One message per change: the audit entry of the change
+    event_id: Mapped[int] = mapped_column(
+        ForeignKey("alarm_events.id", ondelete="CASCADE"), unique=True
+    )
+    change: Mapped[str] = mapped_column(String(16))
+    ward: Mapped[str] = mapped_column(String(64))
+    destination: Mapped[str] = mapped_column(String(255))  # "host:port" of the Alert Manager
+    # MSH-10, the same on every resend (the Alert Manager recognises a repeat by it)
+    control_id: Mapped[str] = mapped_column(String(32), unique=True)
+    payload: Mapped[str] = mapped_column(Text)  # the ORU^R40, ER7
+    status: Mapped[MessageStatus] = mapped_column(String(16), default=MessageStatus.PENDING)
+    created_at: Mapped[datetime] = mapped_column(UTCDateTime, default=utcnow)
+    attempts: Mapped[int] = mapped_column(default=0)
+    last_attempt_at: Mapped[datetime | None] = mapped_column(UTCDateTime)
+    acked_at: Mapped[datetime | None] = mapped_column(UTCDateTime)
+    ack_code: Mapped[str | None] = mapped_column(String(2))
+    last_error: Mapped[str | None] = mapped_column(Text)
+
+
+class AlarmDisposition(Base):
+    """What the Alert Manager reported of an alarm on a clinician's device (ORA^R41)."""
+
+    __tablename__ = "alarm_dispositions"
+
+    id: Mapped[int] = mapped_column(primary_key=True)
+    alarm_id: Mapped[int] = mapped_column(ForeignKey("alarms.id", ondelete="CASCADE"), index=True)
+    message_id: Mapped[int | None] = mapped_column(
+        ForeignKey("alarm_messages.id", ondelete="SET NULL")
+    )
+    # MSH-10 of the ORA^R41: a status the Alert Manager sends again is recorded once
+    control_id: Mapped[str] = mapped_column(String(64), unique=True)
+    disposition: Mapped[str] = mapped_column(String(16))  # delivered, read, accepted, rejected
+    clinician_id: Mapped[str] = mapped_column(String(64))
+    clinician: Mapped[str] = mapped_column(String(128))
+    device: Mapped[str] = mapped_column(String(128))
+    at: Mapped[datetime] = mapped_column(UTCDateTime)
+    received_at: Mapped[datetime] = mapped_column(UTCDateTime, default=utcnow)

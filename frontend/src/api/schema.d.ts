@@ -1339,7 +1339,7 @@ export interface components {
          * AlarmKind
          * @enum {string}
          */
-        AlarmKind: "emergency" | "pause" | "robot_offline" | "stream_stalled" | "detection_degraded" | "storage_stalled" | "patient_not_seen";
+        AlarmKind: "emergency" | "pause" | "robot_offline" | "stream_stalled" | "detection_degraded" | "storage_stalled" | "patient_not_seen" | "alarm_distribution_down";
         /** AlarmOut */
         AlarmOut: {
             /** Id */
@@ -1347,8 +1347,11 @@ export interface components {
             kind: components["schemas"]["AlarmKind"];
             priority: components["schemas"]["AlarmPriority"];
             state: components["schemas"]["AlarmState"];
-            /** Robot Id */
-            robot_id: string;
+            /**
+             * Robot Id
+             * @description None: an alarm about no robot (its ward's)
+             */
+            robot_id: string | null;
             /** Ward */
             ward: string;
             /** Transport Id */
@@ -1418,6 +1421,11 @@ export interface components {
              * @description when the alarm's transport ended (the alarm stays latched until a nurse acts on it)
              */
             transport_ended_at?: string | null;
+            /**
+             * Dispositions
+             * @description the alarm distribution's reports from clinicians' devices, oldest first
+             */
+            dispositions?: components["schemas"]["DispositionOut"][];
             /**
              * Stored
              * @description false: pushed before it could be stored (storage stalled; a provisional negative id). The stored alarm with the same key replaces it once storage recovers
@@ -1627,6 +1635,26 @@ export interface components {
          * @enum {string}
          */
         DeploymentStatus: "pending_approval" | "canary" | "active" | "rolled_back" | "superseded";
+        /**
+         * DispositionOut
+         * @description What the alarm distribution reported of the alarm on a clinician's device.
+         */
+        DispositionOut: {
+            /**
+             * Disposition
+             * @description delivered, read, accepted or rejected
+             */
+            disposition: string;
+            /** Clinician */
+            clinician: string;
+            /** Device */
+            device: string;
+            /**
+             * At
+             * Format: date-time
+             */
+            at: string;
+        };
         /** ErrorOut */
         ErrorOut: {
             /** Detail */

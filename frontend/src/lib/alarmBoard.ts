@@ -165,7 +165,8 @@ export function filterBoard(alarms: Iterable<Alarm>, filter: BoardFilter): Alarm
 }
 
 export function robotsOf(alarms: Iterable<Alarm>): string[] {
-  return [...new Set([...alarms].map((a) => a.robot_id))].sort();
+  const robots = [...alarms].map((a) => a.robot_id).filter((id): id is string => id !== null);
+  return [...new Set(robots)].sort();
 }
 
 /** The Acknowledge button's rule, the same on the board's cards, its list and the replay page:
@@ -253,6 +254,7 @@ export const KIND_LABEL: Record<Alarm["kind"], string> = {
   detection_degraded: "Detection degraded",
   storage_stalled: "Storage stalled",
   patient_not_seen: "Patient not in view",
+  alarm_distribution_down: "Phones not reached (alarm distribution down)",
 };
 
 const INPUT_WORDS: Record<string, string> = { keypoints: "keypoints", depth: "depth", floor: "floor measures" };

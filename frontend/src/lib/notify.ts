@@ -3,6 +3,7 @@
 // worker where there is one (phones show notifications only from a service worker).
 import type { Alarm } from "../api/types";
 import { alarmTitle } from "./alarmBoard";
+import { robotLabel } from "./dispositions";
 
 /** An alarm's identity across its provisional and stored versions. */
 const identity = (alarm: Alarm): string => alarm.key ?? `id:${alarm.id}`;
@@ -18,7 +19,7 @@ export function alarmNotice(alarm: Alarm): AlarmNotice {
   const where = [alarm.patient ? `patient ${alarm.patient}` : null, alarm.location ? `at ${alarm.location}` : null]
     .filter(Boolean).join(" ");
   return {
-    title: `${alarmTitle(alarm)} – robot ${alarm.robot_id}`,
+    title: `${alarmTitle(alarm)} – robot ${robotLabel(alarm)}`,
     options: {
       body: where || `ward ${alarm.ward}`,
       tag: identity(alarm),

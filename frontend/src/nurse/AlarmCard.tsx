@@ -3,6 +3,7 @@ import type { Alarm } from "../api/types";
 import { robotStateText } from "../lib/robotState";
 import { alarmTitle, isRealarmed, isStored, KIND_LABEL, mayAcknowledge, styleOf, transportEndedText } from "../lib/alarmBoard";
 import { elapsed } from "../lib/time";
+import { dispositionLine, rejectedOnPhone, robotLabel } from "../lib/dispositions";
 
 interface Props {
   alarm: Alarm;
@@ -57,10 +58,12 @@ export function AlarmCard({ alarm, now, busy, onAcknowledge, onResolve }: Props)
       {alarm.kind === "detection_degraded" && typeof alarm.details?.reason === "string" && alarm.details.reason && (
         <p className="technical-reason">{alarm.details.reason}</p>
       )}
-      {alarm.kind === "storage_stalled" && summary && <p className="technical-reason">{summary}</p>}
+      {(alarm.kind === "storage_stalled" || alarm.kind === "alarm_distribution_down") && summary && (
+        <p className="technical-reason">{summary}</p>
+      )}
       {ended && <p className="transport-ended">{ended[0].toUpperCase() + ended.slice(1)}</p>}
       <dl>
-        <dt>Robot</dt><dd>{alarm.robot_id}</dd>
+        <dt>Robot</dt><dd>{robotLabel(alarm)}</dd>
         {alarm.robot_state && (
           <><dt>Robot did</dt><dd className={`robot-state robot-${alarm.robot_state}`} data-testid="robot-state">
             {robotStateText(alarm.robot_state, alarm.robot_state_since)}</dd></>
@@ -76,6 +79,11 @@ export function AlarmCard({ alarm, now, busy, onAcknowledge, onResolve }: Props)
           </>
         )}
       </dl>
+      {dispositionLine(alarm) && (
+        <p className={`dispositions${rejectedOnPhone(alarm) ? " rejected" : ""}`} data-testid="dispositions">
+          {dispositionLine(alarm)}
+        </p>
+      )}
       {alarm.kind === "storage_stalled" ? (
         <footer>
           <span className="unstored-note">Clears by itself when storage recovers.</span>

@@ -7,6 +7,7 @@ import { KIND_LABEL, mayAcknowledge } from "../lib/alarmBoard";
 import { robotStateText } from "../lib/robotState";
 import { delayFilter } from "../lib/replay";
 import { clockTime } from "../lib/time";
+import { dispositionLine, robotLabel } from "../lib/dispositions";
 import { AuditTrail } from "./AuditTrail";
 import { verdictText } from "./labels";
 import { ProbabilityChart } from "./ProbabilityChart";
@@ -93,7 +94,8 @@ export function AlarmDetailPage() {
         {replay.generated && <span className="pill generated">generated data (simulation)</span>}
       </h1>
       <dl className="facts">
-        <dt>Robot</dt><dd>{alarm.robot_id}</dd>
+        <dt>Robot</dt><dd>{robotLabel(alarm)}</dd>
+        {dispositionLine(alarm) && <><dt>Phones</dt><dd data-testid="dispositions">{dispositionLine(alarm)}</dd></>}
         <dt>Patient</dt><dd>{alarm.patient ?? "–"}</dd>
         <dt>Location</dt><dd>{alarm.location ?? "–"}</dd>
         <dt>Raised</dt><dd>{clockTime(alarm.raised_at)}</dd>

@@ -4,6 +4,7 @@ import type { Alarm } from "../api/types";
 import { alarmTitle, GROUP_LABEL, isRealarmed, isStored, mayAcknowledge, styleOf, transportEndedText, type TriageGroup } from "../lib/alarmBoard";
 import { itemOffsets, visibleSlice } from "../lib/listWindow";
 import { elapsed } from "../lib/time";
+import { robotLabel } from "../lib/dispositions";
 
 interface Props {
   groups: { group: TriageGroup; alarms: Alarm[] }[];
@@ -127,7 +128,7 @@ const Row = memo(function Row({ alarm, top, rowIndex, group, since, ended, busy,
       style={{ top }} aria-rowindex={rowIndex}>
       <span role="cell" className="kind" title={alarmTitle(alarm)}>{alarmTitle(alarm)}</span>
       <span role="cell" className="state" title={stateText(alarm)}>{stateText(alarm)}</span>
-      <span role="cell">{alarm.robot_id}</span>
+      <span role="cell">{robotLabel(alarm)}</span>
       <span role="cell">{alarm.patient ?? "–"}</span>
       <span role="cell" title={[alarm.location, ended].filter(Boolean).join(" · ")}>
         {alarm.location ?? "–"}{ended && <span className="transport-ended"> · {ended}</span>}

@@ -1,6 +1,7 @@
 import type { Alarm } from "../api/types";
 import { mayAcknowledge, type EmergencyBannerState } from "../lib/alarmBoard";
 import { clockTime, elapsed } from "../lib/time";
+import { robotLabel } from "../lib/dispositions";
 
 interface Props {
   banner: EmergencyBannerState;
@@ -24,7 +25,7 @@ export function EmergencyBanner({ banner, now, busy, onAcknowledge }: Props) {
   return (
     <div className="banner banner-emergency" role="alert" data-testid="emergency-banner" data-alarm-id-banner={alarm.id}>
       <strong>Emergency</strong>
-      <span>robot <b>{alarm.robot_id}</b></span>
+      <span>robot <b>{robotLabel(alarm)}</b></span>
       <span>patient <b>{alarm.patient ?? "unknown"}</b></span>
       <span>at <b>{alarm.location ?? "unknown location"}</b></span>
       <span className="since">{elapsed(alarm.raised_at, now)} ago</span>

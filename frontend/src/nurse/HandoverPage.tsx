@@ -4,6 +4,7 @@ import { api, errorMessage } from "../api/client";
 import type { components } from "../api/schema";
 import { GROUP_LABEL, KIND_LABEL } from "../lib/alarmBoard";
 import { clockTime } from "../lib/time";
+import { robotLabel } from "../lib/dispositions";
 import { handoverSections, secondsText, shareText } from "./handoverLogic";
 import { verdictText } from "./labels";
 
@@ -92,7 +93,7 @@ export function HandoverPage() {
                   {rows.map(({ alarm, was_missed }) => (
                     <tr key={alarm.id} data-alarm-id={alarm.id}>
                       <td><Link to={`/nurse/alarms/${alarm.id}`}>{KIND_LABEL[alarm.kind]} #{alarm.id}</Link></td>
-                      <td>{alarm.robot_id}</td><td>{alarm.patient ?? "–"}</td><td>{alarm.location ?? "–"}</td>
+                      <td>{robotLabel(alarm)}</td><td>{alarm.patient ?? "–"}</td><td>{alarm.location ?? "–"}</td>
                       <td>{clockTime(alarm.raised_at)}</td>
                       <td>{alarm.escalation_level ? `level ${alarm.escalation_level}` : "–"}{was_missed ? " · missed" : ""}</td>
                       <td>{verdictText(alarm.verdict, alarm.reason)}</td>

@@ -4,6 +4,7 @@ import { api, errorMessage } from "../api/client";
 import type { Alarm, AlarmKind, Verdict } from "../api/types";
 import { KIND_LABEL } from "../lib/alarmBoard";
 import { clockTime, localInputToIso } from "../lib/time";
+import { robotLabel } from "../lib/dispositions";
 import { VERDICT_LABEL, verdictText } from "./labels";
 
 interface Filters {
@@ -99,7 +100,7 @@ export function HistoryPage() {
                 <td>{clockTime(a.raised_at)}</td>
                 <td><span className={`pill kind-${a.kind}`}>{KIND_LABEL[a.kind]}</span></td>
                 <td>{a.ward ?? "–"}</td>
-                <td>{a.robot_id}</td>
+                <td>{robotLabel(a)}</td>
                 <td>{a.patient ?? "–"}</td>
                 <td>{a.state}</td>
                 <td>{verdictText(a.verdict, a.reason)}</td>

@@ -1,6 +1,7 @@
 import { useEffect, useState, type FormEvent } from "react";
 import type { Alarm, FalseAlarmReason, Verdict } from "../api/types";
 import { KIND_LABEL } from "../lib/alarmBoard";
+import { robotLabel } from "../lib/dispositions";
 import { REASON_LABEL, VERDICT_LABEL } from "./labels";
 
 export interface Resolution {
@@ -42,7 +43,7 @@ export function ResolveDialog({ alarm, error, busy, onSubmit, onCancel }: Props)
     <div className="modal-backdrop" role="presentation">
       <form className="card modal" role="dialog" aria-label="Resolve alarm" onSubmit={submit}>
         <h2>Resolve {KIND_LABEL[alarm.kind].toLowerCase()} alarm #{alarm.id}</h2>
-        <p className="muted">Robot {alarm.robot_id} · patient {alarm.patient ?? "–"}</p>
+        <p className="muted">Robot {robotLabel(alarm)} · patient {alarm.patient ?? "–"}</p>
         <fieldset>
           <legend>Verdict</legend>
           {(Object.keys(VERDICT_LABEL) as Verdict[]).map((v) => (
