@@ -1,7 +1,7 @@
 """`make run`: migrate, seed demo users and robots, train (first run) and register both walking
-models (depth/floor and keypoints-only), then start the backend, the worker and a simulated
-fleet of 3 robots; once the robots said what they can feed, each gets a model it can feed.
-Ctrl-C stops every child process."""
+models (depth/floor and keypoints-only), then start a simulated hospital Alert Manager (phones,
+IHE PCD ACM), the backend, the worker and a simulated fleet of 3 robots; once the robots said
+what they can feed, each gets a model it can feed. Ctrl-C stops every child process."""
 
 from __future__ import annotations
 
@@ -33,6 +33,12 @@ FLEET_RATES = [
     for arg in (flag, os.environ[name])
 ]  # fmt: skip
 TOKENS = VAR / "robot_tokens.json"
+#: The local Alert Manager simulator (phones over IHE PCD ACM): Vigil sends it ORU^R40 and it
+#: answers with ORA^R41 dispositions on Vigil's listener. Setting VIGIL_ALERT_MANAGER points the
+#: backend at a real one instead and no simulator starts. VIGIL_DEMO_PHONE_ACCEPT_S makes the
+#: simulated phone accept (and so acknowledge) each alert after that many seconds.
+ALERT_MANAGER = os.environ.get("VIGIL_DEMO_ALERT_MANAGER", "127.0.0.1:2575")
+ALERT_STATUS_LISTEN = os.environ.get("VIGIL_DEMO_ALERT_STATUS_LISTEN", "127.0.0.1:2576")
 
 
 def fleet_banner() -> str:
@@ -62,6 +68,22 @@ def use_var_dir() -> None:
         ("VIGIL_ROBOT_MODELS_DIR", VAR / "robot-models"),
     ):
         os.environ.setdefault(name, str(value))
+
+
+def alert_manager_simulator() -> list[str] | None:
+    """The simulator's arguments, or None when the environment names a real Alert Manager."""
+    if os.environ.get("VIGIL_ALERT_MANAGER"):
+        return None
+    os.environ["VIGIL_ALERT_MANAGER"] = ALERT_MANAGER
+    os.environ.setdefault("VIGIL_ALERT_STATUS_LISTEN", ALERT_STATUS_LISTEN)
+    from backend.demo import DEMO_WARD
+
+    arguments = ["-m", "scripts.alert_manager_simulator", "--listen", ALERT_MANAGER]
+    arguments += ["--vigil", os.environ["VIGIL_ALERT_STATUS_LISTEN"]]
+    arguments += ["--ward-phone", f"{DEMO_WARD}=Anna Berg"]
+    if accept_after := os.environ.get("VIGIL_DEMO_PHONE_ACCEPT_S"):
+        arguments += ["--accept-after", accept_after]
+    return arguments
 
 
 def step(title: str, *args: str) -> None:
@@ -161,6 +183,9 @@ def main() -> int:
     )  # fmt: skip
     children: list[subprocess.Popen] = []
     try:
+        simulator = alert_manager_simulator()
+        if simulator:
+            children.append(start("alert manager simulator (phones, IHE PCD ACM)", *simulator))
         children.append(
             start("backend", "-m", "backend.cli", "serve", "--host", HOST, "--port", str(PORT))
         )

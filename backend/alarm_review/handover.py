@@ -66,6 +66,12 @@ def fatigue_figures(alarms: Iterable[Alarm], missed_ids: Collection[int], until:
     }
 
 
+def _robot_order(item: tuple[str | None, Counter]) -> tuple[bool, str]:
+    """Robots by id; the ward system's own alarms (no robot) last."""
+    robot_id = item[0]
+    return robot_id is None, robot_id or ""
+
+
 def handover(
     alarms: Iterable[Alarm],
     missed_ids: Collection[int],
@@ -76,7 +82,7 @@ def handover(
     alarms = sorted(alarms, key=lambda a: (a.raised_at, a.id), reverse=True)
     in_shift = [a for a in alarms if since <= a.raised_at < until]
     sections = Counter(section_of(a) for a in alarms)
-    per_robot: dict[str, Counter] = defaultdict(Counter)
+    per_robot: dict[str | None, Counter] = defaultdict(Counter)
     for alarm in alarms:
         row = per_robot[alarm.robot_id]
         row["alarms"] += 1
@@ -103,7 +109,7 @@ def handover(
                 "escalated": row["escalated"],
                 "ever_missed": row["was_missed"],
             }
-            for robot_id, row in sorted(per_robot.items())
+            for robot_id, row in sorted(per_robot.items(), key=_robot_order)
         ],
         "fatigue": fatigue_figures(in_shift, missed_ids, until),
         "alarms": [

@@ -97,7 +97,7 @@ class HandoverCounts(BaseModel):
 
 
 class HandoverRobotRow(HandoverCounts):
-    robot_id: str
+    robot_id: str | None = Field(description="none for the ward system's own alarms")
     alarms: int
 
 

@@ -82,3 +82,36 @@ def test_fleet_banner_prints_the_rates_in_force(monkeypatch):
     banner = run_all.fleet_banner()
     assert "12 falls" in banner and "0 look-alikes" in banner and "3 Pause" in banner
     assert "15 min" not in banner
+
+
+def test_make_run_starts_the_alert_manager_simulator_and_points_the_backend_at_it(monkeypatch):
+    from backend.demo import DEMO_WARD
+    from backend.settings import Settings
+
+    for name in ("VIGIL_ALERT_MANAGER", "VIGIL_ALERT_STATUS_LISTEN", "VIGIL_DEMO_PHONE_ACCEPT_S"):
+        monkeypatch.setenv(name, "")  # recorded, so what the function sets is undone afterwards
+        monkeypatch.delenv(name)
+    arguments = run_all.alert_manager_simulator()
+    assert arguments[:2] == ["-m", "scripts.alert_manager_simulator"]
+    assert arguments[arguments.index("--listen") + 1] == run_all.ALERT_MANAGER
+    assert arguments[arguments.index("--vigil") + 1] == run_all.ALERT_STATUS_LISTEN
+    assert arguments[arguments.index("--ward-phone") + 1].startswith(f"{DEMO_WARD}=")
+    assert "--accept-after" not in arguments  # the nurse acknowledges, unless asked otherwise
+    settings = Settings()
+    assert settings.alert_manager == run_all.ALERT_MANAGER
+    assert settings.alert_status_listen == run_all.ALERT_STATUS_LISTEN
+
+
+def test_a_real_alert_manager_in_the_environment_means_no_simulator(monkeypatch):
+    monkeypatch.setenv("VIGIL_ALERT_MANAGER", "10.1.3.7:2575")
+    assert run_all.alert_manager_simulator() is None
+    assert os.environ["VIGIL_ALERT_MANAGER"] == "10.1.3.7:2575"
+
+
+def test_the_simulated_phone_accepts_only_when_asked(monkeypatch):
+    for name in ("VIGIL_ALERT_MANAGER", "VIGIL_ALERT_STATUS_LISTEN"):
+        monkeypatch.setenv(name, "")
+        monkeypatch.delenv(name)
+    monkeypatch.setenv("VIGIL_DEMO_PHONE_ACCEPT_S", "45")
+    arguments = run_all.alert_manager_simulator()
+    assert arguments[arguments.index("--accept-after") + 1] == "45"

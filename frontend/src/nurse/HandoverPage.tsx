@@ -79,7 +79,7 @@ export function HandoverPage() {
             <thead><tr><th>Robot</th><th>Alarms</th><th>Open</th><th>Missed</th><th>Acknowledged</th><th>Resolved</th><th>Escalated</th></tr></thead>
             <tbody>
               {report.per_robot.map((r) => (
-                <tr key={r.robot_id}><td>{r.robot_id}</td><td>{r.alarms}</td><td>{r.open}</td><td>{r.missed}</td>
+                <tr key={r.robot_id ?? "ward"}><td>{r.robot_id ?? "– (ward system)"}</td><td>{r.alarms}</td><td>{r.open}</td><td>{r.missed}</td>
                   <td>{r.acknowledged_unresolved}</td><td>{r.resolved}</td><td>{r.escalated}</td></tr>
               ))}
             </tbody>
