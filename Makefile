@@ -15,7 +15,7 @@ unexport PYTHONDONTWRITEBYTECODE
 .PHONY: run test test-python test-sqlite test-postgresql test-frontend test-browser setup \
 	frontend chromium lint format bench-detection bench-detection-splits bench-fall-onset \
 	bench-floor bench-ingest bench-robot bench-video bench-labelling bench-registry \
-	bench-alarm-latency bench-storage-stall bench-storage bench-login-flood bench-nurse-soak \
+	bench-alarm-latency bench-alarm-distribution bench-storage-stall bench-storage bench-login-flood bench-nurse-soak \
 	bench-demo-hour readme \
 	screenshots \
 	clean
@@ -122,6 +122,10 @@ bench-demo-hour: $(STAMP) frontend chromium
 
 bench-storage-stall: $(STAMP)
 	$(PY) -m bench.storage_stall
+
+# 100 robots at 10 Hz, a kill -9 of the backend and a 60 s Alert Manager outage (issue 32).
+bench-alarm-distribution: $(STAMP)
+	$(PY) -m bench.alarm_distribution
 
 # Frames at hospital scale (issue 20); sizes: python -m bench.storage --help
 bench-storage: $(STAMP)

@@ -395,6 +395,52 @@ def _storage_stall() -> str | None:
     )
 
 
+def _alarm_distribution() -> str | None:
+    data = _load("alarm_distribution.json")
+    if data is None:
+        return None
+    latency, messages, outage = data["latency"], data["messages"], data["outage"]
+    timing = latency["frame_to_oru_r40_ms"]
+    rows = [
+        [
+            "Emergency frame sent → ORU^R40 at the Alert Manager, p50 / p95 / p99 ms",
+            f"{timing['p50']} / {timing['p95']} / {timing['p99']}",
+            f"p99 ≤ {data['goal']['frame_to_oru_r40_p99_ms']}",
+        ],
+        [
+            "Emergencies reaching the Alert Manager",
+            f"{latency['reached_alert_manager']} of {latency['emergencies']}",
+            "all",
+        ],
+        [
+            "stored alarm changes lost / sent twice (kill -9, outage)",
+            f"{messages['lost']} / {messages['duplicated']} of {messages['stored']}",
+            "0 / 0",
+        ],
+        [
+            "arrivals at the Alert Manager incl. resends (same control id)",
+            messages["arrivals_including_resends"],
+            "",
+        ],
+        [
+            "kill -9 → every robot streaming again, s",
+            data["kill_9"]["every_robot_streaming_again_s"],
+            "",
+        ],
+        [
+            f"{outage['seconds']:g} s outage: pending at its end → drained, s",
+            f"{outage['pending_at_end_of_outage']} → {outage['backlog_drained_s']}",
+            "",
+        ],
+    ]
+    return (
+        "**Alarm distribution** (`make bench-alarm-distribution` → "
+        f"`bench/results/alarm_distribution.json`, {data['machine']['database']}, "
+        f"{data['data']}): {data['what']}. Goals met: {'yes' if data['met'] else 'no'}.\n\n"
+        + _table(["measure", "value", "goal"], rows)
+    )
+
+
 def _frame_storage() -> str | None:
     data = _load("storage.json")
     if data is None:
@@ -627,6 +673,7 @@ BENCH_SECTIONS = (
     _nurse_soak,
     _demo_hour,
     _storage_stall,
+    _alarm_distribution,
     _frame_storage,
     _login_flood,
     _labelling,

@@ -1923,8 +1923,11 @@ export interface components {
              * @description missed at some point (resolved since or not)
              */
             ever_missed: number;
-            /** Robot Id */
-            robot_id: string;
+            /**
+             * Robot Id
+             * @description none for the ward system's own alarms
+             */
+            robot_id: string | null;
             /** Alarms */
             alarms: number;
         };
