@@ -192,18 +192,35 @@ async def _raise_round(fleet: Fleet, seconds: float) -> None:
         await asyncio.sleep(seconds / len(fleet.robots))
 
 
-async def _acknowledge_open(http: str, token: str) -> int:
-    async with httpx.AsyncClient(base_url=http, timeout=30) as client:
+async def _acknowledge_open(http: str, token: str) -> dict:
+    """A nurse acknowledges every open Emergency, one after the other; how long each took."""
+    waits: list[float] = []
+    failures: list[str] = []
+    async with httpx.AsyncClient(base_url=http, timeout=60) as client:
         headers = {"Authorization": f"Bearer {token}"}
         params = {"state": "open", "kind": "emergency"}
         alarms = (await client.get("/api/alarms", headers=headers, params=params)).json()
-        acknowledged = 0
         for alarm in alarms:
-            if alarm["kind"] == AlarmKind.EMERGENCY and alarm["acknowledged_at"] is None:
-                answer = await client.post(f"/api/alarms/{alarm['id']}/acknowledge",
-                                           headers=headers, json={})  # fmt: skip
-                acknowledged += answer.status_code == 200
-        return acknowledged
+            started = time.perf_counter()
+            try:
+                answer = await client.post(
+                    f"/api/alarms/{alarm['id']}/acknowledge", headers=headers, json={}
+                )
+            except httpx.TimeoutException:
+                failures.append(f"alarm {alarm['id']}: no answer within 60 s")
+                continue
+            waits.append((time.perf_counter() - started) * 1000)
+            if answer.status_code != 200:
+                failures.append(f"alarm {alarm['id']}: {answer.status_code} {answer.text[:200]}")
+    return {
+        "acknowledged": len(waits) - len(failures),
+        "failures": failures,
+        "ack_request_ms": {
+            "p50": _percentile(waits, 50),
+            "p99": _percentile(waits, 99),
+            "max": round(max(waits), 1) if waits else None,
+        },
+    }
 
 
 def _login(http: str) -> str:
@@ -261,6 +278,7 @@ async def _scenario(args, backend: BackendProcess, manager: ThreadedAlertManager
     await _raise_round(fleet, min(20.0, args.outage_s / 2))
     await asyncio.sleep(2)
     acknowledged = await _acknowledge_open(backend.http, token)
+    print(f"acknowledged during the outage: {acknowledged}", flush=True)
     await asyncio.sleep(max(0.0, args.outage_s - (time.monotonic() - outage_started)))
     pending_at_end_of_outage = sum(m.status == "pending" for m in messages())
     manager.start()
@@ -309,7 +327,7 @@ async def _scenario(args, backend: BackendProcess, manager: ThreadedAlertManager
         "kill_9": {"every_robot_streaming_again_s": round(streaming_again_s, 1)},
         "outage": {
             "seconds": args.outage_s,
-            "acknowledged_during_outage": acknowledged,
+            "nurse_acknowledging_during_outage": acknowledged,
             "pending_at_end_of_outage": pending_at_end_of_outage,
             "backlog_drained_s": round(drained_s, 1),
         },
@@ -340,7 +358,7 @@ def run(args) -> dict:
             "VIGIL_FRONTEND_DIR": str(Path(workdir) / "no-frontend"),
             "VIGIL_ALERT_MANAGER": f"127.0.0.1:{manager.simulator.port}",
         }
-        backend = BackendProcess(env, log_path=Path(workdir) / "backend.log")
+        backend = BackendProcess(env, log_path=args.backend_log)
         backend.start()
         try:
             measured = asyncio.run(_scenario(args, backend, manager, url))
@@ -379,6 +397,9 @@ def main() -> None:
     parser.add_argument("--rounds", type=int, default=3)
     parser.add_argument("--round-s", type=float, default=10.0, help="one round's Emergencies")
     parser.add_argument("--outage-s", type=float, default=60.0)
+    parser.add_argument(
+        "--backend-log", type=Path, default=Path("/tmp/vigil-bench-alarm-distribution.log")
+    )
     parser.add_argument("--out", type=Path, default=Path("bench/results/alarm_distribution.json"))
     args = parser.parse_args()
     result = run(args)
