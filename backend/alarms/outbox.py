@@ -1,6 +1,9 @@
 """Each alarm change, queued for the alarm distribution in the change's own transaction: the
-change and its ORU^R40 are stored together or not at all (the sender in
-`backend.distribution.sender` delivers it; a restart loses none)."""
+change and what its ORU^R40 reports are stored together or not at all (the sender in
+`backend.distribution.sender` builds and delivers the message; a restart loses none). The
+message itself is built by the sender, not here: building and validating it with hl7apy takes
+tens of milliseconds, which inside the frame writer's transaction held the write lock for
+seconds when a hundred robots raised Emergencies at once."""
 
 from __future__ import annotations
 
@@ -11,7 +14,6 @@ from backend.distribution import routing as routing_
 from backend.distribution.hl7_messages import (
     AlertReport,
     Change,
-    build_alert_report,
     new_control_id,
 )
 from backend.distribution.state import MESSAGE
@@ -117,7 +119,8 @@ def enqueue(
         ward=alarm.ward,
         destination=str(destination),
         control_id=control_id,
-        payload=build_alert_report(report_of(alarm, change, event, control_id), routing.facility),
+        facility=routing.facility,
+        report=report_of(alarm, change, event, control_id).to_json(),
         created_at=event.at,
     )
     MESSAGE.start(message)

@@ -3,7 +3,7 @@ maintained libraries (never by splicing strings):
 
 - `ORU^R40` (Report Alert, PCD-04), Vigil → Alert Manager: built with hl7apy against the v2.6
   ORU_R01 structure (the structure IHE PCD names for R40) and validated strictly before it is
-  queued. One OBR per alert; the OBX rows carry the IHE PCD ACM alert attributes (event
+  first sent. One OBR per alert; the OBX rows carry the IHE PCD ACM alert attributes (event
   phase, alarm state, inactivation state, priority, alert type) and what a phone shows.
 - `ACK` (the Alert Manager's accept acknowledgement): read with python-hl7.
 - `ORA^R41` (Report Alert Status, PCD-05), Alert Manager → Vigil: what happened to the alert on
@@ -15,8 +15,9 @@ maintained libraries (never by splicing strings):
 
 from __future__ import annotations
 
+import json
 import secrets
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 from datetime import UTC, datetime
 from enum import StrEnum
 
@@ -88,6 +89,23 @@ class AlertReport:
     escalation_level: int = 0
     escalated_to: str | None = None
     by: str | None = None
+
+    def to_json(self) -> str:
+        """What the outbox keeps until the sender builds the message (outside the change's
+        transaction: building and validating takes tens of milliseconds)."""
+        fields = asdict(self)
+        fields["change"] = self.change.value
+        fields["raised_at"] = self.raised_at.isoformat()
+        fields["at"] = self.at.isoformat()
+        return json.dumps(fields, separators=(",", ":"))
+
+    @classmethod
+    def from_json(cls, text: str) -> AlertReport:
+        fields = json.loads(text)
+        fields["change"] = Change(fields["change"])
+        fields["raised_at"] = datetime.fromisoformat(fields["raised_at"])
+        fields["at"] = datetime.fromisoformat(fields["at"])
+        return cls(**fields)
 
 
 @dataclass(frozen=True, slots=True)

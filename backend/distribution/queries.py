@@ -21,6 +21,10 @@ def due(session: Session, limit: int) -> list[AlarmMessage]:
     )
 
 
+def by_ids(session: Session, ids: list[int]) -> list[AlarmMessage]:
+    return list(session.scalars(select(AlarmMessage).where(AlarmMessage.id.in_(ids))))
+
+
 def by_control_id(session: Session, control_id: str) -> AlarmMessage | None:
     query = select(AlarmMessage).where(AlarmMessage.control_id == control_id)
     return session.scalars(query).first()

@@ -23,13 +23,19 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
+from typing import NamedTuple
 
 from hl7.mllp import open_hl7_connection
 from sqlalchemy.orm import Session, sessionmaker
 from starlette.concurrency import run_in_threadpool
 
 from backend.distribution import queries
-from backend.distribution.hl7_messages import MessageError, parse_ack
+from backend.distribution.hl7_messages import (
+    AlertReport,
+    MessageError,
+    build_alert_report,
+    parse_ack,
+)
 from backend.distribution.routing import Destination, Routing
 from backend.distribution.state import MESSAGE, MessageAction
 from backend.models.alarms import AlarmMessage
@@ -40,6 +46,16 @@ log = logging.getLogger(__name__)
 #: on_down(session, destination, error, since) / on_up(session, destination, down_since)
 DownHook = Callable[[Session, Destination, str, datetime], None]
 UpHook = Callable[[Session, Destination, datetime], None]
+
+
+class Due(NamedTuple):
+    message_id: int
+    destination: str
+    control_id: str
+    payload: str | None  # None: not built yet
+    report: str | None
+    facility: str
+    queued_at: datetime
 
 
 @dataclass(slots=True)
@@ -161,18 +177,53 @@ class AlertSender:
                 self._bell.clear()
 
     # -- one round ---------------------------------------------------------------------------
-    def _due(self) -> list[tuple[int, str, str, str, datetime]]:
+    def _due(self) -> list[Due]:
         with self._factory() as session:
             return [
-                (m.id, m.destination, m.control_id, m.payload, m.created_at)
+                Due(
+                    m.id, m.destination, m.control_id, m.payload, m.report, m.facility, m.created_at
+                )
                 for m in queries.due(session, self.batch)
             ]
+
+    def _build(self, due: list[Due]) -> list[Due]:
+        """Build the ORU^R40 of each message not built yet and keep it (one short transaction):
+        a resend is the same message. One that does not validate is refused, never sent."""
+        built: dict[int, str] = {}
+        invalid: dict[int, str] = {}
+        for row in due:
+            if row.payload is not None:
+                continue
+            try:
+                report = AlertReport.from_json(row.report or "")
+                built[row.message_id] = build_alert_report(report, row.facility)
+            except (MessageError, ValueError, TypeError, KeyError) as error:
+                invalid[row.message_id] = f"not a valid HL7 v2.6 ORU^R40: {_describe(error)}"
+        if not built and not invalid:
+            return due
+        with transaction(self._factory) as session:
+            for message in queries.by_ids(session, [*built, *invalid]):
+                if message.id in built:
+                    message.payload = built[message.id]
+                elif message.status == MESSAGE.initial:
+                    message.last_error = invalid[message.id]
+                    MESSAGE.act(message, MessageAction.REFUSE)
+                    log.error(
+                        "alarm distribution: message %s %s", message.control_id, message.last_error
+                    )
+        return [
+            row if row.message_id not in built else row._replace(payload=built[row.message_id])
+            for row in due
+            if row.message_id not in invalid
+        ]
 
     async def deliver_once(self) -> bool:
         """Send what is due; True if anything was delivered (look again at once)."""
         due = await run_in_threadpool(self._due)
         if not due:
             return False
+        if any(row.payload is None for row in due):
+            due = await run_in_threadpool(self._build, due)
         by_destination: dict[str, list] = {}
         for row in due:
             by_destination.setdefault(row[1], []).append(row)
@@ -182,7 +233,7 @@ class AlertSender:
             link = self._link(destination_text)
             if link is None or now < link.retry_at:
                 continue
-            for message_id, _, control_id, payload, queued_at in rows:
+            for message_id, _, control_id, payload, _, _, queued_at in rows:
                 outcome = await self._send(link, message_id, control_id, payload)
                 outcomes.append(outcome)
                 if outcome.code in ("AA", "CA"):

@@ -208,7 +208,12 @@ class AlarmMessage(Base):
     destination: Mapped[str] = mapped_column(String(255))  # "host:port" of the Alert Manager
     # MSH-10, the same on every resend (the Alert Manager recognises a repeat by it)
     control_id: Mapped[str] = mapped_column(String(32), unique=True)
-    payload: Mapped[str] = mapped_column(Text)  # the ORU^R40, ER7
+    facility: Mapped[str] = mapped_column(String(64), default="HOSPITAL")  # MSH-4
+    # What the change reports (AlertReport JSON), stored with the change; the sender builds
+    # the ORU^R40 from it before the first send and keeps it in payload (every resend is the
+    # same message)
+    report: Mapped[str | None] = mapped_column(Text)  # None: queued before 0017, payload built
+    payload: Mapped[str | None] = mapped_column(Text)  # the ORU^R40, ER7
     status: Mapped[MessageStatus] = mapped_column(String(16), default=MessageStatus.PENDING)
     created_at: Mapped[datetime] = mapped_column(UTCDateTime, default=utcnow)
     attempts: Mapped[int] = mapped_column(default=0)

@@ -213,3 +213,29 @@ def test_a_lost_ack_is_resent_with_the_same_control_id_and_counted_once(
     # The Alert Manager saw repeats of one message, not new alerts.
     assert [r.control_id for r in _emergency_reports(manager, Change.RAISED)] == [first.control_id]
     assert manager.simulator.arrivals.count(first.control_id) >= 3
+
+
+def test_a_message_that_cannot_be_built_is_refused_with_its_reason_and_the_alarm_stays(
+    distributing_client, make_alert_manager, monkeypatch, nurse, robot, session_factory
+):
+    """The ORU^R40 is built by the sender, after the change is stored: a message that fails
+    to build or validate never takes the Emergency down with it (and building, tens of
+    milliseconds, never holds the frame writer's transaction)."""
+    from backend.distribution import sender as sender_module
+    from backend.distribution.hl7_messages import MessageError
+
+    def unbuildable(report, facility):
+        raise MessageError("ORU^R40 does not validate against HL7 v2.6")
+
+    monkeypatch.setattr(sender_module, "build_alert_report", unbuildable)
+    manager = make_alert_manager(deliver_after_s=None, read_after_s=None)
+
+    stream_an_emergency(distributing_client, robot)
+
+    [alarm] = wait_for(lambda: _alarms(distributing_client, nurse, "emergency"))
+    wait_for(lambda: [m for m in _messages(session_factory) if m.status != MessageStatus.PENDING])
+    [message] = [m for m in _messages(session_factory) if m.alarm_id == alarm["id"]]
+    assert message.status == MessageStatus.REFUSED and message.payload is None
+    assert "not a valid HL7 v2.6 ORU^R40" in message.last_error
+    assert message.report is not None and f'"alarm_id":{alarm["id"]}' in message.report
+    assert _emergency_reports(manager) == []
