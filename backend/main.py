@@ -47,13 +47,14 @@ from backend.gc_tuning import collector_tuned_for_ingest
 from backend.http_guards import SecurityMiddleware
 from backend.ingest.stall_actions import StallActions, journal_path
 from backend.ingest.writer import FrameWriter
+from backend.leadership import Leadership, lock_for
 from backend.metrics import Metrics
 from backend.models.alarms import AlarmKind
 from backend.realtime.bus import AlarmBus
 from backend.realtime.hub import BrowserHub
 from backend.realtime.robot_registry import RobotRegistry
 from backend.registry.push import AssignmentPusher
-from backend.services import Distribution, Fanout, Labelling, Services, ServicesDep
+from backend.services import Distribution, Duties, Fanout, Labelling, Services, ServicesDep
 from backend.settings import Settings
 from backend.storage.service import SummaryCache
 from backend.unit_of_work import in_event_loop
@@ -175,8 +176,16 @@ async def start_services(settings: Settings) -> Services:
     monitor = AlarmMonitor(
         factory, settings, effects, waiting_robots=writer.waiting_robots, viewers=hub.viewers
     )
-    monitor.start()
-    distribution = await start_distribution(settings, factory, effects)
+    distribution = build_distribution(settings, factory, effects)
+    duties = Duties(monitor, distribution)
+    leadership = Leadership(
+        lock_for(settings.database_url),
+        on_lead=duties.start,
+        on_follow=duties.stop,
+        retry_s=settings.duties_retry_s,
+        replica=settings.replica_name,
+    )
+    await leadership.start()
     return Services(
         settings=settings,
         engine=engine,
@@ -211,12 +220,14 @@ async def start_services(settings: Settings) -> Services:
         labelling=Labelling.build(settings),
         storage_summary=SummaryCache(settings.storage_summary_ttl_s),
         distribution=distribution,
+        leadership=leadership,
     )
 
 
-async def start_distribution(settings: Settings, factory, effects) -> Distribution | None:
+def build_distribution(settings: Settings, factory, effects) -> Distribution | None:
     """IHE PCD ACM alarm distribution, when an Alert Manager is configured: every session
-    of `factory` then queues each alarm change for it (`backend.alarms.outbox`)."""
+    of `factory` then queues each alarm change for it (`backend.alarms.outbox`), on every
+    replica; the sender and the listener run where the duties do (`Duties`)."""
     routing = distribution_routing.Routing.from_settings(
         settings.alert_manager, settings.alert_manager_by_ward, settings.alert_facility
     )
@@ -237,7 +248,6 @@ async def start_distribution(settings: Settings, factory, effects) -> Distributi
         down_after_s=settings.alarm_distribution_down_s,
     )
     distribution_routing.attach(factory, routing, sender.wake)
-    sender.start()
     listener = None
     if settings.alert_status_listen:
         listen = distribution_routing.Destination.parse(
@@ -252,14 +262,11 @@ async def start_distribution(settings: Settings, factory, effects) -> Distributi
 
         allowed = [d.host for d in routing.destinations()] + settings.alert_status_allowed_peers
         listener = StatusListener(listen.host, listen.port, apply, allowed)
-        await listener.start()
     return Distribution(routing, sender, listener)
 
 
 async def stop_services(services: Services) -> None:
-    if services.distribution is not None:
-        await services.distribution.stop()
-    await services.monitor.stop()
+    await services.leadership.stop()  # the duties stop with it
     await services.writer.stop()
     await services.bus.stop()
     services.login_gate.close()

@@ -24,6 +24,7 @@ from backend.ingest.writer import FrameWriter
 from backend.labelling.probability import LaneComputer
 from backend.labelling.rgb import FrameCache, JpegCache
 from backend.labelling.viewer3d import Viewer3D
+from backend.leadership import Leadership
 from backend.metrics import Metrics
 from backend.realtime.bus import AlarmBus
 from backend.realtime.hub import BrowserHub
@@ -86,10 +87,34 @@ class Distribution:
     sender: AlertSender
     listener: StatusListener | None
 
+    async def start(self) -> None:
+        self.sender.start()
+        if self.listener is not None:
+            await self.listener.start()
+
     async def stop(self) -> None:
         if self.listener is not None:
             await self.listener.stop()
         await self.sender.stop()
+
+
+@dataclass
+class Duties:
+    """What runs on one replica at a time (`backend.leadership`): the alarm monitor and the
+    alarm distribution's sender and listener."""
+
+    monitor: AlarmMonitor
+    distribution: Distribution | None
+
+    async def start(self) -> None:
+        self.monitor.start()
+        if self.distribution is not None:
+            await self.distribution.start()
+
+    async def stop(self) -> None:
+        if self.distribution is not None:
+            await self.distribution.stop()
+        await self.monitor.stop()
 
 
 @dataclass
@@ -110,6 +135,7 @@ class Services:
     labelling: Labelling
     storage_summary: SummaryCache
     distribution: Distribution | None = None
+    leadership: Leadership | None = None
 
 
 def get_services(request: Request) -> Services:

@@ -198,6 +198,18 @@ class Settings(StorageSettings):
         default=0.0005, description="sys.setswitchinterval of the backend process (ingest latency)"
     )
     monitor_interval_s: float = Field(default=1.0, description="alarm monitor period")
+    duties_retry_s: float = Field(
+        default=1.0,
+        gt=0,
+        le=60,
+        description="how often a replica without the duties (alarm monitor, alarm distribution) "
+        "tries to take them, and the holder checks it still holds them",
+    )
+    replica_name: str = Field(
+        default="",
+        max_length=64,
+        description="this replica's name in logs and /api/health (empty: its process id)",
+    )
     urfd_dir: Path | None = Field(
         default=None,
         description="URFD dataset directory; None = ../shared/datasets/urfd next to the repo",

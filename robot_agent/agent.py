@@ -62,7 +62,7 @@ def transport_started(robot_id: str, transport_id: str, plan: TransportPlan) -> 
 
 @dataclass
 class AgentOptions:
-    url: str
+    url: str | list[str]  # several: backend replicas, tried in turn
     heartbeat_s: float = 5.0
     batch_frames: int = 100
     backoff_initial_s: float = 0.5

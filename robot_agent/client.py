@@ -6,6 +6,10 @@ follow as they are queued, `ack{seq}` trims the outbox, heartbeats report the ru
 the sha256 of its file) and the outbox's state, `assign_model` goes to the agent. A lost
 connection is retried with exponential backoff and jitter; a refused token or protocol version
 stops the link (LinkFatal).
+
+With several backend URLs (replicas behind no common address), a lost or refused connection
+goes to the next URL at once; the backoff starts only once every URL has failed in a row, so a
+robot whose replica died streams to another within its connect time, not its backoff.
 """
 
 from __future__ import annotations
@@ -14,7 +18,7 @@ import asyncio
 import contextlib
 import logging
 import time
-from collections.abc import Awaitable, Callable, Iterable
+from collections.abc import Awaitable, Callable, Iterable, Sequence
 
 from pydantic import ValidationError
 from websockets.asyncio.client import ClientConnection, connect
@@ -51,7 +55,7 @@ class LinkFatal(Exception):
 class RobotLink:
     def __init__(
         self,
-        url: str,
+        url: str | Sequence[str],
         robot_id: str,
         token: str,
         outbox: Outbox,
@@ -65,7 +69,12 @@ class RobotLink:
         backoff: Backoff | None = None,
         on_alarm: Callable[[AlarmAcknowledged | AlarmResolved], None] | None = None,
     ) -> None:
-        self.url, self.robot_id, self.token = url, robot_id, token
+        self.urls = [url] if isinstance(url, str) else list(url)
+        if not self.urls:
+            raise ValueError("RobotLink needs at least one backend URL")
+        self._url_index = 0
+        self._failed_in_row = 0  # connections that failed since the last welcome
+        self.robot_id, self.token = robot_id, token
         self.outbox = outbox
         self.running_model = running_model
         self.inputs = None if inputs is None else normalise(inputs)  # told in the hello
@@ -86,6 +95,11 @@ class RobotLink:
         self._queued = asyncio.Event()
         self._heartbeat_now = asyncio.Event()
         self._tasks: set[asyncio.Task] = set()
+
+    @property
+    def url(self) -> str:
+        """The backend URL the link uses now (or tries next)."""
+        return self.urls[self._url_index]
 
     # --- called by the agent -----------------------------------------------------------------
     def notify_queued(self) -> None:
@@ -128,6 +142,20 @@ class RobotLink:
                 self.last_problem = f"unexpected error ({type(error).__name__}: {error})"
             finally:
                 self.connected = False
+            self._failed_in_row += 1
+            if len(self.urls) > 1:
+                failed = self.url
+                self._url_index = (self._url_index + 1) % len(self.urls)
+                if self._failed_in_row < len(self.urls):
+                    log.warning(
+                        "robot %s: %s at %s; trying %s now",
+                        self.robot_id,
+                        self.last_problem,
+                        failed,
+                        self.url,
+                    )
+                    continue
+                self._failed_in_row = 0  # each URL gets its turn again after the delay
             delay = self.backoff.next_delay()
             log.warning(
                 "robot %s: %s; %d frames waiting in the outbox; retrying in %.1f s",
@@ -157,6 +185,7 @@ class RobotLink:
         self.connected = True
         self.last_problem = None
         self.connections += 1
+        self._failed_in_row = 0
         self.backoff.reset()
         log.info(
             "robot %s connected to %s: backend has frames up to seq %s; sending %d unacknowledged "

@@ -54,7 +54,9 @@ class AgentSettings(BaseSettings):
     )
 
     backend_url: str = Field(
-        default="ws://127.0.0.1:8000/ws/robot", description="the backend's robot websocket"
+        default="ws://127.0.0.1:8000/ws/robot",
+        description="the backend's robot websocket; several replicas comma-separated, tried "
+        "in turn (a lost connection goes to the next at once)",
     )
     robot_id: str | None = Field(default=None, max_length=64, description="this robot's id")
     token: str | None = Field(default=None, max_length=256, description="this robot's token")
@@ -195,9 +197,15 @@ class AgentSettings(BaseSettings):
     @field_validator("backend_url")
     @classmethod
     def _websocket_url(cls, value: str) -> str:
-        if not value.startswith(("ws://", "wss://")):
-            raise ValueError("must start with ws:// or wss://")
-        return value
+        urls = [part.strip() for part in value.split(",")]
+        for url in urls:
+            if not url.startswith(("ws://", "wss://")):
+                raise ValueError(f"each URL must start with ws:// or wss:// (got {url!r})")
+        return ",".join(urls)
+
+    @property
+    def backend_urls(self) -> list[str]:
+        return self.backend_url.split(",")
 
     @field_validator("camera_mount")
     @classmethod

@@ -69,7 +69,7 @@ def starting_classifier(settings: AgentSettings, robot_id: str) -> FrameClassifi
 
 def agent_options(settings: AgentSettings, speed: float | None = None) -> AgentOptions:
     return AgentOptions(
-        url=settings.backend_url,
+        url=settings.backend_urls,
         heartbeat_s=settings.heartbeat_s,
         batch_frames=settings.batch_frames,
         backoff_initial_s=settings.backoff_initial_s,

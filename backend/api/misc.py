@@ -29,6 +29,11 @@ class HealthOut(BaseModel):
         description="how long the frame writer's current write has been blocked, when it is "
         "longer than storage_stall_seconds (the nurse board shows a storage-stalled alarm)",
     )
+    duties: dict | None = Field(
+        default=None,
+        description="whether this replica runs the alarm monitor and alarm distribution (one "
+        "replica at a time): replica, leading, since, terms, last_error",
+    )
 
 
 @router.get("/health/live")
@@ -54,6 +59,7 @@ async def _ready(state: Services) -> JSONResponse:
         checks=result.checks,
         detail=None if result.ready else result.reason,
         storage_stalled_s=writer.stalled_for() if writer is not None else None,
+        duties=state.leadership.status() if state.leadership is not None else None,
     )
     code = status.HTTP_200_OK if result.ready else status.HTTP_503_SERVICE_UNAVAILABLE
     return JSONResponse(body.model_dump(mode="json"), status_code=code)

@@ -49,7 +49,9 @@ def query(server: LiveServer, sql: str, *params) -> list[tuple]:
 class AgentProcess:
     """`python -m robot_agent.cli run ...` for robot-a, its log in a file."""
 
-    def __init__(self, workdir: Path, server: LiveServer, *args: str) -> None:
+    def __init__(
+        self, workdir: Path, server: LiveServer, *args: str, backend_url: str | None = None
+    ) -> None:
         self.log_path = workdir / "agent.log"
         self.outbox = workdir / "outbox.sqlite"
         self.hook_log = workdir / "hook.log"
@@ -61,7 +63,7 @@ class AgentProcess:
             "robot_agent.cli",
             "run",
             "--backend",
-            server.robot_ws_url,
+            backend_url or server.robot_ws_url,
             "--robot-id",
             ROBOT_ID,
             "--token",
@@ -115,8 +117,8 @@ class AgentProcess:
 def agents(tmp_path):
     started: list[AgentProcess] = []
 
-    def start(server: LiveServer, *args: str) -> AgentProcess:
-        agent = AgentProcess(tmp_path, server, *args)
+    def start(server: LiveServer, *args: str, backend_url: str | None = None) -> AgentProcess:
+        agent = AgentProcess(tmp_path, server, *args, backend_url=backend_url)
         started.append(agent)
         return agent
 

@@ -32,7 +32,8 @@ def test_file_then_environment_then_flags(tmp_path, monkeypatch):
         ("outbox_budget_bytes = -1\n", {}, {}, "outbox_budget_bytes"),
         ("heartbeat_sec = 5\n", {}, {}, "heartbeat_sec: unknown setting"),
         ("", {"VIGIL_ROBOT_MODE": "flying"}, {}, "mode"),
-        ("", {}, {"backend_url": "http://host/ws/robot"}, "backend_url: must start with ws://"),
+        ("", {}, {"backend_url": "http://host/ws/robot"}, "backend_url: each URL must start"),
+        ("", {}, {"backend_url": "ws://a/ws/robot, http://b"}, "backend_url: .*'http://b'"),
         ("", {}, {"backoff_initial_s": "9", "backoff_max_s": "1"}, "backoff_max_s"),
         ('camera_mount = "525,525,320,240"\n', {}, {}, "camera_mount: .*expected 6 numbers"),
         ("", {"VIGIL_ROBOT_CAMERA_MOUNT": "525,525,320,240,0,5"}, {}, "camera_mount: .*height_m"),
@@ -46,6 +47,15 @@ def test_bad_values_name_the_field(tmp_path, monkeypatch, toml, env, flags, fiel
         monkeypatch.setenv(key, value)
     with pytest.raises(ConfigError, match=field):
         load_settings(config, **flags)
+
+
+def test_several_backend_replicas_in_one_setting(tmp_path):
+    config = tmp_path / "robot.toml"
+    config.write_text(
+        'backend_url = "ws://replica-1:8000/ws/robot, ws://replica-2:8000/ws/robot"\n'
+    )
+    settings = load_settings(config)
+    assert settings.backend_urls == ["ws://replica-1:8000/ws/robot", "ws://replica-2:8000/ws/robot"]
 
 
 def test_broken_toml_and_missing_file_are_named(tmp_path):

@@ -79,6 +79,17 @@ class LiveServer:
         env.pop("VIGIL_REDIS_URL", None)
         return cls(f"http://127.0.0.1:{port}", database_url, port, env, workdir / "backend.log")
 
+    def replica(self, name: str) -> LiveServer:
+        """Another backend process on the same database (its own port and log)."""
+        port = free_port()
+        env = {**self.env, "VIGIL_REPLICA_NAME": name}
+        log_path = self.log_path.with_name(f"backend-{name}.log")
+        return LiveServer(f"http://127.0.0.1:{port}", self.database_url, port, env, log_path)
+
+    def duties(self) -> dict:
+        """/api/health's duties: whether this replica runs the alarm monitor and distribution."""
+        return httpx.get(f"{self.base_url}/api/health", timeout=5).json()["duties"]
+
     @property
     def robot_ws_url(self) -> str:
         return f"ws://127.0.0.1:{self.port}/ws/robot"
