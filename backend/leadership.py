@@ -39,18 +39,21 @@ from starlette.concurrency import run_in_threadpool
 
 log = logging.getLogger(__name__)
 
-#: pg advisory lock key of the duties (any 64-bit number no other Vigil lock uses)
-DUTIES_LOCK_KEY = 0x5647_494C_0001  # "VGIL" 1
+#: pg advisory lock keys (64-bit numbers no other lock of the database uses), by what they guard
+LOCK_KEYS = {
+    "duties": 0x5647_494C_0001,  # the backend's alarm monitor and alarm distribution
+    "retention": 0x5647_494C_0002,  # a retention run (workers)
+}
 
 
-class DutiesLock(Protocol):
+class DatabaseLock(Protocol):
     def try_acquire(self) -> bool: ...
     def still_held(self) -> bool: ...
     def release(self) -> None: ...
 
 
 class PostgresLock:
-    def __init__(self, database_url: str, key: int = DUTIES_LOCK_KEY) -> None:
+    def __init__(self, database_url: str, key: int = LOCK_KEYS["duties"]) -> None:
         self.key = key
         # Its own engine without a pool: the connection holding the lock is never handed out.
         self._engine = create_engine(
@@ -159,12 +162,14 @@ class AloneLock:
         self._held = False
 
 
-def lock_for(database_url: str) -> DutiesLock:
+def lock_for(database_url: str, purpose: str = "duties") -> DatabaseLock:
+    """The lock of `purpose` (a key of LOCK_KEYS) for every process on this database."""
+    key = LOCK_KEYS[purpose]
     url = make_url(database_url)
     if url.get_backend_name() == "postgresql":
-        return PostgresLock(database_url)
+        return PostgresLock(database_url, key)
     if url.get_backend_name() == "sqlite" and url.database not in (None, "", ":memory:"):
-        return FileLock(Path(f"{url.database}.duties"))
+        return FileLock(Path(f"{url.database}.{purpose}"))
     return AloneLock()
 
 
@@ -178,7 +183,7 @@ class Leadership:
 
     def __init__(
         self,
-        lock: DutiesLock,
+        lock: DatabaseLock,
         on_lead: Duty,
         on_follow: Duty,
         *,

@@ -36,6 +36,7 @@ from sqlalchemy.exc import OperationalError
 from sqlalchemy.orm import Session, sessionmaker
 
 from backend.db import transaction
+from backend.leadership import lock_for
 from backend.metrics import summary_ms
 from backend.models.storage import RetentionRun, RetentionRunStatus
 from backend.storage import partitions, queries
@@ -140,6 +141,10 @@ def _no_progress(fraction: float, message: str) -> None:
     pass
 
 
+class RetentionBusy(RuntimeError):
+    """A second retention run while one is running (on any worker)."""
+
+
 def run_retention(
     factory: sessionmaker[Session],
     settings,
@@ -149,7 +154,23 @@ def run_retention(
     progress: Progress | None = None,
     job_id: int | None = None,
 ) -> dict:
-    """Apply the policy of `settings` (StorageSettings fields); returns the run's summary."""
+    """Apply the policy of `settings` (StorageSettings fields); returns the run's summary.
+    One run at a time on a database, whichever worker runs it (RetentionBusy otherwise)."""
+    if dry_run:
+        return _run_retention(factory, settings, dry_run, now, progress, job_id)
+    lock = lock_for(factory.kw["bind"].url.render_as_string(hide_password=False), "retention")
+    if not lock.try_acquire():
+        raise RetentionBusy(
+            "another retention run is in progress (it holds the retention lock); this one did "
+            "not start: nothing was dropped"
+        )
+    try:
+        return _run_retention(factory, settings, dry_run, now, progress, job_id)
+    finally:
+        lock.release()
+
+
+def _run_retention(factory, settings, dry_run, now, progress, job_id) -> dict:
     progress = progress or _no_progress
     policy = RetentionPolicy.from_settings(settings)
     now = time.time() if now is None else now

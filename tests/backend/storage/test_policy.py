@@ -5,6 +5,7 @@ predicts exactly what the run then drops."""
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from sqlalchemy import func, select
 
 from backend.db import transaction
@@ -156,3 +157,25 @@ def test_vectorised_reasons_equal_row_by_row_on_stored_frames(database_url, sess
         facts = queries.policy_facts(session, RetentionPolicy(days=30), f.NOW)
     by_row, vectorised = _reasons_both_ways(facts, list(before.values()))
     assert vectorised == by_row
+
+
+def test_a_second_retention_run_refuses_while_one_holds_the_lock(database_url, session_factory):
+    """Two workers never run retention at once (on PostgreSQL an advisory lock, on SQLite a
+    file lock): the second says why and drops nothing; once the first is done it runs."""
+    from backend.leadership import lock_for
+    from backend.storage.retention import RetentionBusy
+
+    with transaction(session_factory) as session:
+        crafted(session)
+        before = f.frame_rows(session)
+    running = lock_for(database_url, "retention")  # the first run, in another worker
+    assert running.try_acquire()
+    try:
+        with pytest.raises(RetentionBusy, match="another retention run is in progress"):
+            run_retention(session_factory, f.policy_settings(), now=f.NOW)
+        with transaction(session_factory) as session:
+            assert f.frame_rows(session) == before
+            assert session.scalar(select(func.count()).select_from(RetentionRun)) == 0
+    finally:
+        running.release()
+    assert run_retention(session_factory, f.policy_settings(), now=f.NOW)["dropped_frames"] > 0
