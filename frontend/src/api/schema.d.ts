@@ -1955,6 +1955,13 @@ export interface components {
              * @description how long the frame writer's current write has been blocked, when it is longer than storage_stall_seconds (the nurse board shows a storage-stalled alarm)
              */
             storage_stalled_s?: number | null;
+            /**
+             * Duties
+             * @description whether this replica runs the alarm monitor and alarm distribution (one replica at a time): replica, leading, since, terms, last_error
+             */
+            duties?: {
+                [key: string]: unknown;
+            } | null;
         };
         /**
          * ImportMode
