@@ -177,6 +177,8 @@ async def start_services(settings: Settings) -> Services:
         factory, settings, effects, waiting_robots=writer.waiting_robots, viewers=hub.viewers
     )
     distribution = build_distribution(settings, factory, effects)
+    if distribution is not None:
+        bus.on_remote.append(lambda alarm: distribution.sender.wake())
     duties = Duties(monitor, distribution)
     leadership = Leadership(
         lock_for(settings.database_url),
@@ -245,6 +247,7 @@ def build_distribution(settings: Settings, factory, effects) -> Distribution | N
         effects=effects,
         ack_timeout_s=settings.alert_ack_timeout_s,
         retry_s=settings.alert_retry_s,
+        poll_s=settings.alert_poll_s,
         down_after_s=settings.alarm_distribution_down_s,
     )
     distribution_routing.attach(factory, routing, sender.wake)

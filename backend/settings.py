@@ -178,6 +178,14 @@ class Settings(StorageSettings):
     alert_retry_s: float = Field(
         default=2.0, gt=0, description="an unacknowledged alarm message is sent again after this"
     )
+    alert_poll_s: float = Field(
+        default=0.5,
+        gt=0,
+        le=60,
+        description="the alarm distribution's sender looks for queued messages at least this "
+        "often (it is woken at once by changes of its own replica and, through Redis, of the "
+        "others)",
+    )
     alarm_distribution_down_s: float = Field(
         default=10.0,
         gt=0,

@@ -7,8 +7,9 @@ maintained libraries (never by splicing strings):
   in the process; values are cleaned of delimiters and clipped to their v2.6 maximum lengths,
   so a message of a validated shape is valid (a test validates every shape at its longest
   values). Building every message with hl7apy took ~25 ms each: at 100 robots the sender's
-  queue, not the network, set the latency. One OBR per alert; the OBX rows carry the IHE PCD ACM alert attributes (event
-  phase, alarm state, inactivation state, priority, alert type) and what a phone shows.
+  queue, not the network, set the latency. One OBR per alert; the OBX rows carry the IHE PCD
+  ACM alert attributes (event phase, alarm state, inactivation state, priority, alert type)
+  and what a phone shows.
 - `ACK` (the Alert Manager's accept acknowledgement): read with python-hl7.
 - `ORA^R41` (Report Alert Status, PCD-05), Alert Manager → Vigil: what happened to the alert on
   the clinician's device. v2.6 has no PRT segment, so the disposition rides in one OBX: OBX-5

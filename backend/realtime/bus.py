@@ -9,6 +9,7 @@ import contextlib
 import json
 import logging
 import uuid
+from collections.abc import Callable
 
 from backend.realtime.hub import BrowserHub
 
@@ -24,6 +25,9 @@ class AlarmBus:
         self._redis = None
         self._listener: asyncio.Task | None = None
         self.subscribed = asyncio.Event()
+        # Called with each alarm change of another replica (the alarm distribution's sender
+        # on the replica that runs it looks at once for the change's queued message).
+        self.on_remote: list[Callable[[dict], None]] = []
 
     async def start(self) -> None:
         if not self._redis_url:
@@ -82,6 +86,8 @@ class AlarmBus:
                         payload = json.loads(message["data"])
                         if payload.get("origin") != self.origin:
                             await self.hub.publish_alarm(payload["alarm"])
+                            for listener in self.on_remote:
+                                listener(payload["alarm"])
             except asyncio.CancelledError:
                 raise
             except Exception as error:

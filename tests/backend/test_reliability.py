@@ -10,6 +10,7 @@ import os
 import time
 import uuid
 
+import httpx
 import pytest
 from sqlalchemy import func, select
 from websockets.asyncio.client import connect
@@ -162,14 +163,28 @@ def test_kill_9_loses_no_acknowledged_frame_and_the_emergency_reaches_the_nurse(
 def test_two_replicas_fan_alarms_out_through_redis(
     backend_env, robot, nurse_token, session_factory, tmp_path
 ):
+    """And the alarm distribution runs on one of them: a change made on the other reaches the
+    Alert Manager through the leader's sender, woken by the change on the bus (its own poll is
+    set to a minute here, so nothing else could have sent it)."""
+    from tests.backend.distribution.conftest import ThreadedAlertManager
+    from tests.support.live_backend import free_port
+
+    manager = ThreadedAlertManager(free_port(), deliver_after_s=None, read_after_s=None)
+    manager.start()
     env = backend_env | {
         "VIGIL_REDIS_URL": REDIS_URL,
         "VIGIL_REDIS_CHANNEL": f"vigil-test-{uuid.uuid4().hex}",
+        "VIGIL_ALERT_MANAGER": f"127.0.0.1:{manager.simulator.port}",
+        "VIGIL_ALERT_POLL_S": "60",
     }
     with (
         BackendProcess(env, log_path=tmp_path / "a.log") as replica_a,
         BackendProcess(env, log_path=tmp_path / "b.log") as replica_b,
     ):
+        duties = [
+            httpx.get(f"{r.http}/api/health").json()["duties"] for r in (replica_a, replica_b)
+        ]
+        assert [d["leading"] for d in duties] == [True, False]
 
         async def scenario() -> tuple[dict, dict]:
             async with (
@@ -204,8 +219,14 @@ def test_two_replicas_fan_alarms_out_through_redis(
                 return raised, acknowledged
 
         raised, acknowledged = asyncio.run(scenario())
+        deadline = time.monotonic() + 10
+        while [r.change.value for r in manager.received] != ["raised", "acknowledged"]:
+            assert time.monotonic() < deadline, [r.change.value for r in manager.received]
+            time.sleep(0.05)
+    manager.close()
     assert raised["state"] == "open" and raised["robot_id"] == "robot-a"
     assert acknowledged["id"] == raised["id"] and acknowledged["acknowledged_by"] == "nurse"
+    assert {r.alarm_id for r in manager.received} == {raised["id"]}
 
 
 @pytest.mark.timeout(60)
