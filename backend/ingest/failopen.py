@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import itertools
 import logging
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from sqlalchemy.orm import Session
@@ -172,9 +173,10 @@ class FailOpen:
             return None
         return now - self.write_started
 
-    def due(self, now: float, waiting: dict[str, str | None]) -> list[dict]:
+    def due(self, now: float, waiting: Callable[[], dict[str, str | None]]) -> list[dict]:
         """Alarms to push now: Emergencies waiting too long, storage_stalled for each robot
-        (`waiting`: robot id -> ward) whose frames wait on a blocked write."""
+        (`waiting()`: robot id -> ward, called only while a write is blocked) whose frames wait
+        on a blocked write."""
         out = []
         for entry in self.unstored.values():
             if not entry.pushed and now - entry.since >= self.unstored_alarm_s:
@@ -189,7 +191,7 @@ class FailOpen:
                 out.append(dict(alarm))
         blocked = self.stalled_for(now)
         if blocked is not None:
-            for robot_id, ward in waiting.items():
+            for robot_id, ward in waiting().items():
                 if robot_id in self.stalled:
                     continue
                 log.error("storage stalled: a frame write has been blocked for %.1f s "

@@ -203,13 +203,18 @@ class FrameWriter:
         while True:
             await asyncio.sleep(self.WATCH_INTERVAL_S)
             try:
-                waiting = {job.link.robot_id: getattr(job.link, "ward", None)
-                           for job in (*self._inflight, *self._pending)}  # fmt: skip
-                for alarm in self.fail_open.due(time.perf_counter(), waiting):
+                for alarm in self.fail_open.due(time.perf_counter(), self._waiting_wards):
                     await self._effects.publish_alarm(alarm)
                 self._poke_for_actions()
             except Exception:  # never let the watch die
                 log.exception("storage watch failed")
+
+    def _waiting_wards(self) -> dict[str, str | None]:
+        """Robot id -> ward of every robot whose messages wait on storage (asked only while a
+        write is blocked: with a thousand robots, scanning every queued message twenty times
+        a second took a seventh of the backend's CPU)."""
+        jobs = (*self._inflight, *self._pending)
+        return {job.link.robot_id: getattr(job.link, "ward", None) for job in jobs}
 
     def _poke_for_actions(self) -> None:
         """Actions on alarms stored before them (or found in the journal at start-up) wait for
