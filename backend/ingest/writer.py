@@ -265,7 +265,9 @@ class FrameWriter:
         self._inflight = jobs
         self.fail_open.on_write_start(started)
         try:
-            outcome = await asyncio.to_thread(self._commit, jobs)
+            # A provisional card on the board is replaced only by a push of its stored alarm:
+            # while there is one, every fold is pushed.
+            outcome = await asyncio.to_thread(self._commit, jobs, self.fail_open.any_pushed())
         finally:
             self._inflight = []
             blocked = time.perf_counter() - started
@@ -314,9 +316,10 @@ class FrameWriter:
             self._cache, self._cache_born = IngestContext(), now
         return self._cache
 
-    def _commit(self, jobs: list[Job]) -> Outcome:
+    def _commit(self, jobs: list[Job], push_every_fold: bool = False) -> Outcome:
         try:
             context = self._cached_context()
+            context.push_every_fold = push_every_fold
             settled: list[str] = []
             with unit_of_work(self._session_factory) as unit:
                 outcome = self._apply(unit.session, jobs, context)
