@@ -18,12 +18,6 @@ from backend.models.videos import Video, widened
 from vigil.classes import Decision, TransportMode
 
 ALARM_KIND_OF_DECISION = {Decision.EMERGENCY: AlarmKind.EMERGENCY, Decision.PAUSE: AlarmKind.PAUSE}
-#: A continuing Emergency (or Pause) folds every frame's decision into its open alarm; the
-#: boards get that update at most this often per alarm (its state changes, a raise, an
-#: acknowledgement, an escalation, go out at once). Pushing every fold sent a fallen patient's
-#: alarm to every board ten times a second per robot: a quarter of the backend's CPU at 100
-#: robots.
-UPDATE_PUSH_S = 1.0
 
 
 def video_name(robot_id: str, transport_id: str | None) -> str:
@@ -91,17 +85,6 @@ class IngestContext:
     # robot id -> seq -> capture time of the frames gathered and not inserted yet
     pending_seqs: dict[str, dict[int, float]] = field(default_factory=dict)
     open_alarms: dict[tuple[str, str, AlarmKind], Alarm] = field(default_factory=dict)
-    # alarm id -> monotonic time its last fold was pushed to the boards (kept between flushes)
-    pushed_at: dict[int, float] = field(default_factory=dict)
-    push_every_fold: bool = False  # a provisional card waits for its stored alarm
-
-    def update_push_due(self, alarm_id: int, now: float) -> bool:
-        """Whether this fold of a decision into the alarm goes to the boards now."""
-        last = self.pushed_at.get(alarm_id)
-        if not self.push_every_fold and last is not None and now - last < UPDATE_PUSH_S:
-            return False
-        self.pushed_at[alarm_id] = now
-        return True
 
     def preload(
         self,
@@ -207,9 +190,7 @@ class IngestContext:
             if isinstance(v, Video) else v
             for key, v in self.videos.items()
         }  # fmt: skip
-        return IngestContext(
-            robots=self.robots, transports=transports, videos=videos, pushed_at=self.pushed_at
-        )
+        return IngestContext(robots=self.robots, transports=transports, videos=videos)
 
     def transport(
         self, session: Session, transport_id: str | None

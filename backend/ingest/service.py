@@ -4,7 +4,6 @@ that robot decisions raise. The caller commits; acknowledgements go out only aft
 from __future__ import annotations
 
 import logging
-import time
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
@@ -277,14 +276,12 @@ def store_frames(
             )
             alarm = alarms.get((key, kind)) or context.open_alarms.get((robot.id, key or "", kind))
             if alarm is not None and alarm.state != AlarmState.RESOLVED:
-                push = context.update_push_due(alarm.id, time.monotonic())
-                fold_evidence(session, alarm, evidence, now, push=push)
+                fold_evidence(session, alarm, evidence, now)
             else:
                 # Pending row updates cannot change which alarm is unresolved: no autoflush.
                 with session.no_autoflush:
                     alarm, is_new = raise_or_update(session, robot, transport, kind, evidence)
                 context.open_alarms[(robot.id, key or "", kind)] = alarm
-                context.pushed_at[alarm.id] = time.monotonic()
                 if is_new:
                     new_alarm_ids.add(alarm.id)
             alarms[(key, kind)] = alarm

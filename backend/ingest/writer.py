@@ -265,9 +265,7 @@ class FrameWriter:
         self._inflight = jobs
         self.fail_open.on_write_start(started)
         try:
-            # A provisional card on the board is replaced only by a push of its stored alarm:
-            # while there is one, every fold is pushed.
-            outcome = await asyncio.to_thread(self._commit, jobs, self.fail_open.any_pushed())
+            outcome = await asyncio.to_thread(self._commit, jobs)
         finally:
             self._inflight = []
             blocked = time.perf_counter() - started
@@ -316,10 +314,9 @@ class FrameWriter:
             self._cache, self._cache_born = IngestContext(), now
         return self._cache
 
-    def _commit(self, jobs: list[Job], push_every_fold: bool = False) -> Outcome:
+    def _commit(self, jobs: list[Job]) -> Outcome:
         try:
             context = self._cached_context()
-            context.push_every_fold = push_every_fold
             settled: list[str] = []
             with unit_of_work(self._session_factory) as unit:
                 outcome = self._apply(unit.session, jobs, context)
