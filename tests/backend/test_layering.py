@@ -43,7 +43,7 @@ def test_routers_hold_no_sql():
 
 #: The modules of backend/ outside a domain folder that build SQL, each for a reason of its own.
 SQL_MODULES = {
-    "db.py": "engine set-up: SQLite pragmas, the test database reset",
+    "db.py": "engine set-up: the SQLite pragmas",
     "health.py": "the readiness probe's SELECT 1",
     "leadership.py": "PostgreSQL advisory locks (the duties and retention locks)",
     "wards.py": "the ward clauses every domain's queries share",
