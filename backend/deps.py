@@ -10,6 +10,7 @@ from sqlalchemy.orm import Session
 
 from backend import unit_of_work
 from backend.accounts import queries as account_queries
+from backend.models._types import MAX_DB_INT  # the routers import it from here too
 from backend.models.users import User
 from backend.permissions import PERMISSIONS
 from backend.security import SessionClaims, read_access_claims
@@ -35,8 +36,7 @@ async def get_session(unit: UnitDep) -> Session:
     return unit.session
 
 
-#: Integer ids and counters fit PostgreSQL INTEGER columns; larger values get a 422, not a 500.
-MAX_DB_INT = 2**31 - 1
+#: A path id that fits an INTEGER column (MAX_DB_INT, re-exported for the routers).
 DbId = Annotated[int, Path(ge=1, le=MAX_DB_INT)]
 
 SettingsDep = Annotated[Settings, Depends(get_settings)]

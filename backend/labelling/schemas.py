@@ -7,7 +7,7 @@ from typing import Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
-from backend.deps import MAX_DB_INT
+from backend.models._types import MAX_DB_INT
 from backend.models.annotations import SegmentSource, SegmentStatus
 from backend.models.videos import Split
 from vigil.classes import Decision, TransportMode

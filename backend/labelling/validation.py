@@ -16,8 +16,8 @@ from typing import Annotated, TypeVar
 import numpy as np
 from pydantic import AfterValidator, BaseModel, ConfigDict, Field, TypeAdapter, ValidationError
 
-from backend.deps import MAX_DB_INT
 from backend.labelling.errors import LabellingError
+from backend.models._types import MAX_DB_INT
 from backend.models.annotations import SegmentStatus
 from backend.models.videos import Split
 from vigil.classes import TransportMode

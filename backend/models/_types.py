@@ -3,6 +3,10 @@ from datetime import UTC, datetime
 from sqlalchemy import DateTime
 from sqlalchemy.types import TypeDecorator
 
+#: Integer ids and counters fit PostgreSQL INTEGER columns: the largest value a request may
+#: carry (larger ones get a 422, not a 500), in the web layer and the domain schemas alike.
+MAX_DB_INT = 2**31 - 1
+
 
 def utcnow() -> datetime:
     return datetime.now(UTC)

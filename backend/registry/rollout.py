@@ -65,25 +65,29 @@ ROLLOUT = StateMachine(
     subject=lambda deployment: f"deployment {deployment.id}",
     error=RolloutStateError,
 )
-_C, _A, _P, _R = (
-    ModelStatus.CANDIDATE, ModelStatus.APPROVED, ModelStatus.PRODUCTION, ModelStatus.RETIRED
-)  # fmt: skip
-#: A registered model is a candidate; it never becomes one again. A canary start approves it
-#: (even one in production elsewhere, as before), a full rollout or a rollback that restores it
-#: puts it in production, a rollback that leaves no robot on it retires it (a pending
-#: deployment's candidate too). A retired model may be promoted again.
+_C, _A, _P, _R = ModelStatus  # candidate, approved, production, retired
+#: The moves `_start`, `advance` and `rollback` make, and only those. A registered model is a
+#: candidate (`worker.registration`) and never becomes one again. A canary start approves a
+#: candidate or a retired model; a model already approved or in production keeps its status
+#: (in production it still runs elsewhere, and stays the mode's fallback). A full rollout,
+#: the canary's advance, or a rollback that gives robots a model back puts it in production;
+#: production -> production: a model in production reached more robots. A rollback that leaves
+#: no robot on its model retires it (a pending deployment's candidate too; a retired one stays
+#: retired). A retired model may be promoted again.
 MODEL = StateMachine(
     ModelStatus,
     edges={
         _C: {_A, _P, _R},
-        _A: {_A, _P, _R},
-        _P: {_A, _P, _R},
-        _R: {_A, _P, _R},
+        _A: {_P, _R},
+        _P: {_P, _R},
+        _R: {_A, _P},
     },
     initial=_C,
     subject=lambda model: f"model {model.version}",
     error=RolloutStateError,
 )
+#: The statuses a canary start approves (the others keep theirs).
+APPROVES = frozenset({_C, _R})
 
 
 def robots_in_scope(session: Session, scope: DeploymentScope, target: str | None) -> list[Robot]:
@@ -163,7 +167,8 @@ def _start(session: Session, deployment: Deployment) -> list[str]:
         _supersede_older(session, deployment)
         return changed
     ROLLOUT.move(deployment, DeploymentStatus.CANARY)
-    MODEL.move(model, ModelStatus.APPROVED)
+    if MODEL.state_of(model) in APPROVES:
+        MODEL.move(model, ModelStatus.APPROVED)
     return _assign(session, deployment, [deployment.rollout["canary"]])
 
 
@@ -296,7 +301,7 @@ def rollback(session: Session, deployment: Deployment, reason: str) -> list[str]
     still_used = session.scalars(
         select(Robot.id).where(Robot.assigned_model_id == model.id).limit(1)
     ).first()
-    if not deployment.shadow and still_used is None:
+    if not deployment.shadow and still_used is None and MODEL.state_of(model) != _R:
         MODEL.move(model, ModelStatus.RETIRED)
     return changed
 

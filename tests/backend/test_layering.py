@@ -1,7 +1,9 @@
-"""House rules of the backend, checked on the source: routers hold no SQL (queries live in each
-domain's `queries.py`), services are reached through `backend.services`, not as loose
-attributes of `app.state`, no two parts of the backend import each other, and the web layer
-(`api/`, `main.py`) is on top: nothing below imports it."""
+"""House rules of the backend, checked on the source: SQL is built only below the web layer,
+in the domain folders (a domain's reads in its `queries.py`, its services' and storage
+mechanics' SQL beside them) and a few named database modules; services are reached through
+`backend.services`, not as loose attributes of `app.state`; no two parts of the backend import
+each other; and the web layer (`api/`, `main.py`, `deps.py`) is on top: nothing below imports
+it."""
 
 from __future__ import annotations
 
@@ -39,23 +41,82 @@ def test_routers_hold_no_sql():
     assert not offenders, "SQL in a router (move it to a queries.py):\n" + "\n".join(offenders)
 
 
-def test_app_state_holds_only_the_services():
+#: The modules of backend/ outside a domain folder that build SQL, each for a reason of its own.
+SQL_MODULES = {
+    "db.py": "engine set-up: the SQLite pragmas",
+    "health.py": "the readiness probe's SELECT 1",
+    "leadership.py": "PostgreSQL advisory locks (the duties and retention locks)",
+    "wards.py": "the ward clauses every domain's queries share",
+    "demo.py": "the demo accounts and robots of `make run`",
+}
+#: Folders of backend/ that are no domain: the web layer (no SQL) and the table definitions
+#: (only `text(...)` in index expressions).
+NOT_DOMAINS = {"api", "models"}
+
+
+def sql_outside_its_places(backend: Path) -> list[str]:
+    """`path:line: call(` for each SQL call in a module of `backend` where the rule allows none:
+    the web layer (`api/`, `main.py`, `deps.py`), the glue (`services.py`, `unit_of_work.py`)
+    and every other top-level module not in SQL_MODULES; in `models/` only `text(` (index
+    expressions). Anything goes in a domain folder."""
     offenders = []
-    for path in sorted((ROOT / "backend").rglob("*.py")):
-        for node in ast.walk(ast.parse(path.read_text(), str(path))):
-            if (
-                isinstance(node, ast.Attribute)
-                and isinstance(node.value, ast.Attribute)
-                and node.value.attr == "state"
-                and isinstance(node.value.value, ast.Attribute | ast.Name)
-                and getattr(node.value.value, "attr", getattr(node.value.value, "id", "")) == "app"
-                and node.attr != "services"
-            ):
-                offenders.append(f"{path.relative_to(ROOT)}:{node.lineno}: app.state.{node.attr}")
-    assert not offenders, "\n".join(offenders)
+    for path in sorted(backend.rglob("*.py")):
+        rel = path.relative_to(backend)
+        folder = rel.parts[0] if len(rel.parts) > 1 else None
+        if folder not in NOT_DOMAINS and (folder is not None or rel.name in SQL_MODULES):
+            continue
+        allowed = {"text"} if folder == "models" else set()
+        offenders += [
+            f"backend/{rel.as_posix()}:{line}: {name}("
+            for line, name in calls(path)
+            if name in SQL_CALLS - allowed
+        ]
+    return offenders
 
 
-WEB_LAYER = {"api", "main"}
+def test_sql_is_built_only_in_the_domain_folders_and_the_named_database_modules():
+    offenders = sql_outside_its_places(ROOT / "backend")
+    assert not offenders, (
+        "SQL outside a domain folder (put it in the domain's queries.py or service):\n"
+        + "\n".join(offenders)
+    )
+    for name in SQL_MODULES:
+        assert any(n in SQL_CALLS for _, n in calls(ROOT / "backend" / name)), (
+            f"backend/{name} builds no SQL any more: take it off SQL_MODULES"
+        )
+
+
+def test_the_sql_scan_finds_sql_in_the_web_layer_the_glue_and_the_tables(tmp_path):
+    for rel in (
+        "api/x.py",
+        "main.py",
+        "deps.py",
+        "services.py",
+        "unit_of_work.py",
+        "models/t.py",
+        "alarms/service.py",
+        "storage/partitions.py",
+        "health.py",
+    ):
+        (tmp_path / rel).parent.mkdir(parents=True, exist_ok=True)
+        (tmp_path / rel).write_text("session.execute(select(A))\nIndex('i', text('x'))\n")
+    found = sql_outside_its_places(tmp_path)
+    assert sorted({f.split(":")[0] for f in found}) == [
+        "backend/api/x.py",
+        "backend/deps.py",
+        "backend/main.py",
+        "backend/models/t.py",
+        "backend/services.py",
+        "backend/unit_of_work.py",
+    ]
+    assert sorted(f for f in found if "models" in f) == [
+        "backend/models/t.py:1: execute(",
+        "backend/models/t.py:1: select(",
+    ]
+
+
+#: The routers, the app and its FastAPI dependencies (`deps.py`: sessions, the current user).
+WEB_LAYER = {"api", "main", "deps"}
 # The process entry points stand above the web layer: they start it.
 ENTRY_POINTS = {"cli", "openapi"}
 
@@ -106,14 +167,28 @@ def test_no_two_parts_of_the_backend_import_each_other():
     assert not pairs, "two-way imports inside backend/:\n" + "\n".join(where)
 
 
-def test_nothing_below_the_web_layer_imports_it():
-    offenders = sorted(
+def web_layer_imports(edges: dict[str, set[tuple[str, str]]]) -> list[str]:
+    return sorted(
         where
-        for part, out in backend_imports().items()
+        for part, out in edges.items()
         if part not in WEB_LAYER | ENTRY_POINTS
         for other, where in out
         if other in WEB_LAYER
     )
-    assert not offenders, "imports of the web layer (api/, main.py) from below:\n" + "\n".join(
-        offenders
+
+
+def test_nothing_below_the_web_layer_imports_it():
+    offenders = web_layer_imports(backend_imports())
+    assert not offenders, "imports of the web layer (api/, main.py, deps.py) from below:\n" + (
+        "\n".join(offenders)
     )
+
+
+def test_a_domain_folder_importing_deps_is_an_offence():
+    """`backend.deps` is the web layer's: a domain takes shared column limits (MAX_DB_INT) from
+    `backend.models`, not from it."""
+    edges = {
+        "labelling": {("deps", "backend/labelling/schemas:10"), ("models", "x:1")},
+        "api": {("deps", "backend/api/videos:8")},
+    }
+    assert web_layer_imports(edges) == ["backend/labelling/schemas:10"]
