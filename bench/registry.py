@@ -35,6 +35,7 @@ from backend.settings import Settings
 from worker.bootstrap import urfd_split
 from worker.runner import Worker
 from worker.settings import WorkerSettings
+from worker.training.specs import DEFAULT
 
 RESULTS = Path(__file__).resolve().parent / "results" / "registry.json"
 PG_ADMIN_URL = os.environ.get(
@@ -107,7 +108,7 @@ def bench_retrain(workdir: Path) -> dict:
     with transaction(factory) as session:
         import_urfd(session, names=train, split=Split.TRAIN)
         import_urfd(session, names=gold, split=Split.TEST)
-        job_id = queue.enqueue(session, JobKind.RETRAIN, {"spec": "rf-default"}).id
+        job_id = queue.enqueue(session, JobKind.RETRAIN, {"spec": DEFAULT.name}).id
     settings = WorkerSettings(database_url=url, model_store_dir=workdir / "models",
                               worker_id="bench")  # fmt: skip
     start = time.perf_counter()

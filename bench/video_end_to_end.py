@@ -301,8 +301,8 @@ def train_held_out(spec_name: str, out: Path, inner_folds: int) -> dict:
     from vigil.datasets import urfd
     from worker.training.cross_validation import select
     from worker.training.data import from_urfd
-    from worker.training.estimators import SPECS
     from worker.training.publish import publish
+    from worker.training.specs import SPECS
     from worker.training.trainers import SklearnTrainer
 
     started = time.perf_counter()
@@ -722,9 +722,11 @@ def main(argv: list[str] | None = None) -> int:
         },
     }
     print(json.dumps(result, indent=2), flush=True)
-    from worker.training.estimators import SPECS
+    from worker.training.specs import SPECS
 
-    goal_model, specs = judged_and_run_models(json.loads(DETECTION_RESULTS.read_text()), SPECS)
+    goal_model, specs = judged_and_run_models(
+        json.loads(DETECTION_RESULTS.read_text()), SPECS.benchmarked()
+    )
     models_dir = Path(tempfile.mkdtemp(prefix="vigil-bench-video-models-"))
     try:
         models = {}

@@ -18,7 +18,7 @@ from backend.labelling.importers.urfd import import_urfd
 from backend.models.jobs import Job, JobKind
 from backend.models.registry import ModelVersion
 from vigil.datasets import urfd
-from worker.training.estimators import ModelSpec
+from worker.training.specs import DEFAULT, KEYPOINTS_DEFAULT
 
 # Every fifth fall and ADL recording is held out as the gold set (6 falls, 8 daily activities):
 # the importer's split (vigil.datasets.urfd.is_gold).
@@ -45,8 +45,8 @@ def bootstrap(session: Session, default_model_dir: Path | None, urfd_dir=None) -
         if default_model_dir is not None and (default_model_dir / "manifest.json").exists():
             queue.enqueue(session, JobKind.REGISTER, {"path": str(default_model_dir)})
             done.append(f"queued: register {default_model_dir}")
-        queue.enqueue(session, JobKind.RETRAIN, {"spec": "rf-default"})
-        done.append("queued: retrain rf-default on the training split")
+        queue.enqueue(session, JobKind.RETRAIN, {"spec": DEFAULT.name})
+        done.append(f"queued: retrain {DEFAULT.name} on the training split")
     return done
 
 
@@ -95,16 +95,9 @@ def _videos_without_floor(session: Session, names: list[str]) -> dict[str, int]:
 # feed them ---------------------------------------------------------------------------------
 
 #: The walking mode's keypoints-only model (no floor measures): every walking robot's fallback
-#: and the model of robots without a calibrated depth camera. A smaller forest than the default
-#: keeps the first `make run` short.
-KEYPOINTS_SPEC = ModelSpec(
-    name="rf-keypoints",
-    family="rf",
-    grid={"n_estimators": [60], "max_depth": [12], "min_samples_leaf": [5], "max_features": [0.3]},
-    feature_set="keypoints",
-    description="Keypoints-only walking model (no floor measures): every walking robot's "
-    "fallback, and the model of robots whose camera has no known mount",
-)
+#: and the model of robots without a calibrated depth camera; the registry's
+#: rf-keypoints-default (worker.training.specs), one configuration.
+KEYPOINTS_SPEC = KEYPOINTS_DEFAULT
 DEMO_ENGINEER = "engineer"
 
 

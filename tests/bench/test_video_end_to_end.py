@@ -157,10 +157,11 @@ def test_robot_pace_reads_the_agents_transport_end_line(tmp_path, caplog):
 
 
 def test_goal_is_judged_on_the_benchmarks_best_keypoints_only_model():
-    from worker.training.estimators import SPECS
+    from worker.training.specs import SPECS
 
-    judged, specs = judged_and_run_models({"best_keypoints_only": "rf-keypoints"}, SPECS)
+    benchmarked = SPECS.benchmarked()
+    judged, specs = judged_and_run_models({"best_keypoints_only": "rf-keypoints"}, benchmarked)
     assert judged == "rf-keypoints"
     assert set(specs) == {"gbt-keypoints", "rf-keypoints", "gbt"}
     with pytest.raises(ValueError, match="best_keypoints_only 'gbt' is no keypoints-only spec"):
-        judged_and_run_models({"best_keypoints_only": "gbt"}, SPECS)
+        judged_and_run_models({"best_keypoints_only": "gbt"}, benchmarked)

@@ -8,8 +8,9 @@ from vigil.policy import apply_delay, raw_decisions
 from vigil.runtime import FrameClassifier
 from worker.training.cross_validation import cross_validate, select
 from worker.training.data import from_urfd
-from worker.training.estimators import PAPER_SVM, ModelSpec
+from worker.training.estimators import ModelSpec
 from worker.training.publish import publish
+from worker.training.specs import PAPER_SVM
 from worker.training.splits import grouped_folds
 from worker.training.trainers import SklearnTrainer
 

@@ -19,19 +19,18 @@ from worker.db_data import frame_data, labelled_videos
 from worker.grid import GridBackend
 from worker.jobs.common import gold_evaluation, reload, started_by
 from worker.registration import register, store_path
-from worker.training.cli import DEFAULT_SPEC
 from worker.training.cross_validation import select
-from worker.training.estimators import SPECS, ModelSpec
+from worker.training.estimators import ModelSpec
 from worker.training.publish import publish
 from worker.training.selection import evaluate
+from worker.training.specs import SPECS
 from worker.training.trainers import SklearnTrainer
 
 
 def spec_for(params: RetrainParams) -> ModelSpec:
-    specs = {DEFAULT_SPEC.name: DEFAULT_SPEC, **SPECS}
-    if params.spec not in specs:
-        raise ValueError(f"invalid job parameter spec: choose one of {sorted(specs)}")
-    spec = specs[params.spec]
+    if params.spec not in SPECS:
+        raise ValueError(f"invalid job parameter spec: choose one of {sorted(SPECS)}")
+    spec = SPECS[params.spec]
     if params.grid is not None:
         unknown = set(params.grid) - set(spec.grid)
         if unknown:

@@ -20,23 +20,12 @@ from threadpoolctl import threadpool_limits
 
 from worker.training.cross_validation import select
 from worker.training.data import from_urfd
-from worker.training.estimators import ModelSpec
 from worker.training.publish import publish
+from worker.training.specs import DEFAULT, SPECS
 from worker.training.trainers import SklearnTrainer
 
-# Name and configuration are a contract: worker jobs, bootstrap and bench/registry.py queue
-# retrains of "rf-default" and expect train-default to produce the same configuration.
-DEFAULT_SPEC = ModelSpec(
-    name="rf-default",
-    family="rf",
-    grid={
-        "n_estimators": [100],
-        "max_depth": [16],
-        "min_samples_leaf": [5],
-        "max_features": [0.3],
-    },
-    description="Default walking model: random forest on pose + temporal features",
-)
+#: What train-default trains: the registry's rf-default (worker.training.specs).
+DEFAULT_SPEC = DEFAULT
 
 
 #: `--with-generated`: GENERATED walking and rollator transports added to URFD for `make run`'s
@@ -86,7 +75,6 @@ def train_default(
 
 
 def make_trainers(names: list[str]):
-    from worker.training.estimators import SPECS
     from worker.training.temporal import TemporalTrainer
 
     trainers = []
@@ -101,7 +89,8 @@ def make_trainers(names: list[str]):
     return trainers
 
 
-ALL_MODELS = "svm-paper,svm,mlp,rf,gbt,gbt-keypoints,rf-keypoints,tcn"
+#: The benchmark's models: the registry's benchmarked grids and the window model.
+ALL_MODELS = ",".join([*SPECS.benchmarked(), "tcn"])
 MULTI = "mlp,rf,tcn"
 
 

@@ -1,7 +1,8 @@
 """The model families as scikit-learn pipelines, their grids, and the paper's SVM configuration.
 
 A family is a pipeline factory (FAMILIES); a ModelSpec names a family, a feature set and a grid
-of that family's hyperparameters. Grid keys are the model step's parameter names, except
+of that family's hyperparameters. The specs themselves, by unique name, are registered in
+worker.training.specs. Grid keys are the model step's parameter names, except
 `gamma_times_1_over_n` (SVM): the paper's gamma is 1/n_features, and since n_features is fixed by
 the feature set, the grid carries SVC's gamma as `gamma_times_1_over_n / n_features`, the very
 value (same float division) the SVC was built with before.
@@ -106,78 +107,3 @@ def positive_scores(pipeline: Pipeline, features: np.ndarray) -> np.ndarray:
         p = 1.0 / (1.0 + np.exp(-pipeline.decision_function(features)))
         return np.stack([1 - p, p], axis=1)
     return pipeline.predict_proba(features)
-
-
-PAPER_SVM = ModelSpec(
-    name="svm-paper",
-    family="svm",
-    grid={"degree": [2], "C": [0.5], "gamma_times_1_over_n": [1.0], "class_weight": [None]},
-    feature_set="pose",
-    operating_point="youden",
-    description="Zachariae et al.: SVM, poly kernel degree 2, C=0.5, gamma=1/n_features, "
-    "single-frame pose features",
-)
-SVM = ModelSpec(
-    name="svm",
-    family="svm",
-    grid={
-        "degree": [2, 3],
-        "C": [0.5, 4.0],
-        "gamma_times_1_over_n": [1.0, 4.0],
-        "class_weight": [None, "balanced"],
-    },
-    fixed={"coef0": 1.0},
-    description="SVM, poly kernel, pose + temporal features",
-)
-MLP = ModelSpec(
-    name="mlp",
-    family="mlp",
-    grid={
-        "hidden_layer_sizes": [(64,), (128, 64)],
-        "alpha": [1e-4, 1e-2],
-        "learning_rate_init": [1e-3, 3e-3],
-        "activation": ["relu", "tanh"],
-    },
-    description="MLP, pose + temporal features",
-)
-RF = ModelSpec(
-    name="rf",
-    family="rf",
-    grid={
-        "n_estimators": [60, 150],
-        "max_depth": [8, 16],
-        "min_samples_leaf": [1, 5],
-        "max_features": ["sqrt", 0.3],
-    },
-    description="Random forest, pose + temporal features",
-)
-GBT = ModelSpec(
-    name="gbt",
-    family="gbt",
-    grid={
-        "max_iter": [100, 200],
-        "learning_rate": [0.1],
-        "max_leaf_nodes": [15, 31],
-        "l2_regularization": [0.0, 1.0],
-    },
-    description="Gradient-boosted trees (histogram), pose, temporal and floor features",
-)
-GBT_KEYPOINTS = ModelSpec(
-    name="gbt-keypoints",
-    family="gbt",
-    grid=GBT.grid,
-    feature_set="keypoints",
-    description="Gradient-boosted trees without floor measures, for robots whose depth camera "
-    "has no calibrated mount",
-)
-RF_KEYPOINTS = ModelSpec(
-    name="rf-keypoints",
-    family="rf",
-    grid=RF.grid,
-    feature_set="keypoints",
-    description="Random forest without floor measures, for robots whose depth camera has no "
-    "calibrated mount",
-)
-SPECS: dict[str, ModelSpec] = {
-    s.name: s for s in (PAPER_SVM, SVM, MLP, RF, GBT, GBT_KEYPOINTS, RF_KEYPOINTS)
-}
