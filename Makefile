@@ -15,7 +15,7 @@ unexport PYTHONDONTWRITEBYTECODE
 .PHONY: run test test-python test-sqlite test-postgresql test-frontend test-browser setup \
 	frontend chromium lint format bench-detection bench-detection-splits bench-fall-onset \
 	bench-floor bench-ingest bench-robot bench-video bench-labelling bench-registry \
-	bench-alarm-latency bench-alarm-distribution bench-storage-stall bench-storage bench-login-flood bench-nurse-soak \
+	bench-alarm-latency bench-alarm-distribution bench-hospital-group bench-storage-stall bench-storage bench-login-flood bench-nurse-soak \
 	bench-demo-hour readme \
 	screenshots \
 	clean
@@ -126,6 +126,11 @@ bench-storage-stall: $(STAMP)
 # 100 robots at 10 Hz, a kill -9 of the backend and a 60 s Alert Manager outage (issue 32).
 bench-alarm-distribution: $(STAMP)
 	$(PY) -m bench.alarm_distribution
+
+# Two replicas, kill -9 of the one running the duties (issue 36); writes ingest.json's hospital_group
+bench-hospital-group: $(STAMP)
+	$(PY) -m bench.hospital_group --robots 100 --processes 2
+	$(PY) -m bench.hospital_group --robots 1000 --processes 4
 
 # Frames at hospital scale (issue 20); sizes: python -m bench.storage --help
 bench-storage: $(STAMP)

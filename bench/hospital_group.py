@@ -16,7 +16,8 @@ was not acknowledged after the welcome's last_seq. Measured:
 - which replica held the duties before and after the kill (/api/health), backend CPU and RSS.
 
 Frames are GENERATED (fixed skeleton): this measures the system, not detection. Results go
-into bench/results/ingest.json under "hospital_group" (the other runs there are kept).
+into bench/results/ingest.json under "hospital_group" by robot count (the other runs there are
+kept); `make bench-hospital-group` runs 100 and 1,000 robots.
 
     python -m bench.hospital_group [--robots 1000] [--processes 4] [--seconds 40]
 """
@@ -141,6 +142,7 @@ async def _robot(index: int, urls: list[str], hz: float, stop_at: float, emergen
         "connections": connections,
         "sent": seq,
         "unacked": len(sent),
+        "unacked_seqs": sorted(sent),
     }
 
 
@@ -345,6 +347,9 @@ def run(args) -> dict:
                     text("SELECT robot_id, count(DISTINCT seq) FROM frames GROUP BY robot_id")
                 ).all()
             )
+            stored_seqs: dict[str, set[int]] = {}
+            for robot_id, seq in connection.execute(text("SELECT robot_id, seq FROM frames")):
+                stored_seqs.setdefault(robot_id, set()).add(seq)
             per_transport = connection.execute(
                 text(
                     "SELECT transport_key, count(*) FROM alarms WHERE kind = 'emergency' "
@@ -385,7 +390,11 @@ def run(args) -> dict:
         if before and before[-1][1] == killed_url and after:
             again.append(after[0][2] - kill_at)
     sent = sum(r["sent"] for r in robots)
-    lost = sum(r["sent"] - r["unacked"] - distinct.get(r["robot_id"], 0) for r in robots)
+    # acknowledged (sent and not left unacknowledged) but not in the database
+    lost = 0
+    for r in robots:
+        acked = set(range(r["sent"])) - set(r["unacked_seqs"])
+        lost += len(acked - stored_seqs.get(r["robot_id"], set()))
     duplicates = sum(stored.values()) - sum(distinct.values())
     alarms_per_transport = [n for _, n in per_transport]
     measured = {
@@ -463,7 +472,7 @@ def main(argv: list[str] | None = None) -> int:
     }
     result["measured_at"] = time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())
     existing = json.loads(args.output.read_text()) if args.output.exists() else {}
-    existing["hospital_group"] = result
+    existing.setdefault("hospital_group", {})[f"{args.robots}_robots"] = result
     args.output.parent.mkdir(parents=True, exist_ok=True)
     args.output.write_text(json.dumps(existing, indent=2) + "\n")
     print(json.dumps(result, indent=2))
