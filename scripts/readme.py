@@ -395,6 +395,61 @@ def _storage_stall() -> str | None:
     )
 
 
+def _hospital_group() -> str | None:
+    data = _load("ingest.json")
+    runs = (data or {}).get("hospital_group")
+    if not runs:
+        return None
+    ordered = sorted(runs.values(), key=lambda run: run["robots"])
+    rows = []
+    for run in ordered:
+        again = run["kill_9"]["streaming_again_s"]
+        alarm, survivor = run["alarm_frame_to_board_ms"], run["surviving_backend"]
+        rows.append(
+            [
+                f"{run['robots']} × {run['hz']:g} Hz",
+                f"{run['ack_ms']['p50']} / {run['ack_ms']['p99']}",
+                f"{alarm['p50']} / {alarm['p99']}",
+                f"{run['emergencies_on_a_board']} of {run['emergencies']}",
+                "—" if again["max"] is None else again["max"],
+                f"{run['frames_lost']} / {run['duplicated_rows']}",
+                run["emergency_alarms_per_transport"]["more_than_one"],
+                "yes" if (run["duties"]["after_kill"] or {}).get("leading") else "no",
+                f"{survivor['cpu_percent']} % / {survivor['rss_mb']}",
+                run["load_average_1min"],
+                "yes" if run["met"] else "no",
+            ]
+        )
+    goals = ordered[-1]["goals"]
+    return (
+        "**A hospital group on two replicas** (`make bench-hospital-group` → "
+        "`bench/results/ingest.json` `hospital_group`, PostgreSQL + Redis, GENERATED frames, "
+        "robots in client processes on the same 2 cores): two backend replicas, robots at 10 Hz "
+        "(one frame per message) failing over between them, five boards, 500 open alarms, the "
+        "alarm distribution on, one retention run in the window, and in its middle kill -9 of "
+        "the replica running the duties. Goals: ack p99 ≤ "
+        f"{goals['ack_p99_ms']} ms, alarm p99 ≤ {goals['alarm_p99_ms']} ms, every robot of the "
+        f"killed replica streaming again within {goals['streaming_again_s']} s, 0 lost, 0 "
+        "duplicated, each Emergency alarmed once, the duties taken over.\n\n"
+        + _table(
+            [
+                "robots",
+                "ack p50 / p99 ms",
+                "alarm p50 / p99 ms",
+                "Emergencies on a board",
+                "streaming again after kill -9, max s",
+                "frames lost / duplicated",
+                "transports alarmed twice",
+                "duties taken over",
+                "survivor CPU / RSS MB",
+                "load",
+                "goals met",
+            ],
+            rows,
+        )
+    )
+
+
 def _alarm_distribution() -> str | None:
     data = _load("alarm_distribution.json")
     if data is None:
@@ -674,6 +729,7 @@ BENCH_SECTIONS = (
     _demo_hour,
     _storage_stall,
     _alarm_distribution,
+    _hospital_group,
     _frame_storage,
     _login_flood,
     _labelling,
