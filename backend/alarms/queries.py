@@ -254,3 +254,7 @@ def unresolved_of_ward(session: Session, ward: str, kind: AlarmKind) -> Alarm | 
             Alarm.state != AlarmState.RESOLVED,
         )
     ).first()
+
+
+def by_ids(session: Session, alarm_ids: Sequence[int]) -> Sequence[Alarm]:
+    return session.scalars(select(Alarm).where(Alarm.id.in_(alarm_ids))).unique().all()

@@ -84,10 +84,12 @@ def find_unresolved(
 
 
 def fold_evidence(
-    session: Session, alarm: Alarm, evidence: DecisionEvidence, now: datetime
+    session: Session, alarm: Alarm, evidence: DecisionEvidence, now: datetime, push: bool = True
 ) -> Alarm:
-    """A repeated decision updates the unresolved alarm instead of opening another."""
-    publish(session, alarm)
+    """A repeated decision updates the unresolved alarm instead of opening another; `push`:
+    the boards get the updated alarm after the commit (the ingest path coalesces them)."""
+    if push:
+        publish(session, alarm)
     ALARM.target(alarm.state, AlarmAction.UPDATE)
     alarm.updated_at = now
     alarm.decision_count += 1

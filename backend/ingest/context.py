@@ -18,6 +18,12 @@ from backend.models.videos import Video, widened
 from vigil.classes import Decision, TransportMode
 
 ALARM_KIND_OF_DECISION = {Decision.EMERGENCY: AlarmKind.EMERGENCY, Decision.PAUSE: AlarmKind.PAUSE}
+#: A continuing Emergency (or Pause) folds every frame's decision into its open alarm; the
+#: boards get that update at most this often per alarm, and the last one always (a trailing
+#: push by the writer); its state changes (raise, acknowledgement, escalation, end) go out at
+#: once. Pushing every fold sent a fallen patient's alarm to every board, through Redis, ten
+#: times a second per robot.
+UPDATE_PUSH_S = 1.0
 
 
 def video_name(robot_id: str, transport_id: str | None) -> str:
@@ -85,6 +91,26 @@ class IngestContext:
     # robot id -> seq -> capture time of the frames gathered and not inserted yet
     pending_seqs: dict[str, dict[int, float]] = field(default_factory=dict)
     open_alarms: dict[tuple[str, str, AlarmKind], Alarm] = field(default_factory=dict)
+    # alarm id -> monotonic time its last fold was pushed to the boards (kept between flushes)
+    pushed_at: dict[int, float] = field(default_factory=dict)
+    push_every_fold: bool = False  # a provisional card waits for its stored alarm
+    # this flush: alarms pushed, and alarms whose folds were held back (alarm id -> when their
+    # trailing push is due: the writer pushes them then, so the boards' last word is the last
+    # fold)
+    pushed: set[int] = field(default_factory=set)
+    held_back: dict[int, float] = field(default_factory=dict)
+
+    def update_push_due(self, alarm_id: int, now: float) -> bool:
+        """Whether this fold of a decision into the alarm goes to the boards now."""
+        last = self.pushed_at.get(alarm_id)
+        if not self.push_every_fold and last is not None and now - last < UPDATE_PUSH_S:
+            if alarm_id not in self.pushed:  # a push of this flush carries every fold of it
+                self.held_back[alarm_id] = last + UPDATE_PUSH_S
+            return False
+        self.pushed_at[alarm_id] = now
+        self.pushed.add(alarm_id)
+        self.held_back.pop(alarm_id, None)
+        return True
 
     def preload(
         self,
@@ -190,7 +216,9 @@ class IngestContext:
             if isinstance(v, Video) else v
             for key, v in self.videos.items()
         }  # fmt: skip
-        return IngestContext(robots=self.robots, transports=transports, videos=videos)
+        return IngestContext(
+            robots=self.robots, transports=transports, videos=videos, pushed_at=self.pushed_at
+        )
 
     def transport(
         self, session: Session, transport_id: str | None

@@ -132,6 +132,10 @@ class FailOpen:
             alarm["last_seq"] = max(alarm["last_seq"], frame.seq)
             entry.jobs.add(id(job))
 
+    def any_pushed(self) -> bool:
+        """Whether a provisional Emergency is on the boards, waiting for its stored alarm."""
+        return any(entry.pushed for entry in self.unstored.values())
+
     def _transport_info(self, transport_id, lookup) -> tuple[str | None, str | None]:
         if transport_id is None:
             return None, None

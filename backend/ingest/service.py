@@ -4,6 +4,7 @@ that robot decisions raise. The caller commits; acknowledgements go out only aft
 from __future__ import annotations
 
 import logging
+import time
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
@@ -276,12 +277,14 @@ def store_frames(
             )
             alarm = alarms.get((key, kind)) or context.open_alarms.get((robot.id, key or "", kind))
             if alarm is not None and alarm.state != AlarmState.RESOLVED:
-                fold_evidence(session, alarm, evidence, now)
+                push = context.update_push_due(alarm.id, time.monotonic())
+                fold_evidence(session, alarm, evidence, now, push=push)
             else:
                 # Pending row updates cannot change which alarm is unresolved: no autoflush.
                 with session.no_autoflush:
                     alarm, is_new = raise_or_update(session, robot, transport, kind, evidence)
                 context.open_alarms[(robot.id, key or "", kind)] = alarm
+                context.pushed_at[alarm.id] = time.monotonic()
                 if is_new:
                     new_alarm_ids.add(alarm.id)
             alarms[(key, kind)] = alarm

@@ -23,6 +23,7 @@ from typing import Protocol
 from sqlalchemy.exc import DataError
 from sqlalchemy.orm import Session, sessionmaker
 
+from backend.alarms import queries as alarm_queries
 from backend.alarms import service as alarm_service
 from backend.ingest import service
 from backend.ingest.context import IngestContext
@@ -102,6 +103,8 @@ class Outcome:
     stored: int = 0
     units: list[UnitOfWork] = field(default_factory=list)  # committed: their effects to run
     rejected: dict[int, RejectedMessage] = field(default_factory=dict)  # id(job) -> error
+    pushed: set[int] = field(default_factory=set)  # alarm ids pushed after this commit
+    held_back: dict[int, float] = field(default_factory=dict)  # alarm id -> trailing push due
 
 
 class FrameWriter:
@@ -132,6 +135,7 @@ class FrameWriter:
         self._max_pending_frames = max_pending_frames
         self._task: asyncio.Task | None = None
         self._cache: IngestContext | None = None
+        self._held_back: dict[int, float] = {}  # alarm id -> trailing push due (monotonic)
         self._cache_born = 0.0
         self.fail_open = FailOpen(unstored_alarm_ms / 1000, storage_stall_s)
         self._inflight: list[Job] = []
@@ -206,8 +210,29 @@ class FrameWriter:
                 for alarm in self.fail_open.due(time.perf_counter(), self._waiting_wards):
                     await self._effects.publish_alarm(alarm)
                 self._poke_for_actions()
+                await self._trailing_pushes()
             except Exception:  # never let the watch die
                 log.exception("storage watch failed")
+
+    async def _trailing_pushes(self) -> None:
+        """Alarms whose latest folds were held back (at most one push a second): pushed once
+        their second is up, so every board ends on the alarm's last decision."""
+        if not self._held_back:
+            return
+        now = time.monotonic()
+        due = [alarm_id for alarm_id, at in self._held_back.items() if at <= now]
+        if not due:
+            return
+        for alarm_id in due:
+            del self._held_back[alarm_id]
+        unit = await asyncio.to_thread(self._publish_alarms, due)
+        await unit.run_after_commit(self._effects)
+
+    def _publish_alarms(self, alarm_ids: list[int]) -> UnitOfWork:
+        with unit_of_work(self._session_factory) as unit:
+            for alarm in alarm_queries.by_ids(unit.session, alarm_ids):
+                alarm_service.publish(unit.session, alarm)
+        return unit
 
     def _waiting_wards(self) -> dict[str, str | None]:
         """Robot id -> ward of every robot whose messages wait on storage (asked only while a
@@ -265,7 +290,9 @@ class FrameWriter:
         self._inflight = jobs
         self.fail_open.on_write_start(started)
         try:
-            outcome = await asyncio.to_thread(self._commit, jobs)
+            # A provisional card on the board is replaced only by a push of its stored alarm:
+            # while there is one, every fold is pushed.
+            outcome = await asyncio.to_thread(self._commit, jobs, self.fail_open.any_pushed())
         finally:
             self._inflight = []
             blocked = time.perf_counter() - started
@@ -276,6 +303,10 @@ class FrameWriter:
         # the robots.
         for unit in outcome.units:
             await unit.run_after_commit(self._effects)
+        for alarm_id in outcome.pushed:
+            self._held_back.pop(alarm_id, None)
+        for alarm_id, due in outcome.held_back.items():
+            self._held_back.setdefault(alarm_id, due)
         self._metrics.frames_ingested.inc(outcome.stored)
         acked: dict[int, Acknowledged] = {}
         now = time.perf_counter()
@@ -314,15 +345,17 @@ class FrameWriter:
             self._cache, self._cache_born = IngestContext(), now
         return self._cache
 
-    def _commit(self, jobs: list[Job]) -> Outcome:
+    def _commit(self, jobs: list[Job], push_every_fold: bool = False) -> Outcome:
         try:
             context = self._cached_context()
+            context.push_every_fold = push_every_fold
             settled: list[str] = []
             with unit_of_work(self._session_factory) as unit:
                 outcome = self._apply(unit.session, jobs, context)
                 if self.stall_actions is not None:
                     settled = self.stall_actions.apply(unit.session)
             outcome.units.append(unit)
+            outcome.pushed, outcome.held_back = context.pushed, context.held_back
             self._cache = context.detach()
             if self.stall_actions is not None:
                 self.stall_actions.done(settled)

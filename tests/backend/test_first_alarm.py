@@ -117,3 +117,33 @@ def test_frames_sent_twice_are_stored_once(client, robot, session_factory):
         assert json.loads(ws.receive_text())["last_seq"] == 8
     with session_factory() as session:
         assert session.scalar(select(func.count()).select_from(Frame)) == 2
+
+
+def test_a_continuing_emergency_reaches_the_board_coalesced_and_ends_on_its_last_decision(
+    client, make_account, robot
+):
+    """Each frame of a patient on the floor folds into the one alarm; the boards get that at
+    most about once a second (not once per frame), and always the last decision."""
+    nurse = make_account(Role.NURSE, ward="ward-a", username="alice")
+    with (
+        client.websocket_connect("/ws/browser", headers=nurse.headers) as browser,
+        client.websocket_connect("/ws/robot") as ws,
+    ):
+        assert browser.receive_json()["type"] == "snapshot"
+        ws.send_text(Hello(robot_id=robot, token=ROBOT_TOKEN).model_dump_json())
+        ws.receive_text()
+        ws.send_text(TransportStart(transport_id="t-1", mode="walking", ts=0.0).model_dump_json())
+        ws.send_text(FrameBatch(frames=[frame(0, "emergency")]).model_dump_json())
+        assert json.loads(ws.receive_text()) == {"type": "ack", "seq": 0}
+        raised = browser.receive_json()["alarm"]
+        assert raised["last_seq"] == 0
+        for seq in range(1, 21):  # one message per frame, as a robot at 10 Hz sends them
+            ws.send_text(FrameBatch(frames=[frame(seq, "emergency")]).model_dump_json())
+            assert json.loads(ws.receive_text()) == {"type": "ack", "seq": seq}
+        pushes = []
+        while not pushes or pushes[-1]["last_seq"] != 20:
+            pushed = browser.receive_json()["alarm"]
+            if pushed["id"] == raised["id"]:
+                pushes.append(pushed)
+    assert len(pushes) < 10  # twenty folds, coalesced
+    assert (pushes[-1]["decision_count"], pushes[-1]["state"]) == (21, "open")
