@@ -59,6 +59,9 @@ class PostgresLock:
         self._engine = create_engine(
             database_url,
             poolclass=NullPool,
+            # No transaction to end: a session lock outlives statements, and the lock
+            # connection never holds a snapshot open.
+            isolation_level="AUTOCOMMIT",
             connect_args={
                 "connect_timeout": 5,
                 "keepalives": 1,
@@ -77,7 +80,6 @@ class PostgresLock:
             connection.execute(text("SET tcp_keepalives_interval = 2"))
             connection.execute(text("SET tcp_keepalives_count = 3"))
             got = connection.scalar(text("SELECT pg_try_advisory_lock(:key)"), {"key": self.key})
-            connection.commit()  # a session lock outlives the transaction
         except Exception:
             connection.close()
             raise
@@ -92,7 +94,6 @@ class PostgresLock:
             return False
         try:
             self._connection.scalar(text("SELECT 1"))
-            self._connection.commit()
             return True
         except Exception as error:
             log.error("duties lock connection lost: %s", error)
@@ -104,7 +105,6 @@ class PostgresLock:
             return
         with contextlib.suppress(Exception):
             self._connection.scalar(text("SELECT pg_advisory_unlock(:key)"), {"key": self.key})
-            self._connection.commit()
         self._drop()
 
     def _drop(self) -> None:
