@@ -186,12 +186,15 @@ def rollback_deployment(
     user: CurrentUser,
     session: SessionDep,
 ) -> DeploymentOut:
-    """One click: every robot of the deployment gets back the model it had before."""
-    username = user.username
+    """Every robot of the deployment gets back the model it had before; a live deployment row
+    of each restored model says what they run now."""
+    username, user_id = user.username, user.id
 
     def change(session):
         deployment = _deployment(session, deployment_id)
-        robots = rollout.rollback(session, deployment, f"{body.reason} ({username})")
+        robots = rollout.rollback(
+            session, deployment, f"{body.reason} ({username})", user=session.get(User, user_id)
+        )
         return queries.deployment_out(session, deployment), robots
 
     return _change(session, change)

@@ -57,6 +57,11 @@ class ImportMode(StrEnum):
     REPLACE = "replace"  # as merge, after withdrawing its imported labels still under review
 
 
+#: The `code` of the 409 answer to a new-video import whose name is taken (with `video` and the
+#: `modes` that would import into it instead).
+VIDEO_EXISTS = "video_exists"
+
+
 @dataclass(frozen=True, slots=True)
 class Placed:
     """What an import did to one video's labels."""
@@ -115,7 +120,11 @@ def _target(session: Session, video: Video, mode: ImportMode, frame_count: int) 
             raise Conflict(
                 f"video: {video.name!r} exists; import with mode=merge to add the labels it "
                 "lacks, mode=replace to replace its imported labels under review, or pass another "
-                "name"
+                "name",
+                # For a client to offer the choice in its own words (the annotator's import).
+                code=VIDEO_EXISTS,
+                video=video.name,
+                modes=[ImportMode.MERGE.value, ImportMode.REPLACE.value],
             )
         return None
     if existing is None:

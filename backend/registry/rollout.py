@@ -268,11 +268,15 @@ def advance(session: Session, deployment: Deployment) -> list[str]:
     return changed
 
 
-def rollback(session: Session, deployment: Deployment, reason: str) -> list[str]:
+def rollback(
+    session: Session, deployment: Deployment, reason: str, user: User | None = None
+) -> list[str]:
     """Give every robot of the deployment back what it had before (if it still runs this one).
 
     A robot that had no model before gets its mode's keypoints-only fallback instead: left
     unassigned it would go on running the rolled-back model, which is what a rollback must end.
+    What the robots run afterwards has a live deployment row: one per restored model, unless a
+    live deployment of that model holds them already (`_record_restored`).
     """
     _guard_last_fallback(session, deployment)
     ROLLOUT.move(deployment, DeploymentStatus.ROLLED_BACK)
@@ -282,10 +286,11 @@ def rollback(session: Session, deployment: Deployment, reason: str) -> list[str]
     model = session.get(ModelVersion, deployment.model_version_id)
     replacement = capability.fallback_model(session, model.mode, exclude=model.id)
     restored_to: dict[str, int | None] = {}
+    shadow_restored: dict[str, int | None] = {}
     changed = []
     for robot in session.scalars(select(Robot).where(Robot.id.in_(list(previous)))):
         if deployment.shadow and robot.shadow_model_id == deployment.model_version_id:
-            robot.shadow_model_id = previous[robot.id]
+            robot.shadow_model_id = shadow_restored[robot.id] = previous[robot.id]
             changed.append(robot.id)
         elif not deployment.shadow and robot.assigned_model_id == deployment.model_version_id:
             restored_id = previous[robot.id]
@@ -303,7 +308,78 @@ def rollback(session: Session, deployment: Deployment, reason: str) -> list[str]
     ).first()
     if not deployment.shadow and still_used is None and MODEL.state_of(model) != _R:
         MODEL.move(model, ModelStatus.RETIRED)
+    _record_restored(session, deployment, shadow_restored or restored_to, reason, user)
     return changed
+
+
+def _record_restored(
+    session: Session,
+    deployment: Deployment,
+    restored_to: dict[str, int | None],
+    reason: str,
+    user: User | None,
+) -> None:
+    """A live deployment row for what the rolled-back robots run now, one per restored model:
+    without it the fleet's deployments would all be rolled back or superseded while the robots
+    run a model. Robots back on no model, or held by a live deployment of their restored model
+    already (e.g. the ward rollout a canary interrupted), need none. The row is created through
+    the rollout machine (pending, then active: nothing is left to approve) and names the
+    rolled-back deployment; rolling it back in turn gives the robots the rolled-back model."""
+    by_model: dict[int, list[str]] = {}
+    for robot_id, model_id in sorted(restored_to.items()):
+        if model_id is not None:
+            by_model.setdefault(model_id, []).append(robot_id)
+    if not by_model:
+        return
+    live = session.scalars(
+        select(Deployment).where(
+            Deployment.id != deployment.id,
+            Deployment.shadow == deployment.shadow,
+            Deployment.status.in_(LIVE),
+        )
+    )
+    held = {
+        (other.model_version_id, robot_id)
+        for other in live
+        for robot_id in (other.rollout or {}).get("assigned", [])
+    }
+    everyone = set((deployment.rollout or {}).get("assigned", []))
+    rows = []
+    for model_id, robots in by_model.items():
+        robots = [r for r in robots if (model_id, r) not in held]
+        if not robots:
+            continue
+        if set(robots) == everyone:
+            scope, target = DeploymentScope(deployment.scope), deployment.target
+        elif len(robots) == 1:
+            scope, target = DeploymentScope.ROBOT, robots[0]
+        else:
+            scope, target = DeploymentScope(deployment.scope), deployment.target
+        row = Deployment(
+            model_version_id=model_id,
+            previous_model_version_id=deployment.model_version_id,
+            scope=scope,
+            target=target,
+            shadow=deployment.shadow,
+            gate_report={},
+            approved_by_id=user.id if user else None,
+            created_by_id=user.id if user else None,
+            comment=f"restored by the rollback of deployment {deployment.id}: {reason}",
+            rollout={
+                "robots": robots,
+                "canary": None,
+                "previous": dict.fromkeys(robots, deployment.model_version_id),
+                "assigned": robots,
+                "restored_from": deployment.id,
+            },
+        )
+        ROLLOUT.start(row)
+        ROLLOUT.move(row, DeploymentStatus.ACTIVE)
+        session.add(row)
+        rows.append(row)
+    if rows:
+        session.flush()
+        deployment.rollout = {**deployment.rollout, "restored_by": [r.id for r in rows]}
 
 
 def _guard_last_fallback(session: Session, deployment: Deployment) -> None:

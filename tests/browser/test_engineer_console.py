@@ -124,6 +124,9 @@ def test_engineer_registry_gate_promote_what_if_and_rollback(system, page):
     expect(fleet.get_by_role("row", name="robot-a")).to_contain_text("keypoints, depth, floor")
     page.screenshot(path=SCREENSHOTS / "engineer-fleet.png", full_page=True)
     page.get_by_role("table", name="Deployments").get_by_role("button", name="Roll back").click()
+    confirm_rollback = page.get_by_role("dialog", name="Confirm rollback")
+    confirm_rollback.get_by_label("Reason").fill("checking the rollback")
+    confirm_rollback.get_by_role("button", name="Confirm rollback").click()
     expect(page.get_by_role("table", name="Deployments")).to_contain_text("rolled_back")
     with factory() as session:
         assert session.get(Robot, "robot-a").assigned_model_id is None

@@ -19,7 +19,7 @@ def install(app: FastAPI) -> None:
 
     @app.exception_handler(LabellingError)
     def labelling_error(request: Request, error: LabellingError) -> JSONResponse:
-        return JSONResponse({"detail": str(error)}, status_code=error.status_code)
+        return JSONResponse({**error.extra, "detail": str(error)}, status_code=error.status_code)
 
     for router in ROUTERS:
         app.include_router(router)

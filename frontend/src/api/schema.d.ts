@@ -763,7 +763,8 @@ export interface paths {
         put?: never;
         /**
          * Rollback Deployment
-         * @description One click: every robot of the deployment gets back the model it had before.
+         * @description Every robot of the deployment gets back the model it had before; a live deployment row
+         *     of each restored model says what they run now.
          */
         post: operations["rollback_deployment_api_deployments__deployment_id__rollback_post"];
         delete?: never;

@@ -57,6 +57,12 @@ def test_json_round_trip_reproduces_frames_and_segments(client, urfd_videos, ann
     duplicate = _import(client, annotator, "json", json.dumps(first), name="fall-01-copy")
     assert duplicate.status_code == 409
     assert "mode=merge" in duplicate.json()["detail"]
+    # Beside the message, what a client needs to offer the choice in its own words (issue 35).
+    assert {k: v for k, v in duplicate.json().items() if k != "detail"} == {
+        "code": "video_exists",
+        "video": "fall-01-copy",
+        "modes": ["merge", "replace"],
+    }
 
 
 def test_csv_round_trip_onto_a_video_without_labels(client, urfd_videos, annotator):

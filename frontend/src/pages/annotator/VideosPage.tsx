@@ -1,4 +1,4 @@
-import { useCallback, useEffect, useState } from "react";
+import { useCallback, useEffect, useRef, useState } from "react";
 import { Link } from "react-router-dom";
 import { api, errorMessage } from "../../api/client";
 import { currentToken } from "../../api/session";
@@ -10,6 +10,7 @@ import type { LabellingVideo } from "./types";
 type Split = LabellingVideo["split"];
 type Mode = LabellingVideo["mode"];
 const PAGE_SIZE = 50;
+type ImportRequest = { file: File; format: string; mode: string };
 
 /** The annotators' video list: progress, status, filters; admins change the split here. */
 export function VideosPage() {
@@ -22,6 +23,9 @@ export function VideosPage() {
   const [unreviewed, setUnreviewed] = useState(false);
   const [error, setError] = useState<string | null>(null);
   const [imported, setImported] = useState<string | null>(null);
+  // An import refused because its video exists already: the file, to retry with merge or replace.
+  const [taken, setTaken] = useState<(ImportRequest & { video: string }) | null>(null);
+  const importForm = useRef<HTMLFormElement>(null);
   const [query, setQuery] = useState("");
   const [page, setPage] = useState(0);
   const view = listView(videos ?? [], (v) => `${v.name} ${v.person ?? ""} ${v.location ?? ""} ${v.status}`,
@@ -53,9 +57,16 @@ export function VideosPage() {
     const mode = String(data.get("mode") ?? "");
     const file = data.get("file");
     if (!(file instanceof File) || !file.size) return setError("Choose a file to import");
+    await sendImport({ file, format, mode });
+  };
+
+  /** Posts the file; a new-video import whose video exists already is kept to be retried with
+   * the annotator's choice (merge or replace) rather than refused in the API's words. */
+  const sendImport = async (request: ImportRequest) => {
+    setTaken(null);
     const body = new FormData();
-    body.append("file", file);
-    const query = new URLSearchParams({ format, ...(mode ? { mode } : {}) });
+    body.append("file", request.file);
+    const query = new URLSearchParams({ format: request.format, ...(request.mode ? { mode: request.mode } : {}) });
     const response = await fetch(`/api/labelling/import?${query}`, {
       method: "POST",
       body,
@@ -69,8 +80,12 @@ export function VideosPage() {
           (result.already_there ? `, ${result.already_there} already there (not added again)` : "") +
           (result.replaced ? `, ${result.replaced} imported segment(s) under review replaced` : ""),
       );
-      form.reset();
+      importForm.current?.reset();
       await load();
+    } else if (response.status === 409 && result?.code === "video_exists") {
+      setError(null);
+      setImported(null);
+      setTaken({ ...request, video: String(result.video ?? "") });
     } else setError(errorMessage(result, "Import failed"));
   };
 
@@ -119,7 +134,7 @@ export function VideosPage() {
         </label>
       </div>
       {user?.role !== "engineer" && (
-        <form className="filters" aria-label="Import"
+        <form className="filters" aria-label="Import" ref={importForm}
           onSubmit={(e) => { e.preventDefault(); void importFile(e.currentTarget); }}>
           <label>Import a Vigil export
             <input type="file" name="file" accept=".json,.csv" />
@@ -141,6 +156,18 @@ export function VideosPage() {
           <button type="submit">Import</button>
           {imported && <span role="status">{imported}</span>}
         </form>
+      )}
+      {taken && (
+        <div className="card confirm" role="dialog" aria-label="Video already labelled">
+          <p>This video already has labels. Merge the imported labels with them, or replace them?</p>
+          <p className="muted">
+            {taken.video}: merge adds the labels it lacks; replace first withdraws its imported labels
+            still under review.
+          </p>
+          <button type="button" className="primary" onClick={() => void sendImport({ ...taken, mode: "merge" })}>Merge</button>
+          <button type="button" onClick={() => void sendImport({ ...taken, mode: "replace" })}>Replace</button>
+          <button type="button" onClick={() => setTaken(null)}>Cancel</button>
+        </div>
       )}
       {error && <p role="alert" className="error">{error}</p>}
       <div className="filters">

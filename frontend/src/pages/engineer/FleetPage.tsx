@@ -1,6 +1,7 @@
 import { useEffect, useState } from "react";
 import { api, errorMessage } from "../../api/client";
 import { clockTime } from "../../lib/time";
+import { ConfirmDialog } from "./ConfirmDialog";
 import type { Deployment, FleetRobot } from "./types";
 
 /** "keypoints, depth, floor" (or "keypoints (not reported)" for an agent that did not say). */
@@ -12,6 +13,9 @@ export function FleetPage() {
   const [robots, setRobots] = useState<FleetRobot[] | null>(null);
   const [deployments, setDeployments] = useState<Deployment[]>([]);
   const [error, setError] = useState<string | null>(null);
+  // The deployment the engineer is about to roll back, and the reason they give (required).
+  const [rollingBack, setRollingBack] = useState<Deployment | null>(null);
+  const [reason, setReason] = useState("");
   const load = () => {
     void api.GET("/api/fleet").then(({ data, error }) => {
       if (data) setRobots(data); else setError(errorMessage(error, "Could not load the fleet"));
@@ -24,11 +28,13 @@ export function FleetPage() {
     return () => clearInterval(timer);
   }, []);
 
+  const askRollback = (deployment: Deployment) => { setRollingBack(deployment); setReason(""); };
   async function act(id: number, action: "rollback" | "advance" | "approve") {
     setError(null);
     const path = { params: { path: { deployment_id: id } } };
+    if (action === "rollback") setRollingBack(null);
     const response =
-      action === "rollback" ? await api.POST("/api/deployments/{deployment_id}/rollback", { ...path, body: { reason: "rolled back from the fleet view" } })
+      action === "rollback" ? await api.POST("/api/deployments/{deployment_id}/rollback", { ...path, body: { reason: reason.trim() } })
       : action === "advance" ? await api.POST("/api/deployments/{deployment_id}/advance", path)
       : await api.POST("/api/deployments/{deployment_id}/approve", path);
     if (response.error) setError(errorMessage(response.error, `Could not ${action}`));
@@ -79,12 +85,26 @@ export function FleetPage() {
               <td>
                 {d.status === "pending_approval" && <button type="button" onClick={() => act(d.id, "approve")}>Approve</button>}
                 {d.status === "canary" && <button type="button" onClick={() => act(d.id, "advance")}>Roll out to all</button>}
-                {live && <button type="button" onClick={() => act(d.id, "rollback")}>Roll back</button>}
+                {live && <button type="button" onClick={() => askRollback(d)}>Roll back</button>}
               </td>
             </tr>
           );
         })}</tbody>
       </table>
+      {rollingBack && (
+        <ConfirmDialog label="Confirm rollback" confirm="Confirm rollback" disabled={reason.trim() === ""}
+          onConfirm={() => void act(rollingBack.id, "rollback")} onBack={() => setRollingBack(null)}>
+          <p>
+            Roll back deployment {rollingBack.id}, <strong>{rollingBack.model_version}</strong>
+            {rollingBack.shadow ? " (shadow)" : ""} on {((rollingBack.rollout?.assigned as string[] | undefined) ?? []).join(", ") || "no robot yet"}?
+            Each of these robots gets back the model it had before.
+          </p>
+          <label>Reason (kept with the deployment)
+            <textarea name="reason" required rows={2} maxLength={2000} value={reason}
+              onChange={(e) => setReason(e.target.value)} />
+          </label>
+        </ConfirmDialog>
+      )}
     </>
   );
 }

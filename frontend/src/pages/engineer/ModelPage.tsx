@@ -2,6 +2,7 @@ import { Fragment, useEffect, useState, type FormEvent } from "react";
 import { Link, useParams } from "react-router-dom";
 import { api, errorMessage } from "../../api/client";
 import { metricName, statusText } from "../../lib/registry";
+import { ConfirmDialog } from "./ConfirmDialog";
 import { JobProgress } from "./JobProgress";
 import { inputsText } from "./FleetPage";
 import { fmt, type Deployment, type FleetRobot, type GateReport, type GoldEvent, type JobKind, type ModelDetail } from "./types";
@@ -150,7 +151,7 @@ export function scopeText(scope: "robot" | "ward" | "fleet", target: string, rob
 function Promote({ modelId, version, needs, gate, onDone }: { modelId: number; version: string; needs: string[]; gate: GateReport | null; onDone: () => void }) {
   // The narrowest scope by default, and nothing happens before the engineer confirms it.
   const [scope, setScope] = useState<"robot" | "ward" | "fleet">("robot");
-  const [confirming, setConfirming] = useState(false);
+  const [confirming, setConfirming] = useState<"promotion" | "shadow" | null>(null);
   const [target, setTarget] = useState("");
   const [canary, setCanary] = useState("");
   const [comment, setComment] = useState("");
@@ -167,10 +168,10 @@ function Promote({ modelId, version, needs, gate, onDone }: { modelId: number; v
   const reached = onlyCapable && scope !== "robot" ? shown.filter((r) => r.qualifies !== false) : shown;
   const wards = [...new Set((robots ?? []).map((r) => r.ward))].sort();
   const chosen = scope === "fleet" || target !== "";
-  const changeScope = (next: typeof scope) => { setScope(next); setTarget(""); setCanary(""); setConfirming(false); };
+  const changeScope = (next: typeof scope) => { setScope(next); setTarget(""); setCanary(""); setConfirming(null); };
   async function send(shadow: boolean) {
     setError(null);
-    setConfirming(false);
+    setConfirming(null);
     const body = { scope, target: target || null, comment: comment || null, only_capable: onlyCapable };
     const response = shadow
       ? await api.POST("/api/models/{model_id}/shadow", { params: { path: { model_id: modelId } }, body })
@@ -193,7 +194,7 @@ function Promote({ modelId, version, needs, gate, onDone }: { modelId: number; v
           {(gate.warnings ?? []).map((w) => <p key={w} className="warning">⚠ {w}</p>)}
         </div>
       )}
-      <form className="filters" onSubmit={(e) => { e.preventDefault(); setConfirming(true); }} aria-label="Promote">
+      <form className="filters" onSubmit={(e) => { e.preventDefault(); setConfirming("promotion"); }} aria-label="Promote">
         <label>Scope
           <select name="scope" value={scope} onChange={(e) => changeScope(e.target.value as typeof scope)}>
             <option value="robot">one robot</option><option value="ward">a ward</option><option value="fleet">the fleet</option>
@@ -201,7 +202,7 @@ function Promote({ modelId, version, needs, gate, onDone }: { modelId: number; v
         </label>
         {scope === "robot" && (
           <label>Robot
-            <select name="target" aria-label="Robot" value={target} onChange={(e) => { setTarget(e.target.value); setConfirming(false); }}>
+            <select name="target" aria-label="Robot" value={target} onChange={(e) => { setTarget(e.target.value); setConfirming(null); }}>
               <option value="">choose…</option>
               {(robots ?? []).map((r) => <option key={r.id} value={r.id}>{r.id} ({r.ward})</option>)}
             </select>
@@ -209,7 +210,7 @@ function Promote({ modelId, version, needs, gate, onDone }: { modelId: number; v
         )}
         {scope === "ward" && (
           <label>Ward
-            <select name="target" aria-label="Ward" value={target} onChange={(e) => { setTarget(e.target.value); setConfirming(false); }}>
+            <select name="target" aria-label="Ward" value={target} onChange={(e) => { setTarget(e.target.value); setConfirming(null); }}>
               <option value="">choose…</option>
               {wards.map((w) => <option key={w} value={w}>{w}</option>)}
             </select>
@@ -231,18 +232,27 @@ function Promote({ modelId, version, needs, gate, onDone }: { modelId: number; v
           </label>
         )}
         <button className="primary" type="submit" disabled={!gate?.passed || !chosen}>Sign off and promote</button>
-        <button type="button" disabled={!chosen} onClick={() => void send(true)}>Run in shadow mode</button>
+        <button type="button" disabled={!chosen} onClick={() => setConfirming("shadow")}>Run in shadow mode</button>
       </form>
-      {confirming && (
-        <div className="card confirm" role="dialog" aria-label="Confirm promotion">
+      {confirming === "promotion" && (
+        <ConfirmDialog label="Confirm promotion" confirm="Confirm promotion"
+          onConfirm={() => void send(false)} onBack={() => setConfirming(null)}>
           <p>
             Promote <strong>{version}</strong> to {scopeText(scope, target, reached)}
             {scope !== "robot" ? `, starting with canary ${canary || reached[0]?.id || "–"}` : ""}? These
             robots then detect falls with this model.
           </p>
-          <button type="button" className="primary" onClick={() => void send(false)}>Confirm promotion</button>
-          <button type="button" onClick={() => setConfirming(false)}>Back</button>
-        </div>
+        </ConfirmDialog>
+      )}
+      {confirming === "shadow" && (
+        <ConfirmDialog label="Confirm shadow run" confirm="Start the shadow run"
+          onConfirm={() => void send(true)} onBack={() => setConfirming(null)}>
+          <p>
+            Run <strong>{version}</strong> in shadow mode on {scopeText(scope, target, reached)}? These
+            robots run it beside the model they detect falls with; it raises no alarm, and where the
+            two disagree the frames are queued for review.
+          </p>
+        </ConfirmDialog>
       )}
       <h3>Robots in the scope</h3>
       <p className="muted">
