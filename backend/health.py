@@ -22,8 +22,9 @@ class Readiness:
 
     @property
     def reason(self) -> str:
-        return "; ".join(f"{name}: {result}" for name, result in self.checks.items()
-                         if result != "ok")  # fmt: skip
+        return "; ".join(
+            f"{name}: {result}" for name, result in self.checks.items() if result != "ok"
+        )
 
 
 def _ping_database(engine: Engine) -> None:

@@ -95,10 +95,15 @@ class SecurityMiddleware:
 
 async def _refuse(send: Send, reason: str) -> None:
     body = json.dumps({"detail": reason}).encode()
-    await send({
-        "type": "http.response.start",
-        "status": 403,
-        "headers": [(b"content-type", b"application/json"),
-                    (b"content-length", str(len(body)).encode()), *SECURITY_HEADERS],
-    })  # fmt: skip
+    await send(
+        {
+            "type": "http.response.start",
+            "status": 403,
+            "headers": [
+                (b"content-type", b"application/json"),
+                (b"content-length", str(len(body)).encode()),
+                *SECURITY_HEADERS,
+            ],
+        }
+    )
     await send({"type": "http.response.body", "body": body})

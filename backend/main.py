@@ -151,8 +151,9 @@ async def start_services(settings: Settings) -> Services:
     log.info("database %s", engine.url.render_as_string(hide_password=True))
     database = await health.check_database(engine, settings.health_timeout_s)
     if database != "ok":  # serve anyway (liveness), but say so: readiness answers 503
-        log.error("database %s: not ready (%s)",
-                  engine.url.render_as_string(hide_password=True), database)  # fmt: skip
+        log.error(
+            "database %s: not ready (%s)", engine.url.render_as_string(hide_password=True), database
+        )
     metrics = Metrics()
     hub = BrowserHub()
     bus = AlarmBus(hub, settings.redis_url, settings.redis_channel)

@@ -35,16 +35,25 @@ class Metrics:
         )
         # Frame storage (the admin's storage page; cached, see backend.storage.service).
         gauge = lambda name, text, labels=(): Gauge(name, text, labels, registry=self.registry)  # noqa: E731
-        self.storage_frames = gauge("vigil_storage_frames", "Stored frames by robot "
-                                    "(robot='' for imported recordings)", ["robot"])  # fmt: skip
-        self.storage_bytes = gauge("vigil_storage_bytes", "Stored frame bytes by robot "
-                                   "(blobs plus a per-row estimate)", ["robot"])  # fmt: skip
-        self.storage_day_frames = gauge("vigil_storage_day_frames",
-                                        "Stored robot frames by UTC day", ["day"])  # fmt: skip
-        self.storage_day_bytes = gauge("vigil_storage_day_bytes",
-                                       "Stored robot frame bytes by UTC day", ["day"])  # fmt: skip
-        self.storage_database_bytes = gauge("vigil_storage_database_bytes",
-                                            "Size of the database on disk")  # fmt: skip
+        self.storage_frames = gauge(
+            "vigil_storage_frames",
+            "Stored frames by robot (robot='' for imported recordings)",
+            ["robot"],
+        )
+        self.storage_bytes = gauge(
+            "vigil_storage_bytes",
+            "Stored frame bytes by robot (blobs plus a per-row estimate)",
+            ["robot"],
+        )
+        self.storage_day_frames = gauge(
+            "vigil_storage_day_frames", "Stored robot frames by UTC day", ["day"]
+        )
+        self.storage_day_bytes = gauge(
+            "vigil_storage_day_bytes", "Stored robot frame bytes by UTC day", ["day"]
+        )
+        self.storage_database_bytes = gauge(
+            "vigil_storage_database_bytes", "Size of the database on disk"
+        )
         self.retention_older_frames = gauge(
             "vigil_retention_next_older_frames",
             "Robot frames older than the next retention run's cutoff (at most this many go)",
@@ -60,8 +69,12 @@ class Metrics:
 
     def set_storage(self, summary) -> None:
         """Fill the storage gauges from a backend.storage.schemas.StorageSummary."""
-        for gauge in (self.storage_frames, self.storage_bytes, self.storage_day_frames,
-                      self.storage_day_bytes):  # fmt: skip
+        for gauge in (
+            self.storage_frames,
+            self.storage_bytes,
+            self.storage_day_frames,
+            self.storage_day_bytes,
+        ):
             gauge.clear()
         for robot in summary.robots:
             self.storage_frames.labels(robot.robot_id or "").set(robot.frames)
@@ -84,5 +97,9 @@ def summary_ms(values: list[float], count_key: str = "n") -> dict:
         return {count_key: 0}
     ordered = sorted(values)
     pick = lambda q: round(ordered[min(len(ordered) - 1, int(q * len(ordered)))], 1)  # noqa: E731
-    return {count_key: len(ordered), "p50_ms": pick(0.5), "p99_ms": pick(0.99),
-            "max_ms": round(ordered[-1], 1)}  # fmt: skip
+    return {
+        count_key: len(ordered),
+        "p50_ms": pick(0.5),
+        "p99_ms": pick(0.99),
+        "max_ms": round(ordered[-1], 1),
+    }

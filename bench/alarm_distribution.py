@@ -130,9 +130,13 @@ class Fleet:
                         while not self.stop.is_set():
                             transport_number += 1
                             transport_id = f"{robot_id}-t{transport_number}"
-                            start = TransportStart(transport_id=transport_id, mode="walking",
-                                                   patient=f"P-{index}", location="corridor",
-                                                   ts=time.time())  # fmt: skip
+                            start = TransportStart(
+                                transport_id=transport_id,
+                                mode="walking",
+                                patient=f"P-{index}",
+                                location="corridor",
+                                ts=time.time(),
+                            )
                             await ws.send(start.model_dump_json())
                             seq = await self._stream(ws, robot_id, transport_id, seq)
                     finally:
@@ -173,8 +177,14 @@ def _prepare(database_url: str, robots: int) -> None:
     engine = make_engine(database_url)
     with transaction(make_session_factory(engine)) as session:
         for i in range(robots):
-            session.add(Robot(id=f"bench-{i}", name=f"generated {i}", ward=WARD,
-                              token_hash=hash_robot_token(f"token-{i}")))  # fmt: skip
+            session.add(
+                Robot(
+                    id=f"bench-{i}",
+                    name=f"generated {i}",
+                    ward=WARD,
+                    token_hash=hash_robot_token(f"token-{i}"),
+                )
+            )
     engine.dispose()
 
 

@@ -93,8 +93,9 @@ def run(falls: int) -> dict:
                     ack.append((time.perf_counter() - clicked) * 1000)
                     response = httpx.post(
                         f"{server.base_url}/api/alarms/{alarm_id}/resolve",
-                        json={"verdict": "unsure"}, headers=headers,
-                    )  # fmt: skip
+                        json={"verdict": "unsure"},
+                        headers=headers,
+                    )
                     response.raise_for_status()
                     page.locator(f"article.alarm[data-alarm-id='{alarm_id}']").wait_for(
                         state="detached"

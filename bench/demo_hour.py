@@ -113,11 +113,11 @@ def alarms_against_falls(alarms: list[dict], generated: dict) -> dict:
                 ", ".join(generated["events_by_transport"].get(a["transport_id"]) or ["unknown"])
                 for a in false
             )
-        ),  # fmt: skip
+        ),
         "falls_without_alarm": len(falls - alarmed),
         "falls_without_alarm_events": dict(
             Counter(", ".join(generated["events_by_transport"][t]) for t in falls - alarmed)
-        ),  # fmt: skip
+        ),
     }
 
 
@@ -193,8 +193,12 @@ def recount(results: Path) -> None:
     running_at = read_at - timedelta(minutes=data["measured_minutes"])
     for sample in data["samples"]:
         at = running_at + timedelta(minutes=sample["minutes"])
-        then = [a for a in alarms if _time(a["raised_at"]) <= at
-                and (a["resolved_at"] is None or _time(a["resolved_at"]) > at)]  # fmt: skip
+        then = [
+            a
+            for a in alarms
+            if _time(a["raised_at"]) <= at
+            and (a["resolved_at"] is None or _time(a["resolved_at"]) > at)
+        ]
         sample.setdefault("through_api", {k: sample[k] for k in ("open_emergencies", "unresolved")})
         sample["unresolved"] = len(then)
         sample["open_emergencies"] = sum(a["kind"] == "emergency" for a in then)
@@ -215,8 +219,9 @@ def recount(results: Path) -> None:
         newest is not None and data["board_in_browser"]["first_card_alarm_id"] == newest["id"]
     )
     data["open_emergencies_vs_generated_falls"] = [
-        data["board"]["open_emergencies"], data["generated"]["falls_total"],
-    ]  # fmt: skip
+        data["board"]["open_emergencies"],
+        data["generated"]["falls_total"],
+    ]
     results.write_text(json.dumps(data, indent=2) + "\n")
     print(json.dumps(data["board"], indent=2))
 
@@ -240,8 +245,12 @@ def first_card(base_url: str, password: str) -> dict:
             try:
                 page.locator("main.board [data-alarm-id]").first.wait_for(timeout=30_000)
             except PlaywrightTimeout:  # an empty board (a short run, every alarm cleared)
-                return {"first_card_alarm_id": None, "first_card_text": None, "cards": 0,
-                        "console_errors": errors}  # fmt: skip
+                return {
+                    "first_card_alarm_id": None,
+                    "first_card_text": None,
+                    "cards": 0,
+                    "console_errors": errors,
+                }
             time.sleep(2)  # the snapshot is in; let the board settle
             first = page.locator("main.board [data-alarm-id]").first
             return {
@@ -260,8 +269,18 @@ def models_run(client: httpx.Client, headers: dict) -> list[dict]:
     models = {m["version"]: m for m in client.get("/api/models", headers=headers).json()}
     rows = []
     for robot in fleet:
-        row = {k: robot.get(k) for k in ("id", "connected", "target_version", "running_version",
-                                         "in_sync", "inputs", "fallback_version")}  # fmt: skip
+        row = {
+            k: robot.get(k)
+            for k in (
+                "id",
+                "connected",
+                "target_version",
+                "running_version",
+                "in_sync",
+                "inputs",
+                "fallback_version",
+            )
+        }
         for role in ("running_version", "fallback_version"):
             model = models.get(robot.get(role) or "")
             if model is None:
@@ -282,8 +301,12 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--minutes", type=float, default=60.0)
     parser.add_argument("--setup-timeout-minutes", type=float, default=60.0)
     parser.add_argument("--out", type=Path, default=OUT)
-    parser.add_argument("--recount", type=Path, metavar="RESULTS",
-                        help="recount a run's board from its database, then exit")  # fmt: skip
+    parser.add_argument(
+        "--recount",
+        type=Path,
+        metavar="RESULTS",
+        help="recount a run's board from its database, then exit",
+    )
     args = parser.parse_args(argv)
     if args.recount:
         recount(args.recount)
@@ -293,8 +316,12 @@ def main(argv: list[str] | None = None) -> int:
     port = free_port()
     base_url = f"http://127.0.0.1:{port}"
     log = var / "make_run.log"
-    env = {**os.environ, "VIGIL_VAR_DIR": str(var), "VIGIL_PORT": str(port),
-           "PYTHONUNBUFFERED": "1"}  # fmt: skip
+    env = {
+        **os.environ,
+        "VIGIL_VAR_DIR": str(var),
+        "VIGIL_PORT": str(port),
+        "PYTHONUNBUFFERED": "1",
+    }
     for name in ("VIGIL_DATABASE_URL", "VIGIL_MODEL_STORE_DIR", "VIGIL_SECRET_KEY_FILE"):
         env.pop(name, None)  # everything in the throwaway directory
     print(f"make run's system on {var}, port {port}; log {log}", flush=True)
@@ -302,9 +329,14 @@ def main(argv: list[str] | None = None) -> int:
     started_utc = datetime.now(UTC).isoformat()
     begin = time.monotonic()
     with log.open("w") as sink:
-        process = subprocess.Popen([sys.executable, "-m", "scripts.run_all"], cwd=ROOT, env=env,
-                                   stdout=sink, stderr=subprocess.STDOUT,
-                                   start_new_session=True)  # fmt: skip
+        process = subprocess.Popen(
+            [sys.executable, "-m", "scripts.run_all"],
+            cwd=ROOT,
+            env=env,
+            stdout=sink,
+            stderr=subprocess.STDOUT,
+            start_new_session=True,
+        )
     samples = []
     try:
         timeout = args.setup_timeout_minutes * 60
@@ -321,9 +353,13 @@ def main(argv: list[str] | None = None) -> int:
             time.sleep(min(600.0, end - now))
             nurse = sign_in(client, "nurse", passwords["nurse"])
             snapshot = board_snapshot(client, nurse, started_utc)
-            samples.append({"minutes": round((time.monotonic() - running) / 60, 1),
-                            "open_emergencies": snapshot["open_emergencies"],
-                            "unresolved": snapshot["unresolved"]})  # fmt: skip
+            samples.append(
+                {
+                    "minutes": round((time.monotonic() - running) / 60, 1),
+                    "open_emergencies": snapshot["open_emergencies"],
+                    "unresolved": snapshot["unresolved"],
+                }
+            )
             print(f"{samples[-1]}", flush=True)
         minutes = (time.monotonic() - running) / 60
         nurse = sign_in(client, "nurse", passwords["nurse"])
@@ -375,7 +411,7 @@ def main(argv: list[str] | None = None) -> int:
         "open_emergencies_vs_generated_falls": [
             board["open_emergencies"],
             generated["falls_total"],
-        ],  # fmt: skip
+        ],
         "alarms_against_falls": alarms_against_falls(
             [a for a in alarms if a["state"] != "resolved"], generated
         ),
@@ -391,11 +427,20 @@ def main(argv: list[str] | None = None) -> int:
     }
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text(json.dumps(result, indent=2) + "\n")
-    print(json.dumps({k: result[k] for k in ("expected_falls_at_configured_rate",
-                                             "open_emergencies_vs_generated_falls",
-                                             "newest_is_first_card",
-                                             "every_robot_runs_a_gated_model",
-                                             "floor_warnings_in_log")}))  # fmt: skip
+    print(
+        json.dumps(
+            {
+                k: result[k]
+                for k in (
+                    "expected_falls_at_configured_rate",
+                    "open_emergencies_vs_generated_falls",
+                    "newest_is_first_card",
+                    "every_robot_runs_a_gated_model",
+                    "floor_warnings_in_log",
+                )
+            }
+        )
+    )
     print(f"wrote {args.out}")
     return 0
 

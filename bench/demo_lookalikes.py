@@ -41,8 +41,14 @@ LOCOMOTIONS = ("walking", "rollator")  # make run's walking robots (robot_agent.
 SEED = 70_000  # far from the training seeds (worker.training.generated) and the fleet's
 
 
-def play(model_dir: Path, fallback_dir: Path | None, event: str, locomotion: str, seed: int,
-         workdir: Path) -> dict:  # fmt: skip
+def play(
+    model_dir: Path,
+    fallback_dir: Path | None,
+    event: str,
+    locomotion: str,
+    seed: int,
+    workdir: Path,
+) -> dict:
     from robot_agent.outbox import Outbox
     from robot_agent.pipeline import Pipeline
     from robot_agent.source_factory import generated_transports
@@ -74,8 +80,12 @@ def play(model_dir: Path, fallback_dir: Path | None, event: str, locomotion: str
         frames += 1
     pipeline.end_transport(time.time())
     pipeline.outbox.close()
-    return {"alarmed": first is not None, "first_emergency_s": first,
-            "truth_emergency_s": truth_first, "frames": frames}  # fmt: skip
+    return {
+        "alarmed": first is not None,
+        "first_emergency_s": first,
+        "truth_emergency_s": truth_first,
+        "frames": frames,
+    }
 
 
 def measure(model_dir: Path, fallback_dir: Path | None, transports: int) -> dict:
@@ -93,8 +103,9 @@ def measure(model_dir: Path, fallback_dir: Path | None, transports: int) -> dict
                         locomotion = "walking"  # the generator has it for walking only
                     if event == "sitting_down" and locomotion == "rollator":
                         locomotion = "walking"
-                    runs.append(play(model_dir, fallback_dir, event, locomotion, SEED + i,
-                                     Path(tmp)))  # fmt: skip
+                    runs.append(
+                        play(model_dir, fallback_dir, event, locomotion, SEED + i, Path(tmp))
+                    )
                 alarmed = sum(r["alarmed"] for r in runs)
                 per_event[event] = {
                     "kind": kind,
@@ -137,11 +148,13 @@ def main(argv: list[str] | None = None) -> int:
     started = time.perf_counter()
     result = measure(args.model, args.fallback, args.transports)
     data = json.loads(args.out.read_text()) if args.out.exists() else {}
-    data.update({
-        "benchmark": "demo_lookalikes",
-        "data": "GENERATED transports (vigil.synthetic) as make run's simulated fleet makes them, "
-                "through the simulated robot's frame path (robot_agent.pipeline.Pipeline)",
-    })  # fmt: skip
+    data.update(
+        {
+            "benchmark": "demo_lookalikes",
+            "data": "GENERATED transports (vigil.synthetic) as make run's simulated fleet makes "
+            "them, through the simulated robot's frame path (robot_agent.pipeline.Pipeline)",
+        }
+    )
     runs = data.setdefault("runs", {})
     runs[args.label or result["model"]] = {
         **result,

@@ -46,9 +46,16 @@ SCHEMA_KEYS = (
 # needs in every frame, and its figures through the robot's frame path.
 EXTRA_KEYS = ("recall_by_onset", "inputs", "robot_path")
 ROBOT_PATH_KEYS = (
-    "falls_detected", "falls_total", "adl_false_alarms", "adl_total", "frame_recall", "frame_f1",
-    "median_time_to_alarm_s", "tracker_dropped_frames", "recall_by_onset",
-)  # fmt: skip
+    "falls_detected",
+    "falls_total",
+    "adl_false_alarms",
+    "adl_total",
+    "frame_recall",
+    "frame_f1",
+    "median_time_to_alarm_s",
+    "tracker_dropped_frames",
+    "recall_by_onset",
+)
 
 
 def frame_latency_ms(model_dir: Path, sequences) -> dict:

@@ -54,10 +54,13 @@ WARD = "ward-bench"
 _KEYPOINTS = json.dumps([[320.0 + i, 240.0 + 2 * i, 0.87] for i in range(25)])
 _DEPTH = json.dumps([2.5] * 23 + [None, None])
 _FRAME = (
-    '{"seq":%d,"ts":%.4f,"transport_id":"%s","keypoints":' + _KEYPOINTS + ',"depth":' + _DEPTH
+    '{"seq":%d,"ts":%.4f,"transport_id":"%s","keypoints":'
+    + _KEYPOINTS
+    + ',"depth":'
+    + _DEPTH
     + ',"decision":"%s","scores":{"normal":0.2,"emergency":0.8},"model_version":"bench-1",'
     '"threshold":0.5,"delay_ms":300}'
-)  # fmt: skip
+)
 
 
 @dataclass
@@ -86,9 +89,13 @@ class RunConfig:
 
 
 async def robot_client(
-    url: str, robot_id: str, token: str, config: RunConfig, stop: asyncio.Event,
+    url: str,
+    robot_id: str,
+    token: str,
+    config: RunConfig,
+    stop: asyncio.Event,
     stats: RobotStats,
-) -> None:  # fmt: skip
+) -> None:
     async with connect(url + "/ws/robot", max_size=None, compression=None) as ws:
         await ws.send(json.dumps({"type": "hello", "robot_id": robot_id, "token": token}))
         welcome = json.loads(await ws.recv())
@@ -100,9 +107,17 @@ async def robot_client(
         stats.first_seq = 0 if last_seq is None else last_seq + 1
         transport = f"{robot_id}-t"
         await ws.send(
-            json.dumps({"type": "transport_start", "transport_id": transport, "mode": "walking",
-                        "patient": "P-gen", "location": "bench", "ts": time.time()})
-        )  # fmt: skip
+            json.dumps(
+                {
+                    "type": "transport_start",
+                    "transport_id": transport,
+                    "mode": "walking",
+                    "patient": "P-gen",
+                    "location": "bench",
+                    "ts": time.time(),
+                }
+            )
+        )
 
         async def receive() -> None:
             async for raw in ws:
@@ -176,8 +191,9 @@ async def robot_client(
         receiver.cancel()
 
 
-async def nurse_client(url: str, token: str, alarms: dict[str, list[tuple[float, int]]],
-                       ready: asyncio.Event) -> None:  # fmt: skip
+async def nurse_client(
+    url: str, token: str, alarms: dict[str, list[tuple[float, int]]], ready: asyncio.Event
+) -> None:
     async with connect(
         f"{url}/ws/browser",
         additional_headers={"Authorization": f"Bearer {token}"},
@@ -264,13 +280,30 @@ def _prepare_database(kind: str, workdir: Path, robots: int) -> tuple[str, calla
     engine = make_engine(url)
     with transaction(make_session_factory(engine)) as session:
         for i in range(robots):
-            session.add(Robot(id=f"bench-{i}", name=f"generated {i}", ward=WARD,
-                              token_hash=hash_robot_token(f"token-{i}")))  # fmt: skip
-        session.add(User(username="nurse", password_hash=hash_password("bench-password"),
-                         role=Role.NURSE, ward=WARD))  # fmt: skip
+            session.add(
+                Robot(
+                    id=f"bench-{i}",
+                    name=f"generated {i}",
+                    ward=WARD,
+                    token_hash=hash_robot_token(f"token-{i}"),
+                )
+            )
+        session.add(
+            User(
+                username="nurse",
+                password_hash=hash_password("bench-password"),
+                role=Role.NURSE,
+                ward=WARD,
+            )
+        )
         session.flush()
-        session.add(User(username="engineer", password_hash=hash_password("bench-password"),
-                         role=Role.ENGINEER))  # fmt: skip
+        session.add(
+            User(
+                username="engineer",
+                password_hash=hash_password("bench-password"),
+                role=Role.ENGINEER,
+            )
+        )
     engine.dispose()
     return url, drop
 
@@ -424,9 +457,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--saturation-robots", type=int, default=20)
     parser.add_argument("--only", choices=("saturation", "fleet"), default=None)
     parser.add_argument(
-        "--workers", default="1,2",
+        "--workers",
+        default="1,2",
         help="backend worker processes per run, comma-separated (2: alarms fan out via Redis)",
-    )  # fmt: skip
+    )
     parser.add_argument("--output", type=Path, default=RESULTS)
     args = parser.parse_args(argv)
     runs = []
@@ -434,8 +468,9 @@ def main(argv: list[str] | None = None) -> int:
         for workers in (int(w) for w in args.workers.split(",")):
             for database in args.databases.split(","):
                 if args.only in (None, "saturation"):
-                    config = RunConfig(database, args.saturation_robots, 0, 50, args.seconds,
-                                       400, 997, workers)  # fmt: skip
+                    config = RunConfig(
+                        database, args.saturation_robots, 0, 50, args.seconds, 400, 997, workers
+                    )
                     runs.append(run(config, Path(tmp)))
                 if args.only in (None, "fleet"):
                     config = RunConfig(database, 100, 10, 1, args.seconds, 50, 20, workers)

@@ -49,14 +49,19 @@ def main() -> int:
             report = import_urfd(session)
         import_s = round(time.perf_counter() - start, 2)
         with transaction(factory) as session:
-            user = User(username="bench", password_hash=hash_password("x" * 12),
-                        role=Role.ANNOTATOR)  # fmt: skip
+            user = User(
+                username="bench", password_hash=hash_password("x" * 12), role=Role.ANNOTATOR
+            )
             session.add(user)
             session.flush()
             token = create_access_token("bench-secret", user.id, 60)
         engine.dispose()
-        settings = Settings(database_url=url, secret_key="bench-secret",
-                            labelling_model_dir=None, frontend_dir=Path(tmp) / "none")  # fmt: skip
+        settings = Settings(
+            database_url=url,
+            secret_key="bench-secret",
+            labelling_model_dir=None,
+            frontend_dir=Path(tmp) / "none",
+        )
         headers = {"Authorization": f"Bearer {token}"}
         with TestClient(create_app(settings)) as client:
             videos = {v["name"]: v for v in client.get(f"{API}/videos", headers=headers).json()}

@@ -54,8 +54,14 @@ def _add_users(url: str) -> None:
     password_hash = hash_password(PASSWORD)  # one hash for all: the cost is in verifying
     with transaction(make_session_factory(engine)) as session:
         for i in range(USERS):
-            session.add(User(username=f"shift-{i}", password_hash=password_hash,
-                             role=Role.NURSE, ward="ward-bench"))  # fmt: skip
+            session.add(
+                User(
+                    username=f"shift-{i}",
+                    password_hash=password_hash,
+                    role=Role.NURSE,
+                    ward="ward-bench",
+                )
+            )
         session.add(User(username="victim", password_hash=password_hash, role=Role.NURSE))
     engine.dispose()
 
@@ -93,26 +99,42 @@ def _flood_process(base_url: str, seconds: float, start_at: float, out) -> None:
 
             await asyncio.gather(*(attacker(i) for i in range(ATTEMPTS)))
         p50, p99 = _percentiles(signed_in_ms)
-        return {"statuses": dict(statuses), "victim_statuses": dict(victim),
-                "signed_in_ms_p50": p50, "signed_in_ms_p99": p99}  # fmt: skip
+        return {
+            "statuses": dict(statuses),
+            "victim_statuses": dict(victim),
+            "signed_in_ms_p50": p50,
+            "signed_in_ms_p99": p99,
+        }
 
     out.put(asyncio.run(flood()))
 
 
 def _lock_victim(base_url: str) -> dict:
     statuses = [
-        httpx.post(f"{base_url}/api/auth/login",
-                   json={"username": "victim", "password": f"wrong-{i}"}, timeout=30).status_code
+        httpx.post(
+            f"{base_url}/api/auth/login",
+            json={"username": "victim", "password": f"wrong-{i}"},
+            timeout=30,
+        ).status_code
         for i in range(6)
-    ]  # fmt: skip
-    right = httpx.post(f"{base_url}/api/auth/login",
-                       json={"username": "victim", "password": PASSWORD}, timeout=30)  # fmt: skip
-    return {"wrong_password_answers": statuses, "right_password_then": right.status_code,
-            "retry_after": right.headers.get("retry-after")}  # fmt: skip
+    ]
+    right = httpx.post(
+        f"{base_url}/api/auth/login", json={"username": "victim", "password": PASSWORD}, timeout=30
+    )
+    return {
+        "wrong_password_answers": statuses,
+        "right_password_then": right.status_code,
+        "retry_after": right.headers.get("retry-after"),
+    }
 
 
-async def _robots(server: BackendProcess, config: RunConfig, baseline_s: float,
-                  flood_s: float, flood_starts: asyncio.Event) -> dict:  # fmt: skip
+async def _robots(
+    server: BackendProcess,
+    config: RunConfig,
+    baseline_s: float,
+    flood_s: float,
+    flood_starts: asyncio.Event,
+) -> dict:
     stop = asyncio.Event()
     stats = [RobotStats(f"bench-{i}") for i in range(config.robots)]
     clients = [
@@ -140,19 +162,22 @@ async def _robots(server: BackendProcess, config: RunConfig, baseline_s: float,
     # Frames a starved backend never acknowledged have no latency: counted apart, not hidden.
     flood_sent = sum(1 for s in stats for sent in s.sent_at.values() if f0 <= sent < f1)
     return {
-        "baseline_ack_p50_ms": base50, "baseline_ack_p99_ms": base99,
-        "flood_ack_p50_ms": flood50, "flood_ack_p99_ms": flood99,
+        "baseline_ack_p50_ms": base50,
+        "baseline_ack_p99_ms": base99,
+        "flood_ack_p50_ms": flood50,
+        "flood_ack_p99_ms": flood99,
         "flood_frames_sent": flood_sent,
         "flood_frames_acked": len(flood),
         "flood_frames_never_acked": flood_sent - len(flood),
         "flood_ack_max_ms": round(max(flood), 1) if flood else None,
         "unacked_after_drain": sum(len(s.unacked) for s in stats),
-    }  # fmt: skip
+    }
 
 
 def run(database: str, workdir: Path, seconds: float, unbounded: bool) -> dict:
-    robots = RunConfig(database, robots=20, hz=10, batch=1, seconds=seconds, window=50,
-                       emergency_every=0)  # fmt: skip
+    robots = RunConfig(
+        database, robots=20, hz=10, batch=1, seconds=seconds, window=50, emergency_every=0
+    )
     url, drop = _prepare_database(database, workdir, robots.robots)
     _add_users(url)
     env = {
@@ -166,8 +191,12 @@ def run(database: str, workdir: Path, seconds: float, unbounded: bool) -> dict:
         "VIGIL_LOGIN_LOCKOUT_BASE_S": "600",
     }
     if unbounded:
-        env.update(VIGIL_LOGIN_HASH_CONCURRENCY="64", VIGIL_LOGIN_QUEUE_MAX="1000",
-                   VIGIL_LOGIN_QUEUE_WAIT_S="30", VIGIL_LOGIN_HASH_NICE="0")  # fmt: skip
+        env.update(
+            VIGIL_LOGIN_HASH_CONCURRENCY="64",
+            VIGIL_LOGIN_QUEUE_MAX="1000",
+            VIGIL_LOGIN_QUEUE_WAIT_S="30",
+            VIGIL_LOGIN_HASH_NICE="0",
+        )
     label = "unbounded" if unbounded else "bounded"
     try:
         with BackendProcess(env, log_path=workdir / f"backend-{database}-{label}.log") as server:
@@ -181,9 +210,9 @@ def run(database: str, workdir: Path, seconds: float, unbounded: bool) -> dict:
                 )
                 await flood_starts.wait()
                 flood = multiprocessing.get_context("spawn").Process(
-                    target=_flood_process, args=(server.http, seconds - 1.0, time.time() + 0.5,
-                                                 results),
-                )  # fmt: skip
+                    target=_flood_process,
+                    args=(server.http, seconds - 1.0, time.time() + 0.5, results),
+                )
                 flood.start()
                 measured = await robots_task
                 outcome = await asyncio.to_thread(results.get, True, 120)
@@ -191,9 +220,11 @@ def run(database: str, workdir: Path, seconds: float, unbounded: bool) -> dict:
                 return {**measured, **outcome}
 
             measured = asyncio.run(drive())
-            locked_after = httpx.post(f"{server.http}/api/auth/login",
-                                      json={"username": "victim", "password": PASSWORD},
-                                      timeout=30).status_code  # fmt: skip
+            locked_after = httpx.post(
+                f"{server.http}/api/auth/login",
+                json={"username": "victim", "password": PASSWORD},
+                timeout=30,
+            ).status_code
     finally:
         drop()
     result = {
@@ -229,15 +260,22 @@ def main(argv: list[str] | None = None) -> int:
             if args.compare_unbounded:
                 runs.append(run(database, Path(tmp), args.seconds, unbounded=True))
     args.output.parent.mkdir(parents=True, exist_ok=True)
-    args.output.write_text(json.dumps({
-        "runs": runs,
-        "machine": {"cpus": os.cpu_count(), "python": platform.python_version()},
-        "note": "GENERATED robot frames (bench.ingest's fixed skeleton), loopback; the backend, "
-                "the robots' client and the flood's client share this machine's CPUs (and, on "
-                "the shared development machine, other people's work: see load_average_1min). "
+    args.output.write_text(
+        json.dumps(
+            {
+                "runs": runs,
+                "machine": {"cpus": os.cpu_count(), "python": platform.python_version()},
+                "note": "GENERATED robot frames (bench.ingest's fixed skeleton), loopback; the "
+                "backend, the robots' client and the flood's client share this machine's CPUs "
+                "(and, on the shared development machine, other people's work: see "
+                "load_average_1min). "
                 "Backend defaults: login_hash_concurrency 1, login_hash_nice 19, "
                 "login_queue_max 32, login_queue_wait_s 2.",
-    }, indent=2) + "\n")  # fmt: skip
+            },
+            indent=2,
+        )
+        + "\n"
+    )
     return 0
 
 

@@ -63,8 +63,15 @@ from tests.browser.simulated_robot import SimulatedRobot, fall_frames
 from vigil.protocol import TransportEnd
 
 WARD = "ward-a"
-GOALS = {"first_render_ms": 1000, "top_p95_ms": 250, "tone_p95_ms": 250, "heap_growth_mb": 50,
-         "console_errors": 0, "duplicates": 0, "missing": 0}  # fmt: skip
+GOALS = {
+    "first_render_ms": 1000,
+    "top_p95_ms": 250,
+    "tone_p95_ms": 250,
+    "heap_growth_mb": 50,
+    "console_errors": 0,
+    "duplicates": 0,
+    "missing": 0,
+}
 #: Chromium reports a refused request or a dropped socket on the console; during the drop these
 #: are the network's doing, not the page's (tests/browser/conftest.py uses the same rule).
 NETWORK_CONSOLE = re.compile(r"Failed to load resource|WebSocket connection to .* failed|net::ERR_")
@@ -184,30 +191,57 @@ def seed_alarms(database_url: str, count: int) -> None:
         for i in range(count):
             robot_id = robots[i % len(robots)]
             raised = now - timedelta(seconds=60 + 50 * (count - i))
-            transport = Transport(id=f"seed-{i}", robot_id=robot_id, mode="walking",
-                                  patient=f"GEN-{i:03d}", location=f"generated room {i % 40}",
-                                  started_at=raised - timedelta(seconds=20),
-                                  ended_at=raised + timedelta(seconds=20),
-                                  last_frame_at=raised + timedelta(seconds=20))  # fmt: skip
+            transport = Transport(
+                id=f"seed-{i}",
+                robot_id=robot_id,
+                mode="walking",
+                patient=f"GEN-{i:03d}",
+                location=f"generated room {i % 40}",
+                started_at=raised - timedelta(seconds=20),
+                ended_at=raised + timedelta(seconds=20),
+                last_frame_at=raised + timedelta(seconds=20),
+            )
             session.add(transport)
             session.flush()  # the alarm's foreign key needs the row
             slot = i % 10
-            kind = (AlarmKind.EMERGENCY if slot < 8 else AlarmKind.PAUSE if slot == 8
-                    else AlarmKind.STREAM_STALLED)  # fmt: skip
-            state = (AlarmState.MISSED if slot < 6 else AlarmState.ACKNOWLEDGED if slot < 8
-                     else AlarmState.OPEN)  # fmt: skip
+            kind = (
+                AlarmKind.EMERGENCY
+                if slot < 8
+                else AlarmKind.PAUSE
+                if slot == 8
+                else AlarmKind.STREAM_STALLED
+            )
+            state = (
+                AlarmState.MISSED
+                if slot < 6
+                else AlarmState.ACKNOWLEDGED
+                if slot < 8
+                else AlarmState.OPEN
+            )
             acknowledged = state == AlarmState.ACKNOWLEDGED
-            session.add(Alarm(
-                kind=kind, priority=PRIORITY_OF_KIND[kind], state=state, robot_id=robot_id,
-                transport_id=transport.id, transport_key=transport.id, ward=WARD,
-                patient=transport.patient, location=transport.location, raised_at=raised,
-                updated_at=raised + timedelta(minutes=4),
-                acknowledged_at=raised + timedelta(seconds=40) if acknowledged else None,
-                acknowledged_by_id=nurse.id if acknowledged else None,
-                escalation_level=3 if state == AlarmState.MISSED else 0,
-                escalated_at=raised + timedelta(minutes=3) if state == AlarmState.MISSED else None,
-                decision_count=1, model_version="generated-soak",
-            ))  # fmt: skip
+            session.add(
+                Alarm(
+                    kind=kind,
+                    priority=PRIORITY_OF_KIND[kind],
+                    state=state,
+                    robot_id=robot_id,
+                    transport_id=transport.id,
+                    transport_key=transport.id,
+                    ward=WARD,
+                    patient=transport.patient,
+                    location=transport.location,
+                    raised_at=raised,
+                    updated_at=raised + timedelta(minutes=4),
+                    acknowledged_at=raised + timedelta(seconds=40) if acknowledged else None,
+                    acknowledged_by_id=nurse.id if acknowledged else None,
+                    escalation_level=3 if state == AlarmState.MISSED else 0,
+                    escalated_at=raised + timedelta(minutes=3)
+                    if state == AlarmState.MISSED
+                    else None,
+                    decision_count=1,
+                    model_version="generated-soak",
+                )
+            )
     engine.dispose()
 
 
@@ -215,9 +249,11 @@ def unresolved_ids(database_url: str) -> set[int]:
     engine = make_engine(database_url)
     try:
         with make_session_factory(engine)() as session:
-            return set(session.scalars(
-                select(Alarm.id).where(Alarm.ward == WARD, Alarm.state != AlarmState.RESOLVED)
-            ))  # fmt: skip
+            return set(
+                session.scalars(
+                    select(Alarm.id).where(Alarm.ward == WARD, Alarm.state != AlarmState.RESOLVED)
+                )
+            )
     finally:
         engine.dispose()
 
@@ -245,8 +281,12 @@ def summary(values_ms: list[float]) -> dict:
         return {"n": 0}
     ordered = sorted(values_ms)
     pick = lambda q: ordered[min(len(ordered) - 1, round(q * (len(ordered) - 1)))]  # noqa: E731
-    return {"n": len(ordered), "p50_ms": round(statistics.median(ordered), 1),
-            "p95_ms": round(pick(0.95), 1), "max_ms": round(ordered[-1], 1)}  # fmt: skip
+    return {
+        "n": len(ordered),
+        "p50_ms": round(statistics.median(ordered), 1),
+        "p95_ms": round(pick(0.95), 1),
+        "max_ms": round(ordered[-1], 1),
+    }
 
 
 def heap_mb(cdp) -> float:
@@ -281,8 +321,7 @@ def run(minutes: float, rate_per_min: float, seed_count: int, drop_s: float) -> 
     network_errors = 0
     result: dict = {}
     with tempfile.TemporaryDirectory() as workdir, sync_playwright() as playwright:
-        server = LiveServer.create(Path(workdir), build_frontend(),
-                                   realarm_minutes="1000000")  # fmt: skip
+        server = LiveServer.create(Path(workdir), build_frontend(), realarm_minutes="1000000")
         seed_alarms(server.database_url, seed_count)
         server.start()
         relay = Relay(server.port)
@@ -314,7 +353,7 @@ def run(minutes: float, rate_per_min: float, seed_count: int, drop_s: float) -> 
             page.reload()
             page.wait_for_function(
                 "() => window.__soak && window.__soak.firstRender !== null", timeout=60_000
-            )  # fmt: skip
+            )
             first_render_ms = page.evaluate("() => window.__soak.firstRender")
             live_ms = page.evaluate(
                 "() => window.__soak.live.length ? window.__soak.live[0] - performance.timeOrigin"
@@ -340,8 +379,9 @@ def run(minutes: float, rate_per_min: float, seed_count: int, drop_s: float) -> 
                     frames = fall_frames(seq, time.time() - 5, transport)
                     seq += len(frames)
                     first = next(k for k, f in enumerate(frames) if f.decision == "emergency")
-                    robot.start_transport(transport, patient=f"GEN-S{i:03d}",
-                                          location="generated corridor")  # fmt: skip
+                    robot.start_transport(
+                        transport, patient=f"GEN-S{i:03d}", location="generated corridor"
+                    )
                     robot.send_batch(frames[:first])
                     robot.send_batch(frames[first : first + 1])
                     sent = time.time() * 1000
@@ -360,15 +400,21 @@ def run(minutes: float, rate_per_min: float, seed_count: int, drop_s: float) -> 
                         " window.__soak.beeps.find((t) => t >= sent)]",
                         [str(alarm_id), sent],
                     )
-                    row = {"alarm": alarm_id, "top_ms": stamps[0] - sent,
-                           "tone_ms": stamps[1] - sent}  # fmt: skip
+                    row = {
+                        "alarm": alarm_id,
+                        "top_ms": stamps[0] - sent,
+                        "tone_ms": stamps[1] - sent,
+                    }
                     if in_drop:
                         during_drop.append(row)
                     else:
                         top.append(row["top_ms"])
                         tone.append(row["tone_ms"])
-                    httpx.post(f"{server.base_url}/api/alarms/{alarm_id}/acknowledge",
-                               headers=headers, timeout=10).raise_for_status()  # fmt: skip
+                    httpx.post(
+                        f"{server.base_url}/api/alarms/{alarm_id}/acknowledge",
+                        headers=headers,
+                        timeout=10,
+                    ).raise_for_status()
                     page.locator("main.board[data-audio-state='ready']").wait_for(
                         timeout=timeout_ms
                     )
@@ -424,7 +470,7 @@ def run(minutes: float, rate_per_min: float, seed_count: int, drop_s: float) -> 
             "drop_s": drop_s,
             "drop_after_alarm": drop_at,
             "view": "list (automatic above 24 alarms)",
-        },  # fmt: skip
+        },
         "first_render_ms": round(first_render_ms, 1),
         "first_render_note": "navigation start -> the board holds every seeded alarm (sign-in "
         "kept, page loaded, socket connected, snapshot received, rendered); board_live_ms: "
@@ -436,12 +482,12 @@ def run(minutes: float, rate_per_min: float, seed_count: int, drop_s: float) -> 
         "during_drop": [
             {k: round(v, 1) if isinstance(v, float) else v for k, v in r.items()}
             for r in during_drop
-        ],  # fmt: skip
+        ],
         "heap_mb": {
             "start": heap_start,
             "end": heap_end,
             "growth": round(heap_end - heap_start, 2),
-        },  # fmt: skip
+        },
         "console_errors": len(errors),
         "console_error_texts": errors[:20],
         "network_console_messages_during_drop": network_errors,
@@ -454,7 +500,7 @@ def run(minutes: float, rate_per_min: float, seed_count: int, drop_s: float) -> 
             "load_avg_1m": round(os.getloadavg()[0], 2),
             "python": platform.python_version(),
             "database": "sqlite",
-        },  # fmt: skip
+        },
         "measured_at": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
     }
     result["goals_met"] = {
@@ -472,8 +518,9 @@ def run(minutes: float, rate_per_min: float, seed_count: int, drop_s: float) -> 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--minutes", type=float,
-                        default=float(os.environ.get("VIGIL_SOAK_MINUTES", "30")))  # fmt: skip
+    parser.add_argument(
+        "--minutes", type=float, default=float(os.environ.get("VIGIL_SOAK_MINUTES", "30"))
+    )
     parser.add_argument("--rate", type=float, default=10.0, help="new alarms per minute")
     parser.add_argument("--seed-alarms", type=int, default=500)
     parser.add_argument("--drop-s", type=float, default=10.0)

@@ -109,8 +109,9 @@ def bench_retrain(workdir: Path) -> dict:
         import_urfd(session, names=train, split=Split.TRAIN)
         import_urfd(session, names=gold, split=Split.TEST)
         job_id = queue.enqueue(session, JobKind.RETRAIN, {"spec": DEFAULT.name}).id
-    settings = WorkerSettings(database_url=url, model_store_dir=workdir / "models",
-                              worker_id="bench")  # fmt: skip
+    settings = WorkerSettings(
+        database_url=url, model_store_dir=workdir / "models", worker_id="bench"
+    )
     start = time.perf_counter()
     Worker(settings, factory, sweeps=[]).run_once()
     seconds = time.perf_counter() - start
@@ -136,14 +137,14 @@ def bench_retrain(workdir: Path) -> dict:
                 k: v
                 for k, v in gold_metrics.items()
                 if k not in ("events", "sequences", "fold_operating_points")
-            },  # fmt: skip
+            },
             "gold_events": gold_metrics["events"],
             "latency": model.metrics["latency"],
             "gate": {
                 "passed": gate["passed"],
                 "checks": gate["checks"],
                 "warnings": gate["warnings"],
-            },  # fmt: skip
+            },
         }
     engine.dispose()
     return result
@@ -154,8 +155,11 @@ def main() -> int:
     parser.add_argument("--jobs", type=int, default=300)
     parser.add_argument("--skip-retrain", action="store_true")
     args = parser.parse_args()
-    machine = {"cpus": os.cpu_count(), "python": platform.python_version(),
-               "platform": platform.platform()}  # fmt: skip
+    machine = {
+        "cpus": os.cpu_count(),
+        "python": platform.python_version(),
+        "platform": platform.platform(),
+    }
     out: dict = {"benchmark": "registry", "machine": machine}
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
@@ -170,8 +174,11 @@ def main() -> int:
         print(json.dumps(out["queue"], indent=1))
         if not args.skip_retrain:
             out["retrain"] = bench_retrain(tmp)
-            print(json.dumps({k: out["retrain"][k] for k in ("job_seconds", "gold", "gate")},
-                             indent=1))  # fmt: skip
+            print(
+                json.dumps(
+                    {k: out["retrain"][k] for k in ("job_seconds", "gold", "gate")}, indent=1
+                )
+            )
     RESULTS.parent.mkdir(parents=True, exist_ok=True)
     RESULTS.write_text(json.dumps(out, indent=2) + "\n")
     print(f"wrote {RESULTS}")

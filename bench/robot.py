@@ -70,10 +70,14 @@ def ensure_model() -> Path:
     from scripts.run_all import default_model_is_current
 
     if not default_model_is_current():
-        print("training the default walking model on URFD (none yet, or older features)",
-              flush=True)  # fmt: skip
-        subprocess.run([sys.executable, "-m", "worker.training.cli", "train-default", "--out",
-                        str(MODEL_DIR)], cwd=REPO, check=True)  # fmt: skip
+        print(
+            "training the default walking model on URFD (none yet, or older features)", flush=True
+        )
+        subprocess.run(
+            [sys.executable, "-m", "worker.training.cli", "train-default", "--out", str(MODEL_DIR)],
+            cwd=REPO,
+            check=True,
+        )
     return MODEL_DIR
 
 
@@ -248,17 +252,32 @@ def bench_outbox_replay(workdir: Path, n: int) -> dict:
 
     outbox_path = workdir / "replay-outbox.sqlite"
     outbox = Outbox(outbox_path)
-    outbox.add_message(json.dumps({"type": "transport_start", "transport_id": "bench-replay",
-                                   "mode": "walking", "ts": time.time()}))  # fmt: skip
+    outbox.add_message(
+        json.dumps(
+            {
+                "type": "transport_start",
+                "transport_id": "bench-replay",
+                "mode": "walking",
+                "ts": time.time(),
+            }
+        )
+    )
     t0 = time.time()
     for i in range(n):
-        body = json.dumps({
-            "ts": t0 + i / 30, "transport_id": "bench-replay",
-            "keypoints": [[320.0 + k, 240.0 + 2 * k + (i % 7), 0.9] for k in range(25)],
-            "depth": [2.5] * 25, "decision": "normal",
-            "scores": {"normal": 0.97, "emergency": 0.03}, "model_version": "bench",
-            "threshold": 0.5, "delay_ms": 300,
-        }, separators=(",", ":"))  # fmt: skip
+        body = json.dumps(
+            {
+                "ts": t0 + i / 30,
+                "transport_id": "bench-replay",
+                "keypoints": [[320.0 + k, 240.0 + 2 * k + (i % 7), 0.9] for k in range(25)],
+                "depth": [2.5] * 25,
+                "decision": "normal",
+                "scores": {"normal": 0.97, "emergency": 0.03},
+                "model_version": "bench",
+                "threshold": 0.5,
+                "delay_ms": 300,
+            },
+            separators=(",", ":"),
+        )
         outbox.add_frame(body, Priority.NORMAL)
     outbox.close()
     server = LiveServer.create(workdir)
@@ -289,10 +308,15 @@ def _socket_latency(url: str, workdir: Path, transports: int) -> dict:
     outbox = Outbox(workdir / f"latency-{path.stem}.sqlite")
     pipeline = Pipeline(outbox, TransportMode.WALKING, ground_truth_fallback=True)
     plans = [
-        TransportPlan(list(SimulatorSource("walking", seed=200 + i, duration_s=10, n_people=1,
-                                           events=["fall"], speed=0)))
+        TransportPlan(
+            list(
+                SimulatorSource(
+                    "walking", seed=200 + i, duration_s=10, n_people=1, events=["fall"], speed=0
+                )
+            )
+        )
         for i in range(transports)
-    ]  # fmt: skip
+    ]
     options = AgentOptions(url=url, speed=0, local_socket=path, backoff_max_s=0.5)
     agent = RobotAgent(ROBOT_ID, ROBOT_TOKEN, pipeline, iter(plans), options, workdir / "m")
     started: dict[str, float] = {}  # the current frame's start
@@ -438,9 +462,10 @@ def main(argv: list[str] | None = None) -> int:
         "frame_p99_met": result["frame_p99_ms"] <= GOAL_FRAME_P99_MS,
         "frame_cpu_p99_met": result["frame_cpu_p99_ms"] <= GOAL_FRAME_P99_MS,
         "mediapipe_fps": GOAL_MEDIAPIPE_FPS,
-        "mediapipe_met": None if result["mediapipe_fps"] is None
+        "mediapipe_met": None
+        if result["mediapipe_fps"] is None
         else result["mediapipe_fps"] >= GOAL_MEDIAPIPE_FPS,
-    }  # fmt: skip
+    }
     result["machine"] = {
         "cpus": os.cpu_count(),
         "python": platform.python_version(),

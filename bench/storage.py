@@ -68,10 +68,14 @@ def load_history(url: str, frames: int, robots: int, days: float, now: float) ->
     span = days * DAY_S / n_videos
     start0 = now - days * DAY_S
     rng = np.random.default_rng(20)
-    blobs = [(encode_keypoints(rng.normal(300, 80, (25, 3)).astype(np.float32)),
-              encode_depth(rng.uniform(1, 4, 25).astype(np.float32)),
-              encode_floor(rng.normal(0.5, 0.3, 3).astype(np.float32)))
-             for _ in range(robots)]  # fmt: skip
+    blobs = [
+        (
+            encode_keypoints(rng.normal(300, 80, (25, 3)).astype(np.float32)),
+            encode_depth(rng.uniform(1, 4, 25).astype(np.float32)),
+            encode_floor(rng.normal(0.5, 0.3, 3).astype(np.float32)),
+        )
+        for _ in range(robots)
+    ]
     started = time.perf_counter()
     with transaction(factory) as session:
         for r in range(robots):
@@ -85,32 +89,69 @@ def load_history(url: str, frames: int, robots: int, days: float, now: float) ->
         robot = k % robots
         t0 = start0 + k * span
         with transaction(factory) as session:
-            video = Video(name=f"hist-transport-{k}", source="robot", generated=True,
-                          mode="walking", fps=10.0, robot_id=f"hist-{robot}",
-                          frame_count=VIDEO_FRAMES, first_frame_ts=t0,
-                          last_frame_ts=t0 + (VIDEO_FRAMES - 1) * 0.1)  # fmt: skip
+            video = Video(
+                name=f"hist-transport-{k}",
+                source="robot",
+                generated=True,
+                mode="walking",
+                fps=10.0,
+                robot_id=f"hist-{robot}",
+                frame_count=VIDEO_FRAMES,
+                first_frame_ts=t0,
+                last_frame_ts=t0 + (VIDEO_FRAMES - 1) * 0.1,
+            )
             session.add(video)
             session.flush()
             kp, depth, floor = blobs[robot]
             s0 = seqs[robot]
-            rows = [(video.id, i, t0 + i * 0.1, f"hist-{robot}", s0 + i, kp, depth, floor,
-                     "normal", '{"normal": 0.93, "emergency": 0.07}', "bench-1", 0.5, 300,
-                     None, None, None) for i in range(VIDEO_FRAMES)]  # fmt: skip
+            rows = [
+                (
+                    video.id,
+                    i,
+                    t0 + i * 0.1,
+                    f"hist-{robot}",
+                    s0 + i,
+                    kp,
+                    depth,
+                    floor,
+                    "normal",
+                    '{"normal": 0.93, "emergency": 0.07}',
+                    "bench-1",
+                    0.5,
+                    300,
+                    None,
+                    None,
+                    None,
+                )
+                for i in range(VIDEO_FRAMES)
+            ]
             insert_frame_rows(session, rows)
             seqs[robot] += VIDEO_FRAMES
             if k % 50 == 0:
                 mid = t0 + VIDEO_FRAMES * 0.05
-                session.add(Alarm(kind=AlarmKind.EMERGENCY,
-                                  priority=PRIORITY_OF_KIND[AlarmKind.EMERGENCY],
-                                  robot_id=f"hist-{robot}", ward=ingest.WARD, state="resolved",
-                                  video_id=video.id, first_frame_ts=mid,
-                                  last_frame_ts=mid + 5, first_seq=s0 + 1500,
-                                  last_seq=s0 + 1550))  # fmt: skip
+                session.add(
+                    Alarm(
+                        kind=AlarmKind.EMERGENCY,
+                        priority=PRIORITY_OF_KIND[AlarmKind.EMERGENCY],
+                        robot_id=f"hist-{robot}",
+                        ward=ingest.WARD,
+                        state="resolved",
+                        video_id=video.id,
+                        first_frame_ts=mid,
+                        last_frame_ts=mid + 5,
+                        first_seq=s0 + 1500,
+                        last_seq=s0 + 1550,
+                    )
+                )
                 alarms += 1
             if k % 100 == 1:
-                segment = AnnotationSegment(video_id=video.id, first_frame=100,
-                                            last_frame=400, label_key="walking",
-                                            taxonomy_version=1)  # fmt: skip
+                segment = AnnotationSegment(
+                    video_id=video.id,
+                    first_frame=100,
+                    last_frame=400,
+                    label_key="walking",
+                    taxonomy_version=1,
+                )
                 SEGMENT.start(segment, "import")  # history as a dataset's accepted labels
                 session.add(segment)
                 labelled += 1
@@ -121,10 +162,16 @@ def load_history(url: str, frames: int, robots: int, days: float, now: float) ->
         else:
             connection.exec_driver_sql("ANALYZE")
     engine.dispose()
-    return {"frames": n_videos * VIDEO_FRAMES, "videos": n_videos, "alarms": alarms,
-            "labelled_videos": labelled, "days": days, "robots": robots,
-            "load_seconds": round(seconds, 1),
-            "frames_per_s": round(n_videos * VIDEO_FRAMES / seconds)}  # fmt: skip
+    return {
+        "frames": n_videos * VIDEO_FRAMES,
+        "videos": n_videos,
+        "alarms": alarms,
+        "labelled_videos": labelled,
+        "days": days,
+        "robots": robots,
+        "load_seconds": round(seconds, 1),
+        "frames_per_s": round(n_videos * VIDEO_FRAMES / seconds),
+    }
 
 
 def disk(url: str) -> dict:
@@ -141,9 +188,13 @@ def disk(url: str) -> dict:
 def ingest_run(url: str, config: ingest.RunConfig, workdir: Path, during=None) -> dict:
     """bench.ingest's fleet run on an existing database; `during(server)` runs in a thread
     while the robots stream."""
-    env = {"VIGIL_DATABASE_URL": url, "VIGIL_SECRET_KEY": ingest.SECRET,
-           "VIGIL_FRONTEND_DIR": str(workdir / "no-frontend"),
-           "VIGIL_STREAM_STALL_SECONDS": "60", "VIGIL_ROBOT_OFFLINE_SECONDS": "60"}  # fmt: skip
+    env = {
+        "VIGIL_DATABASE_URL": url,
+        "VIGIL_SECRET_KEY": ingest.SECRET,
+        "VIGIL_FRONTEND_DIR": str(workdir / "no-frontend"),
+        "VIGIL_STREAM_STALL_SECONDS": "60",
+        "VIGIL_ROBOT_OFFLINE_SECONDS": "60",
+    }
     log = workdir / f"backend-storage-{time.time_ns()}.log"
     extra: dict = {}
     with BackendProcess(env, log_path=log) as server:
@@ -156,14 +207,21 @@ def ingest_run(url: str, config: ingest.RunConfig, workdir: Path, during=None) -
         if thread is not None:
             thread.join()
     rows, distinct = ingest._stored(url, measured["seq_ranges"])  # this run's frames only
-    return {"ack_p50_ms": measured["ack_p50_ms"], "ack_p99_ms": measured["ack_p99_ms"],
-            "alarm_p50_ms": measured["alarm_p50_ms"], "alarm_p99_ms": measured["alarm_p99_ms"],
-            "frames_per_s": measured["frames_per_s"], "frames_sent": measured["sent"],
-            "emergencies_sent": measured["emergencies_sent"],
-            "emergencies_pushed": measured["emergencies_pushed"],
-            "frames_lost": measured["sent"] - distinct, "duplicates": rows - distinct,
-            "server_cpu_percent": measured["server_cpu_percent"],
-            "load_average_1min": measured["load_average"], **extra}  # fmt: skip
+    return {
+        "ack_p50_ms": measured["ack_p50_ms"],
+        "ack_p99_ms": measured["ack_p99_ms"],
+        "alarm_p50_ms": measured["alarm_p50_ms"],
+        "alarm_p99_ms": measured["alarm_p99_ms"],
+        "frames_per_s": measured["frames_per_s"],
+        "frames_sent": measured["sent"],
+        "emergencies_sent": measured["emergencies_sent"],
+        "emergencies_pushed": measured["emergencies_pushed"],
+        "frames_lost": measured["sent"] - distinct,
+        "duplicates": rows - distinct,
+        "server_cpu_percent": measured["server_cpu_percent"],
+        "load_average_1min": measured["load_average"],
+        **extra,
+    }
 
 
 def reads(server: BackendProcess, url: str, samples: int) -> dict:
@@ -178,20 +236,23 @@ def reads(server: BackendProcess, url: str, samples: int) -> dict:
     token = create_access_token(ingest.SECRET, 2, 60)
     rng = np.random.default_rng(1)
     replay, timeline = [], []
-    with httpx.Client(base_url=server.http, headers={"Authorization": f"Bearer {token}"},
-                      timeout=30) as client:  # fmt: skip
+    with httpx.Client(
+        base_url=server.http, headers={"Authorization": f"Bearer {token}"}, timeout=30
+    ) as client:
         for _ in range(samples):
             alarm = int(rng.choice(alarm_ids))
             t = time.perf_counter()
-            response = client.get(f"/api/alarms/{alarm}/replay",
-                                  params={"before_s": 30, "after_s": 30})  # fmt: skip
+            response = client.get(
+                f"/api/alarms/{alarm}/replay", params={"before_s": 30, "after_s": 30}
+            )
             replay.append((time.perf_counter() - t) * 1000)
             assert response.status_code == 200 and response.json()["frames"], response.text[:200]
             video = int(rng.choice(video_ids))
             start = int(rng.integers(0, VIDEO_FRAMES - 300))
             t = time.perf_counter()
-            response = client.get(f"/api/videos/{video}/frames",
-                                  params={"start": start, "end": start + 299})  # fmt: skip
+            response = client.get(
+                f"/api/videos/{video}/frames", params={"start": start, "end": start + 299}
+            )
             timeline.append((time.perf_counter() - t) * 1000)
             assert response.status_code == 200 and len(response.json()) == 300
     return {"alarm_replay": summary_ms(replay), "labelling_timeline": summary_ms(timeline)}
@@ -209,13 +270,20 @@ def training_export(url: str) -> dict:
         names = {video.name for video in import_urfd(session, split=Split.TRAIN).videos}
     with transaction(factory) as session:
         started = time.perf_counter()
-        videos = [v for v in labelled_videos(session, TransportMode.WALKING, Split.TRAIN)
-                  if v.name in names]  # fmt: skip
+        videos = [
+            v
+            for v in labelled_videos(session, TransportMode.WALKING, Split.TRAIN)
+            if v.name in names
+        ]
         data = frame_data(session, videos, TransportMode.WALKING)
         seconds = time.perf_counter() - started
     engine.dispose()
-    return {"recordings": len(data.names), "frames": int(len(data.target)),
-            "seconds": round(seconds, 2), "data": "URFD (real), 70 recordings"}  # fmt: skip
+    return {
+        "recordings": len(data.names),
+        "frames": int(len(data.target)),
+        "seconds": round(seconds, 2),
+        "data": "URFD (real), 70 recordings",
+    }
 
 
 def old_frames(url: str, cutoff: float) -> dict[int, tuple]:
@@ -223,9 +291,12 @@ def old_frames(url: str, cutoff: float) -> dict[int, tuple]:
     engine = make_engine(url)
     with engine.connect() as connection:
         result = connection.execute(
-            text('SELECT id, video_id, robot_id, ts, "index" FROM frames '
-                 "WHERE robot_id IS NOT NULL AND ts < :c").execution_options(
-                stream_results=True, yield_per=50000), {"c": cutoff})  # fmt: skip
+            text(
+                'SELECT id, video_id, robot_id, ts, "index" FROM frames '
+                "WHERE robot_id IS NOT NULL AND ts < :c"
+            ).execution_options(stream_results=True, yield_per=50000),
+            {"c": cutoff},
+        )
         out = {row[0]: row[1:] for row in result}
     engine.dispose()
     return out
@@ -307,12 +378,16 @@ def retention_under_load(url: str, config: ingest.RunConfig, workdir: Path, now:
         "kept_frames_checked": len(kept_expected),
         "kept_frames_all_present": kept_expected <= after_old,
         "old_frames_left_exactly_the_kept": after_old == kept_expected,
-        "space": {"before": space_before, "after": space_after,
-                  "bytes_per_frame_before": round(per_frame, 1),
-                  "frames_added_by_ingest": added, "predicted_frames_bytes": round(predicted),
-                  "actual_frames_bytes": space_after["frames_bytes"],
-                  "actual_over_predicted": round(space_after["frames_bytes"] / predicted, 3)},
-    }  # fmt: skip
+        "space": {
+            "before": space_before,
+            "after": space_after,
+            "bytes_per_frame_before": round(per_frame, 1),
+            "frames_added_by_ingest": added,
+            "predicted_frames_bytes": round(predicted),
+            "actual_frames_bytes": space_after["frames_bytes"],
+            "actual_over_predicted": round(space_after["frames_bytes"] / predicted, 3),
+        },
+    }
 
 
 def bench_database(kind: str, frames: int, args, workdir: Path) -> dict:
@@ -326,14 +401,18 @@ def bench_database(kind: str, frames: int, args, workdir: Path) -> dict:
         with timed_phase(f"{kind}: ingest (empty and with the history), reads, export, retention"):
             empty = ingest.run(fleet, workdir)
             with_history = ingest_run(url, fleet, workdir)
-            env = {"VIGIL_DATABASE_URL": url, "VIGIL_SECRET_KEY": ingest.SECRET,
-                   "VIGIL_FRONTEND_DIR": str(workdir / "no-frontend")}  # fmt: skip
+            env = {
+                "VIGIL_DATABASE_URL": url,
+                "VIGIL_SECRET_KEY": ingest.SECRET,
+                "VIGIL_FRONTEND_DIR": str(workdir / "no-frontend"),
+            }
             with BackendProcess(env, log_path=workdir / f"reads-{kind}.log") as server:
                 read = reads(server, url, args.read_samples)
             export = training_export(url)
             print(json.dumps({"reads": read, "training_export": export}), flush=True)
-            retention_config = ingest.RunConfig(kind, args.robots, 10, 1,
-                                                args.retention_window, 50, 20)  # fmt: skip
+            retention_config = ingest.RunConfig(
+                kind, args.robots, 10, 1, args.retention_window, 50, 20
+            )
             retention = retention_under_load(url, retention_config, workdir, now)
     finally:
         try:
@@ -342,14 +421,27 @@ def bench_database(kind: str, frames: int, args, workdir: Path) -> dict:
             print(f"could not drop the bench database: {error}", flush=True)
     ratio = (with_history["ack_p99_ms"] or 0) / max(1e-9, empty["ack_p99_ms"] or 1e-9)
     return {
-        "database": kind, "history": history, "disk_after_loading": loaded,
-        "ingest_empty": {k: empty[k] for k in ("ack_p50_ms", "ack_p99_ms", "alarm_p50_ms",
-                                               "alarm_p99_ms", "frames_per_s", "frames_lost",
-                                               "load_average_1min")},
+        "database": kind,
+        "history": history,
+        "disk_after_loading": loaded,
+        "ingest_empty": {
+            k: empty[k]
+            for k in (
+                "ack_p50_ms",
+                "ack_p99_ms",
+                "alarm_p50_ms",
+                "alarm_p99_ms",
+                "frames_per_s",
+                "frames_lost",
+                "load_average_1min",
+            )
+        },
         "ingest_with_history": with_history,
         "ack_p99_with_history_over_empty": round(ratio, 3),
-        "reads_with_history": read, "training_export": export, "retention": retention,
-    }  # fmt: skip
+        "reads_with_history": read,
+        "training_export": export,
+        "retention": retention,
+    }
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -364,8 +456,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--retention-window", type=float, default=60)
     parser.add_argument("--read-samples", type=int, default=300)
     parser.add_argument("--output", type=Path, default=RESULTS)
-    parser.add_argument("--append", action="store_true",
-                        help="keep the output file's runs of the other databases")  # fmt: skip
+    parser.add_argument(
+        "--append", action="store_true", help="keep the output file's runs of the other databases"
+    )
     args = parser.parse_args(argv)
     runs = []
     if args.append and args.output.is_file():
@@ -385,15 +478,23 @@ def main(argv: list[str] | None = None) -> int:
 def write_results(args, runs: list[dict]) -> None:
     """After each database, so that a later failure keeps the runs already measured."""
     args.output.parent.mkdir(parents=True, exist_ok=True)
-    args.output.write_text(json.dumps({
-        "runs": runs,
-        "arguments": {k: (str(v) if isinstance(v, Path) else v) for k, v in vars(args).items()},
-        "machine": {"cpus": os.cpu_count(), "python": platform.python_version()},
-        "note": "GENERATED history and GENERATED streaming robots (fixed skeletons); the "
+    args.output.write_text(
+        json.dumps(
+            {
+                "runs": runs,
+                "arguments": {
+                    k: (str(v) if isinstance(v, Path) else v) for k, v in vars(args).items()
+                },
+                "machine": {"cpus": os.cpu_count(), "python": platform.python_version()},
+                "note": "GENERATED history and GENERATED streaming robots (fixed skeletons); the "
                 "training export reads the real URFD recordings. Policy defaults (30 days, "
                 "alarm window 60 s before / 30 s after, labelled videos kept). The machine's 2 "
                 "cores are shared with other engineers' jobs: see load_average_1min.",
-    }, indent=2) + "\n")  # fmt: skip
+            },
+            indent=2,
+        )
+        + "\n"
+    )
 
 
 if __name__ == "__main__":

@@ -92,12 +92,16 @@ def run(args) -> dict:
             admin.dispose()
         else:
             copy.unlink(missing_ok=True)
-    return {"wall_seconds": round(wall, 2), "process_cpu_seconds": round(cpu, 2),
-            "server_cpu_seconds": None if server is None else round(server, 2),
-            "dropped_frames": result["dropped_frames"], "kept": result["kept"],
-            "partitions": len(result["partitions_dropped"]),
-            "disk_bytes_freed": result["disk_bytes_freed"],
-            "load_average_1min": os.getloadavg()[0]}  # fmt: skip
+    return {
+        "wall_seconds": round(wall, 2),
+        "process_cpu_seconds": round(cpu, 2),
+        "server_cpu_seconds": None if server is None else round(server, 2),
+        "dropped_frames": result["dropped_frames"],
+        "kept": result["kept"],
+        "partitions": len(result["partitions_dropped"]),
+        "disk_bytes_freed": result["disk_bytes_freed"],
+        "load_average_1min": os.getloadavg()[0],
+    }
 
 
 def main(argv: list[str] | None = None) -> int:

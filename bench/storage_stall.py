@@ -106,9 +106,15 @@ async def stall_scenario(
             assert welcome["type"] == "welcome", welcome
             seq = (welcome["last_seq"] or -1) + 1
             first_seq = seq
-            await robot.send(TransportStart(transport_id=transport_id, mode="wheelchair",
-                                            patient="P-7", location="corridor B",
-                                            ts=time.time()).model_dump_json())  # fmt: skip
+            await robot.send(
+                TransportStart(
+                    transport_id=transport_id,
+                    mode="wheelchair",
+                    patient="P-7",
+                    location="corridor B",
+                    ts=time.time(),
+                ).model_dump_json()
+            )
 
             async def read_acks() -> None:
                 nonlocal acked
@@ -151,29 +157,40 @@ async def stall_scenario(
 
     engine = make_engine(database_url)
     with make_session_factory(engine)() as session:
-        counts = dict(session.execute(
-            select(Frame.seq, func.count()).where(Frame.robot_id == robot_id,
-                                                  Frame.seq >= first_seq)
-            .group_by(Frame.seq)).all())  # fmt: skip
+        counts = dict(
+            session.execute(
+                select(Frame.seq, func.count())
+                .where(Frame.robot_id == robot_id, Frame.seq >= first_seq)
+                .group_by(Frame.seq)
+            ).all()
+        )
         stored_emergencies = session.scalars(
             select(Alarm).where(
                 Alarm.robot_id == robot_id,
                 Alarm.transport_key == transport_id,
                 Alarm.kind == AlarmKind.EMERGENCY,
-            )  # fmt: skip
+            )
         ).all()
         stored = [(a.id, a.first_seq, a.last_seq) for a in stored_emergencies]
         stalls = session.scalars(
-            select(Alarm).where(
-                Alarm.robot_id == robot_id, Alarm.kind == AlarmKind.STORAGE_STALLED
-            )  # fmt: skip
+            select(Alarm).where(Alarm.robot_id == robot_id, Alarm.kind == AlarmKind.STORAGE_STALLED)
         ).all()
         stalls_stored = [
-            {"id": a.id, "state": a.state, "blocked_s": (a.details or {}).get("blocked_s"),
-             "events": [e.action for e in session.scalars(
-                 select(AlarmEvent).where(AlarmEvent.alarm_id == a.id).order_by(AlarmEvent.id))]}
+            {
+                "id": a.id,
+                "state": a.state,
+                "blocked_s": (a.details or {}).get("blocked_s"),
+                "events": [
+                    e.action
+                    for e in session.scalars(
+                        select(AlarmEvent)
+                        .where(AlarmEvent.alarm_id == a.id)
+                        .order_by(AlarmEvent.id)
+                    )
+                ],
+            }
             for a in stalls
-        ]  # fmt: skip
+        ]
     engine.dispose()
 
     def ms(t: float, since: float) -> float:
@@ -237,14 +254,20 @@ def run(lock_s: float) -> dict:
             # `kinds_on_board` shows whether the monitor blamed the robot for storage's stall.
         }
         with BackendProcess(env, log_path=Path(workdir) / "backend.log") as backend:
-            login = httpx.post(f"{backend.http}/api/auth/login",
-                               json={"username": "nina", "password": PASSWORD})  # fmt: skip
+            login = httpx.post(
+                f"{backend.http}/api/auth/login", json={"username": "nina", "password": PASSWORD}
+            )
             login.raise_for_status()
             token = login.json()["access_token"]
-            result = asyncio.run(stall_scenario(backend.ws, database_url, token, ROBOT_ID,
-                                                ROBOT_TOKEN, lock_s))  # fmt: skip
-    for heavy in ("first_emergency", "stored_emergency", "storage_stalled",
-                  "storage_stalled_cleared"):  # fmt: skip
+            result = asyncio.run(
+                stall_scenario(backend.ws, database_url, token, ROBOT_ID, ROBOT_TOKEN, lock_s)
+            )
+    for heavy in (
+        "first_emergency",
+        "stored_emergency",
+        "storage_stalled",
+        "storage_stalled_cleared",
+    ):
         result.pop(heavy)
     return {
         "what": "database write lock held while a robot streams at 30 frames/s and decides an "
@@ -258,12 +281,12 @@ def run(lock_s: float) -> dict:
         "settings": {
             name: Settings.model_fields[name].default
             for name in ("storage_stall_seconds", "unstored_alarm_ms")
-        },  # fmt: skip
+        },
         "machine": {
             "cpus": os.cpu_count(),
             "python": platform.python_version(),
             "database": "sqlite",
-        },  # fmt: skip
+        },
         "measured_at": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
     }
 

@@ -105,8 +105,10 @@ def judged_and_run_models(detection: dict, specs: dict) -> tuple[str, tuple[str,
     keypoints_only = tuple(name for name, spec in specs.items() if spec.feature_set == "keypoints")
     judged = detection["best_keypoints_only"]
     if judged not in keypoints_only:
-        raise ValueError(f"{DETECTION_RESULTS.name}: best_keypoints_only {judged!r} is no "
-                         f"keypoints-only spec ({', '.join(keypoints_only)})")  # fmt: skip
+        raise ValueError(
+            f"{DETECTION_RESULTS.name}: best_keypoints_only {judged!r} is no "
+            f"keypoints-only spec ({', '.join(keypoints_only)})"
+        )
     return judged, (*keypoints_only, "gbt")
 
 
@@ -233,8 +235,13 @@ def read_clip(path: Path) -> dict:
         width, height = frame.shape[1], frame.shape[0]
         depth_half.append(cv2.cvtColor(frame[y : y + h, x : x + w], cv2.COLOR_BGR2GRAY))
     capture.release()
-    return {"fps": float(fps), "frames": len(depth_half), "width": width, "height": height,
-            "depth_half": np.stack(depth_half)}  # fmt: skip
+    return {
+        "fps": float(fps),
+        "frames": len(depth_half),
+        "width": width,
+        "height": height,
+        "depth_half": np.stack(depth_half),
+    }
 
 
 def check_frame_mapping(depth_half: np.ndarray) -> dict:
@@ -312,11 +319,19 @@ def train_held_out(spec_name: str, out: Path, inner_folds: int) -> dict:
     with threadpool_limits(limits=1):
         selected = select(trainer, data, np.arange(len(names)), n_inner=inner_folds, stride=2)
     version = f"{spec_name}-urfd-without-{SEQUENCE}"
-    manifest = publish(trainer, selected, data, out, version=version, metrics={
-        "dataset": "urfd", "held_out": [SEQUENCE],
-        "note": f"threshold and delay chosen on {inner_folds}-fold OOF scores of the "
-        f"{len(names)} training sequences",
-    })  # fmt: skip
+    manifest = publish(
+        trainer,
+        selected,
+        data,
+        out,
+        version=version,
+        metrics={
+            "dataset": "urfd",
+            "held_out": [SEQUENCE],
+            "note": f"threshold and delay chosen on {inner_folds}-fold OOF scores of the "
+            f"{len(names)} training sequences",
+        },
+    )
     return {
         "version": manifest.version,
         "spec": spec_name,
@@ -407,13 +422,35 @@ def robot_command(backend_ws: str, model_dir: Path, workdir: Path) -> list[str]:
 
     script = Path(sys.executable).with_name("vigil-robot")
     cli = [str(script)] if script.exists() else [sys.executable, "-m", "robot_agent.cli"]
-    return [*cli, "run", "--backend", backend_ws, "--robot-id", ROBOT_ID, "--token", ROBOT_TOKEN,
-            "--source", "mediapipe", "--source-path", str(VIDEO),
-            "--crop", ",".join(map(str, RGB_CROP)), "--model-dir", str(model_dir),
-            "--models-dir", str(workdir / "robot-models"),
-            "--outbox", str(workdir / "outbox.sqlite"),
-            "--speed", "1", "--exit-when-done", "--patient", f"URFD {SEQUENCE}",
-            "--location", "URFD lab (real recording)"]  # fmt: skip
+    return [
+        *cli,
+        "run",
+        "--backend",
+        backend_ws,
+        "--robot-id",
+        ROBOT_ID,
+        "--token",
+        ROBOT_TOKEN,
+        "--source",
+        "mediapipe",
+        "--source-path",
+        str(VIDEO),
+        "--crop",
+        ",".join(map(str, RGB_CROP)),
+        "--model-dir",
+        str(model_dir),
+        "--models-dir",
+        str(workdir / "robot-models"),
+        "--outbox",
+        str(workdir / "outbox.sqlite"),
+        "--speed",
+        "1",
+        "--exit-when-done",
+        "--patient",
+        f"URFD {SEQUENCE}",
+        "--location",
+        "URFD lab (real recording)",
+    ]
 
 
 def run_robot(command: list[str]) -> tuple[int, float, list[tuple[float, str]]]:
@@ -423,8 +460,15 @@ def run_robot(command: list[str]) -> tuple[int, float, list[tuple[float, str]]]:
     # worktree shares the main checkout's .venv, whose console script imports the main one).
     env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(REPO), env.get("PYTHONPATH")]))
     started = time.perf_counter()
-    process = subprocess.Popen(command, cwd=REPO, env=env, stdout=subprocess.PIPE,
-                               stderr=subprocess.STDOUT, text=True, bufsize=1)  # fmt: skip
+    process = subprocess.Popen(
+        command,
+        cwd=REPO,
+        env=env,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+        bufsize=1,
+    )
     lines: list[tuple[float, str]] = []
 
     def read() -> None:
@@ -446,8 +490,12 @@ def _get(server, path: str, user: str, **params) -> list | dict:
     import httpx
 
     token = _login(server, user)
-    response = httpx.get(f"{server.base_url}{path}", params=params, timeout=30,
-                         headers={"Authorization": f"Bearer {token}"})  # fmt: skip
+    response = httpx.get(
+        f"{server.base_url}{path}",
+        params=params,
+        timeout=30,
+        headers={"Authorization": f"Bearer {token}"},
+    )
     response.raise_for_status()
     return response.json()
 
@@ -461,8 +509,9 @@ def stored_frames(server, transport_id: str | None) -> list[dict]:
         return []
     frames, start = [], 0
     while True:
-        page = _get(server, f"/api/videos/{video['id']}/frames", "anna", start=start,
-                    end=start + 1999)  # fmt: skip
+        page = _get(
+            server, f"/api/videos/{video['id']}/frames", "anna", start=start, end=start + 1999
+        )
         frames.extend(page)
         if len(page) < 2000:
             return frames
@@ -500,15 +549,17 @@ class ArrivalPoller:
                     if headers is None:
                         headers = {"Authorization": f"Bearer {self.server.login('anna')}"}
                     if video_id is None:
-                        videos = client.get("/api/videos", params={"source": "robot"},
-                                            headers=headers)  # fmt: skip
+                        videos = client.get(
+                            "/api/videos", params={"source": "robot"}, headers=headers
+                        )
                         videos.raise_for_status()
                         video_id = videos.json()[0]["id"] if videos.json() else None
                         if video_id is None:
                             continue
                     start = max(self.arrivals, default=-1) + 1
-                    page = client.get(f"/api/videos/{video_id}/frames", params={"start": start},
-                                      headers=headers)  # fmt: skip
+                    page = client.get(
+                        f"/api/videos/{video_id}/frames", params={"start": start}, headers=headers
+                    )
                     page.raise_for_status()
                     frames = page.json()
                 except (httpx.HTTPError, ValueError, KeyError, IndexError, TypeError) as error:
@@ -565,8 +616,9 @@ def measure_run(model: dict, label_index: int, fps: float) -> dict:
                 code, seconds, lines = run_robot(command)
             time.sleep(1.0)  # alarms are raised with the commit; leave the monitor a moment
             alarms = _get(server, "/api/alarms", "nina", robot_id=ROBOT_ID)
-            emergencies = sorted((a for a in alarms if a["kind"] == "emergency"),
-                                 key=lambda a: a["raised_at"])  # fmt: skip
+            emergencies = sorted(
+                (a for a in alarms if a["kind"] == "emergency"), key=lambda a: a["raised_at"]
+            )
             alarm = emergencies[0] if emergencies else None
             transport = alarm["transport_id"] if alarm else None
             frames = stored_frames(server, transport)
@@ -588,20 +640,25 @@ def measure_run(model: dict, label_index: int, fps: float) -> dict:
     known = [(s, f["index"]) for s, f in zip(scores, frames, strict=True) if s is not None]
     top = max(known, key=lambda k: (k[0], -k[1])) if known else (None, None)
     decided = [f["index"] for f in frames if f["decision"] == "emergency"]
-    result.update({
-        "frames_with_person": sum(person),
-        "frames_without_person": runs_of([not p for p in person]),
-        "frames_with_person_before_label": sum(person[:label_index]),
-        "highest_emergency_score": _round(top[0]),
-        "highest_emergency_score_video_index": top[1],
-        "emergency_decision_frames": len(decided),
-        "first_emergency_decision_video_index": decided[0] if decided else None,
-        "missing_share_at_label": missing_share(frames, fps, label_index),
-    })  # fmt: skip
+    result.update(
+        {
+            "frames_with_person": sum(person),
+            "frames_without_person": runs_of([not p for p in person]),
+            "frames_with_person_before_label": sum(person[:label_index]),
+            "highest_emergency_score": _round(top[0]),
+            "highest_emergency_score_video_index": top[1],
+            "emergency_decision_frames": len(decided),
+            "first_emergency_decision_video_index": decided[0] if decided else None,
+            "missing_share_at_label": missing_share(frames, fps, label_index),
+        }
+    )
     result["alarms"] = [
-        {k: a[k] for k in ("kind", "state", "raised_at", "first_seq", "decision_count",
-                           "model_version")} for a in alarms
-    ]  # fmt: skip
+        {
+            k: a[k]
+            for k in ("kind", "state", "raised_at", "first_seq", "decision_count", "model_version")
+        }
+        for a in alarms
+    ]
     result["detection_degraded_alarms"] = sum(a["kind"] == "detection_degraded" for a in alarms)
     warnings = [line for _, line in lines if " WARNING " in line or " ERROR " in line]
     result["agent_warnings"] = list(dict.fromkeys(re.sub(r"^\S+ ", "", w) for w in warnings))[:10]
@@ -620,8 +677,9 @@ def measure_run(model: dict, label_index: int, fps: float) -> dict:
         if 0 in arrivals and len(arrivals) > 1 and max(arrivals.values()) > arrivals[0]
         else None,
         "first_frame_after_transport_start_s": _round(arrivals[0] - frames[0]["ts"])
-        if 0 in arrivals and frames else None,
-    }  # fmt: skip
+        if 0 in arrivals and frames
+        else None,
+    }
     result["robot_pace"] = robot_pace(lines)
     result.update(_alarm_timing(alarm, frames, lines, arrivals, label_index, fps))
     result["reference_urfd_keypoints"] = reference_on_urfd_keypoints(model["dir"])
@@ -647,9 +705,14 @@ def shown_command(command: list[str]) -> str:
 
 
 def _alarm_timing(alarm, frames, lines, arrivals, label_index: int, fps: float) -> dict:
-    out: dict = {"emergency_alarm": None, "time_to_alarm_s": None, "lag_at_alarm_s": None,
-                 "delivery_s": None, "label_to_alarm_s": None,
-                 "label_to_alarm_upper_bound_s": None}  # fmt: skip
+    out: dict = {
+        "emergency_alarm": None,
+        "time_to_alarm_s": None,
+        "lag_at_alarm_s": None,
+        "delivery_s": None,
+        "label_to_alarm_s": None,
+        "label_to_alarm_upper_bound_s": None,
+    }
     if alarm is None:
         out["goal_met"] = False
         return out
@@ -671,7 +734,7 @@ def _alarm_timing(alarm, frames, lines, arrivals, label_index: int, fps: float) 
         "frame_index_matches_timestamp": None
         if frame is None or first_ts is None
         else index_from_timestamp(frame["ts"], first_ts, fps) == index,
-    }  # fmt: skip
+    }
     out["time_to_alarm_s"] = _round(time_to_alarm(label_index, index, fps))
     lag = None if index is None else lag_behind_real_time(arrivals, index, fps)
     out["lag_at_alarm_s"] = _round(lag)
@@ -732,8 +795,9 @@ def main(argv: list[str] | None = None) -> int:
         models = {}
         for spec in specs:
             models[spec] = train_held_out(spec, models_dir / spec, args.inner_folds)
-            print(f"trained {models[spec]['version']} in {models[spec]['training_s']} s",
-                  flush=True)  # fmt: skip
+            print(
+                f"trained {models[spec]['version']} in {models[spec]['training_s']} s", flush=True
+            )
         result["models"] = {
             spec: {k: v for k, v in model.items() if k != "dir"} for spec, model in models.items()
         }

@@ -118,9 +118,12 @@ class RobotAgent:
             hook=options.alarm_hook,
         )
         pipeline.behaviour = self.behaviour = Behaviour(
-            pipeline.mode, options.pause_hold_s, options.degraded_action,
-            options.patient_unseen_s, robot_id,
-        )  # fmt: skip
+            pipeline.mode,
+            options.pause_hold_s,
+            options.degraded_action,
+            options.patient_unseen_s,
+            robot_id,
+        )
         self.behaviour.on_reset = self._report_reset
         self.behaviour.listeners.append(self._report_behaviour)
         self.local = (
@@ -208,13 +211,18 @@ class RobotAgent:
             return
         self._fetching.add(key)
         role = {"fallback": "keypoints-only fallback", "shadow": "shadow model"}.get(kind, "model")
-        log.info("robot %s: backend assigned %s %s; fetching it", self.robot_id, role,
-                 assignment.version)  # fmt: skip
+        log.info(
+            "robot %s: backend assigned %s %s; fetching it", self.robot_id, role, assignment.version
+        )
         try:
             classifier = await asyncio.to_thread(
-                fetch_model, assignment, self.robot_id, self.token, self.models_dir,
+                fetch_model,
+                assignment,
+                self.robot_id,
+                self.token,
+                self.models_dir,
                 self.pipeline.mode,
-            )  # fmt: skip
+            )
             if assignment.fallback and not is_keypoints_only(classifier.manifest.inputs):
                 raise ModelRefused(
                     f"fallback {assignment.version} needs {classifier.manifest.inputs}: a "
@@ -222,8 +230,12 @@ class RobotAgent:
                 )
         except ModelRefused as refused:
             self.link.model_error = str(refused)[:500]
-            log.error("robot %s: %s; model %s keeps running", self.robot_id, refused,
-                      self.pipeline.running_model)  # fmt: skip
+            log.error(
+                "robot %s: %s; model %s keeps running",
+                self.robot_id,
+                refused,
+                self.pipeline.running_model,
+            )
             self.link.heartbeat_now()
             return
         finally:
@@ -251,8 +263,13 @@ class RobotAgent:
         if message.kind == "emergency":  # a resolved Pause alarm releases no emergency stop
             released = self.behaviour.resolved(message.alarm_id, message.by, message.at)
         if released is None:
-            log.info("robot %s: %s alarm %d resolved by %s (no emergency stop released)",
-                     self.robot_id, message.kind, message.alarm_id, message.by)  # fmt: skip
+            log.info(
+                "robot %s: %s alarm %d resolved by %s (no emergency stop released)",
+                self.robot_id,
+                message.kind,
+                message.alarm_id,
+                message.by,
+            )
 
     def _report_behaviour(self, change: BehaviourChange) -> None:
         """Each behaviour change goes to the backend too (fleet page, the alarm's audit),
@@ -260,9 +277,13 @@ class RobotAgent:
         if change.event != "behaviour":
             return  # "help is coming" came from the backend: nothing to tell it
         message = BehaviourChanged(
-            ts=time.time(), state=change.state, reason=change.reason[:500], since=change.since,
-            transport_id=change.transport_id, alarm_id=change.alarm_id,
-        )  # fmt: skip
+            ts=time.time(),
+            state=change.state,
+            reason=change.reason[:500],
+            since=change.since,
+            transport_id=change.transport_id,
+            alarm_id=change.alarm_id,
+        )
         self.outbox.add_message(message.model_dump_json(exclude_none=True))
         self.link.notify_queued()
 

@@ -191,9 +191,14 @@ class Behaviour:
         """The backend says a nurse acknowledged the alarm: help is coming (state unchanged)."""
         self.alarm_id = alarm_id
         change = BehaviourChange(
-            self.state.value, f"alarm {alarm_id} acknowledged by {by}: help is coming",
-            at, self.transport_id, alarm_id, event="alarm_acknowledged", acknowledged_by=by,
-        )  # fmt: skip
+            self.state.value,
+            f"alarm {alarm_id} acknowledged by {by}: help is coming",
+            at,
+            self.transport_id,
+            alarm_id,
+            event="alarm_acknowledged",
+            acknowledged_by=by,
+        )
         log.warning("robot %s: %s", self.robot_id, change.reason)
         self._tell(change)
         return change

@@ -174,14 +174,17 @@ def _reset(settings: AgentSettings) -> int:
     try:
         reply = reset(settings.local_socket)
     except (FileNotFoundError, ConnectionRefusedError, TimeoutError, OSError) as error:
-        print(f"vigil-robot: local_socket {settings.local_socket}: no agent answers ({error})",
-              file=sys.stderr)  # fmt: skip
+        print(
+            f"vigil-robot: local_socket {settings.local_socket}: no agent answers ({error})",
+            file=sys.stderr,
+        )
         return EXIT_REFUSED
     if reply.get("reset"):
         print(f"emergency stop reset; the robot is {reply['state']} (reported to the backend)")
         return 0
-    print(f"vigil-robot: nothing reset: {reply.get('reason') or reply.get('error')}",
-          file=sys.stderr)  # fmt: skip
+    print(
+        f"vigil-robot: nothing reset: {reply.get('reason') or reply.get('error')}", file=sys.stderr
+    )
     return EXIT_REFUSED
 
 

@@ -68,8 +68,9 @@ def main(argv: list[str] | None = None) -> int:
                 motion = MOTION.get(line.get("state"), "unknown state: stop")
                 print(json.dumps(line), "->", motion, flush=True)
     except (FileNotFoundError, ConnectionRefusedError) as error:
-        print(f"controller_client: socket {args.socket}: agent not running ({error})",
-              file=sys.stderr)  # fmt: skip
+        print(
+            f"controller_client: socket {args.socket}: agent not running ({error})", file=sys.stderr
+        )
         return 2
     except KeyboardInterrupt:
         pass

@@ -158,10 +158,13 @@ def last_running(models_dir: Path) -> tuple[FrameClassifier | None, Refusal | No
         log.warning("model %s that ran before the restart is unusable: %s", version, error)
         return None, None
     if registry_sha256 and classifier.sha256 != registry_sha256:
-        return None, Refusal(version, (
-            f"model {version} refused at start: sha256 of its file is {classifier.sha256}, "
-            f"the registry's is {registry_sha256}"
-        ))  # fmt: skip
+        return None, Refusal(
+            version,
+            (
+                f"model {version} refused at start: sha256 of its file is {classifier.sha256}, "
+                f"the registry's is {registry_sha256}"
+            ),
+        )
     log.info("starting with model %s, assigned before the restart", version)
     return classifier, None
 

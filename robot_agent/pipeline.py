@@ -206,9 +206,13 @@ class Pipeline:
             self.shadow.reset()
         self.last_decision = None
         message = TransportStart(
-            transport_id=transport_id, mode=self.mode, patient=patient, location=location, ts=ts,
+            transport_id=transport_id,
+            mode=self.mode,
+            patient=patient,
+            location=location,
+            ts=ts,
             fps=fps,
-        )  # fmt: skip
+        )
         self.outbox.add_message(message.model_dump_json(exclude_none=True))
 
     def end_transport(self, ts: float) -> None:
@@ -218,9 +222,13 @@ class Pipeline:
         fps = counts.fps
         log.info(
             "transport %s ended: %d frames, %d with a person in view, %d with the patient, %s; %s",
-            self.transport_id, counts.frames, counts.with_person, counts.with_patient,
-            "no frame rate" if fps is None else f"{fps:.1f} frames/s", counts.pace(),
-        )  # fmt: skip
+            self.transport_id,
+            counts.frames,
+            counts.with_person,
+            counts.with_patient,
+            "no frame rate" if fps is None else f"{fps:.1f} frames/s",
+            counts.pace(),
+        )
         self.outbox.add_message(
             TransportEnd(transport_id=self.transport_id, ts=ts).model_dump_json()
         )
@@ -244,10 +252,13 @@ class Pipeline:
             )
             self.refused = None
             message = DetectionStatus(
-                ts=time.time(), transport_id=self.transport_id, degraded=False,
-                assigned_model=classifier.version, running_model=classifier.version,
+                ts=time.time(),
+                transport_id=self.transport_id,
+                degraded=False,
+                assigned_model=classifier.version,
+                running_model=classifier.version,
                 reason=reason[:500],
-            )  # fmt: skip
+            )
             self.outbox.add_message(message.model_dump_json())
 
     def refuse_model(
@@ -275,25 +286,35 @@ class Pipeline:
         full = f"{reason}; {instead}"
         log.error("transport %s: %s", self.transport_id, full)
         message = DetectionStatus(
-            ts=time.time(), transport_id=self.transport_id, degraded=True, missing_inputs=[],
-            assigned_model=version[:64], running_model=running, reason=full[:500],
-        )  # fmt: skip
+            ts=time.time(),
+            transport_id=self.transport_id,
+            degraded=True,
+            missing_inputs=[],
+            assigned_model=version[:64],
+            running_model=running,
+            reason=full[:500],
+        )
         self.outbox.add_message(message.model_dump_json())
 
     def set_fallback(self, classifier: FrameClassifier | None) -> None:
         """Keep `classifier` (keypoints only) beside the assigned model (None: none)."""
         self.detector.set_fallback(classifier)
         if classifier is not None:
-            log.info("keypoints-only fallback %s kept beside %s", classifier.manifest.version,
-                     self.running_model)  # fmt: skip
+            log.info(
+                "keypoints-only fallback %s kept beside %s",
+                classifier.manifest.version,
+                self.running_model,
+            )
 
     def _restart_stream(self, timestamp: float) -> None:
         """The source's clock went back (a recording started again): the features and the
         delay filter start a new stream; frame times keep running forward."""
         log.warning(
             "transport %s: source time went back from %.3f s to %.3f s; classifying a new stream",
-            self.transport_id, self._last_ts, timestamp,
-        )  # fmt: skip
+            self.transport_id,
+            self._last_ts,
+            timestamp,
+        )
         self.detector.reset()
         if self.shadow is not None:
             self.shadow.reset()
@@ -305,17 +326,20 @@ class Pipeline:
             classifier.reset()
             for frame in self.detector.history:
                 classifier.classify(frame)
-            log.info("shadow model %s runs beside %s", classifier.manifest.version,
-                     self.running_model)  # fmt: skip
+            log.info(
+                "shadow model %s runs beside %s", classifier.manifest.version, self.running_model
+            )
         elif self.shadow is not None:
             log.info("shadow model %s stopped", self.shadow.manifest.version)
         self.shadow = classifier
 
     def _report_status(self, change: DetectionStatusChange, wall_ts: float) -> None:
         (log.warning if change.degraded else log.info)(
-            "transport %s: detection %s: %s", self.transport_id,
-            "DEGRADED" if change.degraded else "recovered", change.reason,
-        )  # fmt: skip
+            "transport %s: detection %s: %s",
+            self.transport_id,
+            "DEGRADED" if change.degraded else "recovered",
+            change.reason,
+        )
         message = DetectionStatus(
             ts=wall_ts,
             transport_id=self.transport_id,
@@ -353,9 +377,13 @@ class Pipeline:
         body = self._frame_body(frame, wall_ts, decision, classification, shadow)
         seq = self.outbox.add_frame(body, _priority(classification, decision))
         self._counts.add(
-            observation.timestamp, detected.people, detected.seen, started, self._clock(),
+            observation.timestamp,
+            detected.people,
+            detected.seen,
+            started,
+            self._clock(),
             self._cpu_clock(),
-        )  # fmt: skip
+        )
         changed = decision is not None and decision != self.last_decision
         if changed and (decision != Decision.NORMAL or self.last_decision is not None):
             log.info("transport %s frame %d: %s", self.transport_id, seq, decision.value.upper())

@@ -113,15 +113,17 @@ def _detection() -> str | None:
             "tracker dropped frames",
             "threshold",
             "delay (ms)",
-        ],  # fmt: skip
+        ],
         rows,
     )
     same = all(
         m.get("robot_path")
-        and all(m["robot_path"][k] == m[k] for k in ("falls_detected", "adl_false_alarms",
-                                                      "frame_recall", "frame_f1"))
+        and all(
+            m["robot_path"][k] == m[k]
+            for k in ("falls_detected", "adl_false_alarms", "frame_recall", "frame_f1")
+        )
         for m in data["models"]
-    )  # fmt: skip
+    )
     text += "\n\nThe same models scored on features computed in bulk give " + (
         "the same figures for every model." if same else "other figures (in the JSON)."
     )
@@ -159,11 +161,17 @@ def _detection_splits() -> str | None:
         return None
     rows = [
         [
-            s["seed"], s["frame_recall"], s["frame_f1"], s["falls_detected"], s["falls_total"],
-            s["adl_false_alarms"], s["adl_total"], s["median_time_to_alarm_s"],
+            s["seed"],
+            s["frame_recall"],
+            s["frame_f1"],
+            s["falls_detected"],
+            s["falls_total"],
+            s["adl_false_alarms"],
+            s["adl_total"],
+            s["median_time_to_alarm_s"],
         ]
         for s in data["splits"]
-    ]  # fmt: skip
+    ]
     text = (
         f"**The same on other splits** (`make bench-detection-splits` → "
         f"`bench/results/detection_urfd_splits.json`, {data['data']}): {data['model']}, the same "
@@ -227,9 +235,21 @@ def _ingest() -> str | None:
     data = _load("ingest.json")
     if data is None:
         return None
-    keys = ["database", "backend_workers", "robots", "hz", "seconds", "frames_per_s",
-            "ack_p50_ms", "ack_p99_ms", "alarm_p50_ms", "alarm_p99_ms", "frames_lost",
-            "duplicates", "load_average_1min"]  # fmt: skip
+    keys = [
+        "database",
+        "backend_workers",
+        "robots",
+        "hz",
+        "seconds",
+        "frames_per_s",
+        "ack_p50_ms",
+        "ack_p99_ms",
+        "alarm_p50_ms",
+        "alarm_p99_ms",
+        "frames_lost",
+        "duplicates",
+        "load_average_1min",
+    ]
     rows = [[run.get(k) for k in keys] for run in data["runs"]]
     return (
         "**Ingest** (`make bench-ingest` → `bench/results/ingest.json`): the real backend and "
@@ -242,8 +262,13 @@ def _robot() -> str | None:
     data = _load("robot.json")
     if data is None:
         return None
-    keys = ["frame_p50_ms", "frame_p99_ms", "sustained_hz", "mediapipe_fps",
-            "outbox_replay_frames_per_s"]  # fmt: skip
+    keys = [
+        "frame_p50_ms",
+        "frame_p99_ms",
+        "sustained_hz",
+        "mediapipe_fps",
+        "outbox_replay_frames_per_s",
+    ]
     text = (
         "**Robot agent** (`make bench-robot` → `bench/results/robot.json`): one frame = depth "
         "sampling + features + inference + delay filter + outbox write.\n\n"
@@ -294,25 +319,41 @@ def _nurse_soak() -> str | None:
     cfg, goals, met = data["settings"], data["goals"], data["goals_met"]
     mark = lambda ok: "met" if ok else "**not met**"  # noqa: E731
     rows = [
-        ["board first render (navigation → the list holds every seeded alarm, first rows "
-         "drawn)",
-         f"{_fmt(data['first_render_ms'])} ms", f"≤ {goals['first_render_ms']} ms",
-         mark(met["first_render"])],
-        ["new Emergency → first row of the board, p50 / p95",
-         f"{_fmt(data['top']['p50_ms'])} / {_fmt(data['top']['p95_ms'])} ms "
-         f"(n={data['top']['n']})", f"p95 ≤ {goals['top_p95_ms']} ms", mark(met["top_p95"])],
-        ["new Emergency → first beep of the tone, p50 / p95",
-         f"{_fmt(data['tone']['p50_ms'])} / {_fmt(data['tone']['p95_ms'])} ms "
-         f"(n={data['tone']['n']})", f"p95 ≤ {goals['tone_p95_ms']} ms", mark(met["tone_p95"])],
-        ["JS heap start → end (after GC)",
-         f"{data['heap_mb']['start']} → {data['heap_mb']['end']} MB",
-         f"growth ≤ {goals['heap_growth_mb']} MB", mark(met["heap_growth"])],
+        [
+            "board first render (navigation → the list holds every seeded alarm, first rows drawn)",
+            f"{_fmt(data['first_render_ms'])} ms",
+            f"≤ {goals['first_render_ms']} ms",
+            mark(met["first_render"]),
+        ],
+        [
+            "new Emergency → first row of the board, p50 / p95",
+            f"{_fmt(data['top']['p50_ms'])} / {_fmt(data['top']['p95_ms'])} ms "
+            f"(n={data['top']['n']})",
+            f"p95 ≤ {goals['top_p95_ms']} ms",
+            mark(met["top_p95"]),
+        ],
+        [
+            "new Emergency → first beep of the tone, p50 / p95",
+            f"{_fmt(data['tone']['p50_ms'])} / {_fmt(data['tone']['p95_ms'])} ms "
+            f"(n={data['tone']['n']})",
+            f"p95 ≤ {goals['tone_p95_ms']} ms",
+            mark(met["tone_p95"]),
+        ],
+        [
+            "JS heap start → end (after GC)",
+            f"{data['heap_mb']['start']} → {data['heap_mb']['end']} MB",
+            f"growth ≤ {goals['heap_growth_mb']} MB",
+            mark(met["heap_growth"]),
+        ],
         ["console errors", data["console_errors"], "0", mark(met["console_errors"])],
-        ["after the reconnect: duplicated / missing / extra cards",
-         f"{data['after_reconnect']['duplicates']} / {data['after_reconnect']['missing']} / "
-         f"{data['after_reconnect']['extra']} of {data['after_reconnect']['cards']}", "0 / 0",
-         mark(met["after_reconnect"])],
-    ]  # fmt: skip
+        [
+            "after the reconnect: duplicated / missing / extra cards",
+            f"{data['after_reconnect']['duplicates']} / {data['after_reconnect']['missing']} / "
+            f"{data['after_reconnect']['extra']} of {data['after_reconnect']['cards']}",
+            "0 / 0",
+            mark(met["after_reconnect"]),
+        ],
+    ]
     return (
         "**Nurse board soak in Chromium** (`make bench-nurse-soak` → "
         f"`bench/results/nurse_soak.json`, {data['data']}): {cfg['seeded_alarms']} unresolved "
@@ -339,27 +380,38 @@ def _demo_hour() -> str | None:
     rows = [
         ["open Emergency alarms on the board (open or missed)", board["open_emergencies"]],
         ["falls the fleet generated (its log)", generated["falls_total"]],
-        [f"falls expected at the configured {data['configured_falls_per_robot_per_hour']:g} "
-         f"per robot per hour ({data['fleet_minutes']:g} min of {data['robots']} robots)",
-         data["expected_falls_at_configured_rate"]],
-        ["Emergency alarms on a generated fall / false (on what) / falls without one",
-         f"{data['alarms_against_falls']['on_a_generated_fall']} / "
-         f"{data['alarms_against_falls']['false_alarms']} ("
-         + ", ".join(f"{k} {v}" for k, v in
-                     data["alarms_against_falls"]["false_alarms_by_event"].items())
-         + f") / {data['alarms_against_falls']['falls_without_alarm']} ("
-         + ", ".join(f"{k} {v}" for k, v in
-                     data["alarms_against_falls"]["falls_without_alarm_events"].items())
-         + ")"],
-        ["unresolved alarms by kind:state", ", ".join(
-            f"{k} {v}" for k, v in sorted(board["unresolved_by_kind_state"].items()))],
-        ["newest open Emergency is the board's first card",
-         f"{'yes' if data['newest_is_first_card'] else '**no**'} (newest #"
-         f"{newest['id'] if newest else '–'}; first card #{first['first_card_alarm_id']}: "
-         f"{first['first_card_text'][:60]})"],
+        [
+            f"falls expected at the configured {data['configured_falls_per_robot_per_hour']:g} "
+            f"per robot per hour ({data['fleet_minutes']:g} min of {data['robots']} robots)",
+            data["expected_falls_at_configured_rate"],
+        ],
+        [
+            "Emergency alarms on a generated fall / false (on what) / falls without one",
+            f"{data['alarms_against_falls']['on_a_generated_fall']} / "
+            f"{data['alarms_against_falls']['false_alarms']} ("
+            + ", ".join(
+                f"{k} {v}" for k, v in data["alarms_against_falls"]["false_alarms_by_event"].items()
+            )
+            + f") / {data['alarms_against_falls']['falls_without_alarm']} ("
+            + ", ".join(
+                f"{k} {v}"
+                for k, v in data["alarms_against_falls"]["falls_without_alarm_events"].items()
+            )
+            + ")",
+        ],
+        [
+            "unresolved alarms by kind:state",
+            ", ".join(f"{k} {v}" for k, v in sorted(board["unresolved_by_kind_state"].items())),
+        ],
+        [
+            "newest open Emergency is the board's first card",
+            f"{'yes' if data['newest_is_first_card'] else '**no**'} (newest #"
+            f"{newest['id'] if newest else '–'}; first card #{first['first_card_alarm_id']}: "
+            f"{first['first_card_text'][:60]})",
+        ],
         ["models the robots run", models],
         ["floor warnings in the log", data["floor_warnings_in_log"]],
-    ]  # fmt: skip
+    ]
     return (
         f"**An hour of `make run`** (`make bench-demo-hour` → `bench/results/demo_hour.json`, "
         f"{data['data']}): {data['measured_minutes']:g} min after the system said it was running "
@@ -377,13 +429,17 @@ def _storage_stall() -> str | None:
     if data is None:
         return None
     rows = [
-        ["Emergency sent → on the nurse board (marked not yet stored)",
-         data["emergency_to_board_ms"]],
+        [
+            "Emergency sent → on the nurse board (marked not yet stored)",
+            data["emergency_to_board_ms"],
+        ],
         ["lock taken → storage-stalled technical alarm", data["storage_stalled_after_lock_ms"]],
         ["lock released → stored alarm replaces it", data["stored_emergency_after_release_ms"]],
-        ["lock released → storage-stalled alarm cleared",
-         data["storage_stalled_cleared_after_release_ms"]],
-    ]  # fmt: skip
+        [
+            "lock released → storage-stalled alarm cleared",
+            data["storage_stalled_cleared_after_release_ms"],
+        ],
+    ]
     return (
         f"**Storage stall** (`make bench-storage-stall` → `bench/results/storage_stall.json`, "
         f"{data['machine']['database']}): the database write lock held "
@@ -505,22 +561,32 @@ def _frame_storage() -> str | None:
         history, retention = run["history"], run["retention"]
         reads = run["reads_with_history"]
         during = retention["ingest_during"]
-        rows.append([
-            run["database"], f"{history['frames']:,}",
-            f"{run['disk_after_loading']['frames_bytes'] / 1e6:,.0f}",
-            run["ingest_empty"]["ack_p99_ms"], run["ingest_with_history"]["ack_p99_ms"],
-            run["ingest_with_history"]["alarm_p99_ms"], reads["alarm_replay"]["p99_ms"],
-            reads["labelling_timeline"]["p99_ms"], run["training_export"]["seconds"],
-            f"{retention['dropped_frames']:,}", retention["retention_seconds"],
-            during["ack_p99_ms"], during["frames_lost"],
-            "yes" if retention["old_frames_left_exactly_the_kept"] else "**no**",
-            retention["space"]["actual_over_predicted"],
-            run["ingest_with_history"]["load_average_1min"],
-        ])  # fmt: skip
+        rows.append(
+            [
+                run["database"],
+                f"{history['frames']:,}",
+                f"{run['disk_after_loading']['frames_bytes'] / 1e6:,.0f}",
+                run["ingest_empty"]["ack_p99_ms"],
+                run["ingest_with_history"]["ack_p99_ms"],
+                run["ingest_with_history"]["alarm_p99_ms"],
+                reads["alarm_replay"]["p99_ms"],
+                reads["labelling_timeline"]["p99_ms"],
+                run["training_export"]["seconds"],
+                f"{retention['dropped_frames']:,}",
+                retention["retention_seconds"],
+                during["ack_p99_ms"],
+                during["frames_lost"],
+                "yes" if retention["old_frames_left_exactly_the_kept"] else "**no**",
+                retention["space"]["actual_over_predicted"],
+                run["ingest_with_history"]["load_average_1min"],
+            ]
+        )
     args = data["arguments"]
-    sizes = ", ".join(f"{r['database']} {r['history']['frames']:,} frames "
-                      f"({r['retention']['measurement_window_s']:g} s retention window)"
-                      for r in data["runs"])  # fmt: skip
+    sizes = ", ".join(
+        f"{r['database']} {r['history']['frames']:,} frames "
+        f"({r['retention']['measurement_window_s']:g} s retention window)"
+        for r in data["runs"]
+    )
     return (
         "**Frames at hospital scale** (`make bench-storage` → `bench/results/storage.json`): "
         f"GENERATED history over {args['days']:g} days from {args['history_robots']} robots, "
@@ -548,7 +614,7 @@ def _frame_storage() -> str | None:
                 "load average",
             ],
             rows,
-        )  # fmt: skip
+        )
         + "\n\n"
         + _storage_goals(data["runs"])
     )
@@ -565,19 +631,23 @@ def _storage_goals(runs: list[dict]) -> str:
             "alarm p99 ≤ 250 ms with history": run["ingest_with_history"]["alarm_p99_ms"] <= 250,
             "ack p99 within 10% of the empty database": run["ack_p99_with_history_over_empty"]
             <= 1.1,
-            "replay and timeline p99 ≤ 200 ms": max(reads["alarm_replay"]["p99_ms"],
-                                                   reads["labelling_timeline"]["p99_ms"]) <= 200,
+            "replay and timeline p99 ≤ 200 ms": max(
+                reads["alarm_replay"]["p99_ms"], reads["labelling_timeline"]["p99_ms"]
+            )
+            <= 200,
             "training export ≤ 10 s": run["training_export"]["seconds"] <= 10,
             "ack p99 ≤ 100 ms during retention": during["ack_p99_ms"] <= 100,
             "0 frames lost, every kept frame present": during["frames_lost"] == 0
             and retention["kept_frames_all_present"],
             "space within 10% of the policy": abs(retention["space"]["actual_over_predicted"] - 1)
             <= 0.1,
-        }  # fmt: skip
+        }
         met = [name for name, ok in goals.items() if ok]
         missed = [name for name, ok in goals.items() if not ok]
-        lines.append(f"- {run['database']}: met: {'; '.join(met) or 'none'}. "
-                     f"**Not met**: {'; '.join(missed) or 'none'}.")  # fmt: skip
+        lines.append(
+            f"- {run['database']}: met: {'; '.join(met) or 'none'}. "
+            f"**Not met**: {'; '.join(missed) or 'none'}."
+        )
     return "Goals per database (computed from the file):\n\n" + "\n".join(lines)
 
 
@@ -585,9 +655,18 @@ def _login_flood() -> str | None:
     data = _load("login_flood.json")
     if data is None:
         return None
-    keys = ["database", "gate", "baseline_ack_p99_ms", "flood_ack_p50_ms", "flood_ack_p99_ms",
-            "flood_frames_never_acked", "signed_in_ms_p50", "goal_flood_ack_p99_le_100_ms",
-            "goal_locked_account_answers_429", "load_average_1min"]  # fmt: skip
+    keys = [
+        "database",
+        "gate",
+        "baseline_ack_p99_ms",
+        "flood_ack_p50_ms",
+        "flood_ack_p99_ms",
+        "flood_frames_never_acked",
+        "signed_in_ms_p50",
+        "goal_flood_ack_p99_le_100_ms",
+        "goal_locked_account_answers_429",
+        "load_average_1min",
+    ]
     rows = [[run.get(k) for k in keys] for run in data["runs"]]
     answers = "; ".join(
         f"{run['database']} {run['gate']}: "

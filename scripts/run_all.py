@@ -26,12 +26,14 @@ ROBOTS = 3
 #: lookalikes_per_hour); VIGIL_FALLS_PER_HOUR etc. override the defaults.
 FLEET_RATES = [
     arg
-    for flag, name in (("--falls-per-hour", "VIGIL_FALLS_PER_HOUR"),
-                       ("--pauses-per-hour", "VIGIL_PAUSES_PER_HOUR"),
-                       ("--lookalikes-per-hour", "VIGIL_LOOKALIKES_PER_HOUR"))
+    for flag, name in (
+        ("--falls-per-hour", "VIGIL_FALLS_PER_HOUR"),
+        ("--pauses-per-hour", "VIGIL_PAUSES_PER_HOUR"),
+        ("--lookalikes-per-hour", "VIGIL_LOOKALIKES_PER_HOUR"),
+    )
     if os.environ.get(name)
     for arg in (flag, os.environ[name])
-]  # fmt: skip
+]
 TOKENS = VAR / "robot_tokens.json"
 #: The local Alert Manager simulator (phones over IHE PCD ACM): Vigil sends it ORU^R40 and it
 #: answers with ORA^R41 dispositions on Vigil's listener. Setting VIGIL_ALERT_MANAGER points the
@@ -145,14 +147,35 @@ def train_missing_models() -> None:
     # GENERATED walking transports (turning, lying on a bed, stumbling... that URFD lacks); the
     # promotion gate still judges them on the URFD gold set, and their manifests say generated.
     if not model_is_current(MODEL_DIR, demo=True):
-        train = ["-m", "worker.training.cli", "train-default", "--out", str(MODEL_DIR),
-                 "--with-generated"]  # fmt: skip
-        jobs.append(("the default walking model (depth/floor measures) on URFD + GENERATED "
-                     "walking transports", train))  # fmt: skip
+        train = [
+            "-m",
+            "worker.training.cli",
+            "train-default",
+            "--out",
+            str(MODEL_DIR),
+            "--with-generated",
+        ]
+        jobs.append(
+            (
+                "the default walking model (depth/floor measures) on URFD + GENERATED "
+                "walking transports",
+                train,
+            )
+        )
     if not model_is_current(KEYPOINTS_MODEL_DIR, demo=True):
-        jobs.append(("the keypoints-only walking model on URFD + GENERATED walking transports",
-                     ["-m", "worker.bootstrap", "train-keypoints", "--out",
-                      str(KEYPOINTS_MODEL_DIR), "--with-generated"]))  # fmt: skip
+        jobs.append(
+            (
+                "the keypoints-only walking model on URFD + GENERATED walking transports",
+                [
+                    "-m",
+                    "worker.bootstrap",
+                    "train-keypoints",
+                    "--out",
+                    str(KEYPOINTS_MODEL_DIR),
+                    "--with-generated",
+                ],
+            )
+        )
     running = []
     for title, args in jobs:
         print(f"==> training {title} (first run, or after a feature change)", flush=True)
@@ -171,16 +194,28 @@ def main() -> int:
     VAR.mkdir(parents=True, exist_ok=True)
     use_var_dir()
     step("applying database migrations", "-m", "backend.cli", "migrate")
-    step("creating demo users and robots", "-m", "backend.cli", "seed-demo", "--robots",
-         str(ROBOTS), "--tokens-file", str(TOKENS), "--passwords-file",
-         str(VAR / "demo_passwords.json"))  # fmt: skip
+    step(
+        "creating demo users and robots",
+        "-m",
+        "backend.cli",
+        "seed-demo",
+        "--robots",
+        str(ROBOTS),
+        "--tokens-file",
+        str(TOKENS),
+        "--passwords-file",
+        str(VAR / "demo_passwords.json"),
+    )
     train_missing_models()
     models = ["--floor-model", str(MODEL_DIR), "--keypoints-model", str(KEYPOINTS_MODEL_DIR)]
     step(
         "model registry: URFD training and gold recordings, both walking models registered "
         "and promoted to robots that can feed them (idempotent)",
-        "-m", "worker.bootstrap", "demo", *models,
-    )  # fmt: skip
+        "-m",
+        "worker.bootstrap",
+        "demo",
+        *models,
+    )
     children: list[subprocess.Popen] = []
     try:
         simulator = alert_manager_simulator()
@@ -209,14 +244,21 @@ def main() -> int:
                 # promotion gate; until then it streams the generator's ground truth, marked
                 # model_version "generated-ground-truth". Rates: --falls-per-hour etc.
                 *FLEET_RATES,
-            )  # fmt: skip
+            )
         )
         # The robots' hellos said what they feed: the floor model goes to those that can.
         step(
             "promoting the depth/floor model to the robots that feed floor measures",
-            "-m", "worker.bootstrap", "demo", *models, "--promote-only",
-            "--wait-for-robots", str(ROBOTS), "--timeout", "30",
-        )  # fmt: skip
+            "-m",
+            "worker.bootstrap",
+            "demo",
+            *models,
+            "--promote-only",
+            "--wait-for-robots",
+            str(ROBOTS),
+            "--timeout",
+            "30",
+        )
         print(
             f"\nVigil is running: open http://{HOST}:{PORT} and sign in as nurse "
             "(password printed above). Ctrl-C stops everything.\n",

@@ -17,8 +17,12 @@ from worker.settings import WorkerSettings
 
 TRAIN = [f"fall-{i:02d}" for i in range(1, 7)] + [f"adl-{i:02d}" for i in range(1, 7)]
 GOLD = ["fall-07", "fall-08", "adl-07", "adl-08"]
-SMALL_GRID = {"n_estimators": [30], "max_depth": [8, 16], "min_samples_leaf": [5],
-              "max_features": [0.3]}  # fmt: skip
+SMALL_GRID = {
+    "n_estimators": [30],
+    "max_depth": [8, 16],
+    "min_samples_leaf": [5],
+    "max_features": [0.3],
+}
 
 
 @pytest.fixture

@@ -99,9 +99,16 @@ def _old_worker_import(session, names: list[str]) -> dict[str, int]:
     ids = {}
     for seq in urfd.load(None, names):
         split = "test" if urfd.is_gold(seq.name) else "train"
-        video = Video(name=f"urfd/{seq.name}", source="urfd", generated=False, mode="walking",
-                      camera="kinect-cam0", fps=urfd.FPS, frame_count=len(seq),
-                      split=split)  # fmt: skip
+        video = Video(
+            name=f"urfd/{seq.name}",
+            source="urfd",
+            generated=False,
+            mode="walking",
+            camera="kinect-cam0",
+            fps=urfd.FPS,
+            frame_count=len(seq),
+            split=split,
+        )
         session.add(video)
         session.flush()
         rows = zip(seq.keypoints, seq.timestamps, seq.floor, strict=True)
@@ -114,7 +121,7 @@ def _old_worker_import(session, names: list[str]) -> dict[str, int]:
                     "ts": float(t),
                     "keypoints": encode_keypoints(k),
                     "floor": encode_floor(f),
-                }  # fmt: skip
+                }
                 for i, (k, t, f) in enumerate(rows)
             ],
         )
@@ -130,7 +137,7 @@ def _old_worker_import(session, names: list[str]) -> dict[str, int]:
                     taxonomy_version=1,
                     status=SegmentStatus.ACCEPTED,
                     source=SegmentSource.IMPORT,
-                )  # fmt: skip
+                )
             )
         ids[seq.name] = video.id
     session.flush()
@@ -172,7 +179,7 @@ def test_0009_merges_the_double_urfd_import_without_losing_what_people_made(
                 status="submitted",
                 source="annotator",
                 annotator_id=annotator.id,
-            )  # fmt: skip
+            )
         )
         reviewed = session.scalars(
             select(AnnotationSegment)
@@ -181,13 +188,18 @@ def test_0009_merges_the_double_urfd_import_without_losing_what_people_made(
         ).first()
         assert reviewed.label_key == "standing"
         reviewed.reviewer_id, reviewed_id = annotator.id, reviewed.id
-        alarm = Alarm(kind="emergency", priority="high", robot_id="r1", ward="w",
-                      video_id=copies["adl-01"])  # fmt: skip
+        alarm = Alarm(
+            kind="emergency", priority="high", robot_id="r1", ward="w", video_id=copies["adl-01"]
+        )
         session.add(alarm)
         session.get(Video, copies["adl-01"]).split = "unassigned"  # an admin's choice
         names = ["urfd/fall-01", f"urfd/{only_copy}", "urfd/other"]
-        job = Job(kind="retrain", status="queued", params={"video_ids": [copies["fall-01"], 999]},
-                  result={"training_videos": names})  # fmt: skip
+        job = Job(
+            kind="retrain",
+            status="queued",
+            params={"video_ids": [copies["fall-01"], 999]},
+            result={"training_videos": names},
+        )
         session.add(job)
         session.flush()
         alarm_id, job_id = alarm.id, job.id
@@ -253,19 +265,24 @@ def test_0012_fills_each_video_frame_range_from_its_frames(empty_database_url):
         with engine.begin() as connection:
             for name in ("with-frames", "without-frames"):
                 connection.execute(
-                    text("INSERT INTO videos (name, source, generated, mode, fps, split, "
-                         "frame_count, rgb_frame_offset, created_at) VALUES (:n, 'urfd', false, "
-                         "'walking', 30, 'train', 3, 0, CURRENT_TIMESTAMP)"), {"n": name}
-                )  # fmt: skip
+                    text(
+                        "INSERT INTO videos (name, source, generated, mode, fps, split, "
+                        "frame_count, rgb_frame_offset, created_at) VALUES (:n, 'urfd', false, "
+                        "'walking', 30, 'train', 3, 0, CURRENT_TIMESTAMP)"
+                    ),
+                    {"n": name},
+                )
             video_id = connection.execute(
                 text("SELECT id FROM videos WHERE name = 'with-frames'")
             ).scalar_one()
             for index, ts in enumerate([1_700_000_000.5, 2.25, 1_700_000_100.0]):
                 connection.execute(
-                    text('INSERT INTO frames (video_id, "index", ts, keypoints) '
-                         "VALUES (:v, :i, :t, :k)"),
+                    text(
+                        'INSERT INTO frames (video_id, "index", ts, keypoints) '
+                        "VALUES (:v, :i, :t, :k)"
+                    ),
                     {"v": video_id, "i": index, "t": ts, "k": b"\0" * 300},
-                )  # fmt: skip
+                )
         upgrade(url)
         with engine.connect() as connection:
             ranges = dict(

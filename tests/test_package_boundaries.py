@@ -14,12 +14,33 @@ import pytest
 ROOT = Path(__file__).resolve().parent.parent
 
 FORBIDDEN = {
-    "vigil": {"fastapi", "starlette", "sqlalchemy", "alembic", "backend", "worker",
-              "robot_agent", "uvicorn", "redis", "psycopg"},
-    "robot_agent": {"fastapi", "starlette", "sqlalchemy", "alembic", "backend", "worker",
-                    "uvicorn", "redis", "psycopg", "torch", "sklearn"},
+    "vigil": {
+        "fastapi",
+        "starlette",
+        "sqlalchemy",
+        "alembic",
+        "backend",
+        "worker",
+        "robot_agent",
+        "uvicorn",
+        "redis",
+        "psycopg",
+    },
+    "robot_agent": {
+        "fastapi",
+        "starlette",
+        "sqlalchemy",
+        "alembic",
+        "backend",
+        "worker",
+        "uvicorn",
+        "redis",
+        "psycopg",
+        "torch",
+        "sklearn",
+    },
     "backend": {"robot_agent", "worker"},
-}  # fmt: skip
+}
 SERVER_PACKAGES = ("backend", "worker")
 
 

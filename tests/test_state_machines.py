@@ -103,11 +103,17 @@ SEGMENT.start(segment, "import")
 select(Job).where(Job.status == JobStatus.RUNNING).filter_by(status=JobStatus.RUNNING)
 """
     writes = [what for _, what in direct_state_writes(ast.parse(code))]
-    assert sorted(writes) == sorted([
-        ".status =", ".state_ =", ".state =", "setattr(..., 'status')",
-        ".values(status=...)", ".values({'state': ...})",
-        "created with status=SegmentStatus.ACCEPTED",
-    ])  # fmt: skip
+    assert sorted(writes) == sorted(
+        [
+            ".status =",
+            ".state_ =",
+            ".state =",
+            "setattr(..., 'status')",
+            ".values(status=...)",
+            ".values({'state': ...})",
+            "created with status=SegmentStatus.ACCEPTED",
+        ]
+    )
 
 
 #: Modules that put stored rows back as they were (not a creation): restoring an archived
@@ -154,7 +160,13 @@ def test_every_state_enum_is_declared_as_a_machine():
                 and isinstance(node.args[0], ast.Name)
             ):
                 declared.add(node.args[0].id)
-    assert {"AlarmState", "SegmentStatus", "JobStatus", "ModelStatus", "DeploymentStatus",
-            "TrackState"} <= declared  # fmt: skip
+    assert {
+        "AlarmState",
+        "SegmentStatus",
+        "JobStatus",
+        "ModelStatus",
+        "DeploymentStatus",
+        "TrackState",
+    } <= declared
     missing = {name: where for name, where in enums.items() if name not in declared}
     assert set(missing) == NOT_MACHINES, f"state enums without a StateMachine: {missing}"

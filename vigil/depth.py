@@ -73,8 +73,9 @@ def sample_depth(
     height, width = image.shape
     xy = points[..., :2]
     if keypoint_image_size is not None:
-        xy = xy * np.array([width / keypoint_image_size[0], height / keypoint_image_size[1]],
-                           np.float32)  # fmt: skip
+        xy = xy * np.array(
+            [width / keypoint_image_size[0], height / keypoint_image_size[1]], np.float32
+        )
     flat_xy = xy.reshape(-1, 2)
     present = points.reshape(-1, 3)[:, 2] > 0
     col = np.floor(flat_xy[:, 0]).astype(np.int64)

@@ -90,9 +90,19 @@ _S = {name: i for i, name in enumerate(_STATE)}
 _LIMB_STATE = slice(_S[LIMBS[0]], _S[LIMBS[-1]] + 1)
 _LIMB_SEEN = slice(_S[f"has_{LIMBS[0]}"], _S[f"has_{LIMBS[-1]}"] + 1)
 _DELTAS = (
-    "d_down", "d_side", "d_logscale", "d_aspect", "d_upright", "d_top", "d_depth", "above_floor",
-    "d_visible", "d_floor_top", "d_floor_centre", *(f"d_{limb}" for limb in LIMBS),
-)  # fmt: skip
+    "d_down",
+    "d_side",
+    "d_logscale",
+    "d_aspect",
+    "d_upright",
+    "d_top",
+    "d_depth",
+    "above_floor",
+    "d_visible",
+    "d_floor_top",
+    "d_floor_centre",
+    *(f"d_{limb}" for limb in LIMBS),
+)
 # Limbs change shape within a second; their changes over longer horizons only added noise.
 LIMB_HORIZON_LIMIT_S = 0.8
 _LIMB_DELTAS = frozenset(f"d_{limb}" for limb in LIMBS)

@@ -9,16 +9,32 @@ from dataclasses import dataclass, field
 import numpy as np
 
 BODY_25: tuple[str, ...] = (
-    "nose", "neck",
-    "r_shoulder", "r_elbow", "r_wrist",
-    "l_shoulder", "l_elbow", "l_wrist",
+    "nose",
+    "neck",
+    "r_shoulder",
+    "r_elbow",
+    "r_wrist",
+    "l_shoulder",
+    "l_elbow",
+    "l_wrist",
     "mid_hip",
-    "r_hip", "r_knee", "r_ankle",
-    "l_hip", "l_knee", "l_ankle",
-    "r_eye", "l_eye", "r_ear", "l_ear",
-    "l_big_toe", "l_small_toe", "l_heel",
-    "r_big_toe", "r_small_toe", "r_heel",
-)  # fmt: skip
+    "r_hip",
+    "r_knee",
+    "r_ankle",
+    "l_hip",
+    "l_knee",
+    "l_ankle",
+    "r_eye",
+    "l_eye",
+    "r_ear",
+    "l_ear",
+    "l_big_toe",
+    "l_small_toe",
+    "l_heel",
+    "r_big_toe",
+    "r_small_toe",
+    "r_heel",
+)
 N_KEYPOINTS = len(BODY_25)
 INDEX = {name: i for i, name in enumerate(BODY_25)}
 
@@ -36,11 +52,31 @@ def no_floor() -> np.ndarray:
 
 #: Bones for drawing: pairs of keypoint indices.
 BONES: tuple[tuple[int, int], ...] = (
-    (1, 0), (0, 15), (15, 17), (0, 16), (16, 18),
-    (1, 2), (2, 3), (3, 4), (1, 5), (5, 6), (6, 7),
-    (1, 8), (8, 9), (9, 10), (10, 11), (11, 24), (11, 22), (22, 23),
-    (8, 12), (12, 13), (13, 14), (14, 21), (14, 19), (19, 20),
-)  # fmt: skip
+    (1, 0),
+    (0, 15),
+    (15, 17),
+    (0, 16),
+    (16, 18),
+    (1, 2),
+    (2, 3),
+    (3, 4),
+    (1, 5),
+    (5, 6),
+    (6, 7),
+    (1, 8),
+    (8, 9),
+    (9, 10),
+    (10, 11),
+    (11, 24),
+    (11, 22),
+    (22, 23),
+    (8, 12),
+    (12, 13),
+    (13, 14),
+    (14, 21),
+    (14, 19),
+    (19, 20),
+)
 
 
 @dataclass(slots=True)

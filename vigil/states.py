@@ -133,9 +133,12 @@ class StateMachine(Generic[S]):
         """Where `action` takes an object in state `current`; raises if it may not."""
         if action not in self.actions:
             raise self.error(
-                self._subject(obj), current, action=action, unknown_action=True,
+                self._subject(obj),
+                current,
+                action=action,
+                unknown_action=True,
                 actions=self.actions,
-            )  # fmt: skip
+            )
         current = self._state(current)
         try:
             return self.actions[action][current]

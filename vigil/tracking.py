@@ -33,8 +33,9 @@ from vigil.observation import Observation
 from vigil.skeleton import INDEX, SkeletonFrame
 from vigil.states import StateMachine
 
-TORSO = np.array([INDEX[k] for k in ("neck", "r_shoulder", "l_shoulder", "mid_hip", "r_hip",
-                                     "l_hip")])  # fmt: skip
+TORSO = np.array(
+    [INDEX[k] for k in ("neck", "r_shoulder", "l_shoulder", "mid_hip", "r_hip", "l_hip")]
+)
 MIN_SHARED_JOINTS = 3
 MIN_PERSON_KEYPOINTS = 4
 SCALE_MEMORY = 0.97  # share of a track's remembered body size kept per frame
@@ -113,9 +114,11 @@ def detect_markers(rgb: np.ndarray, dictionary: int | None = None) -> dict[int, 
 
 
 def marker_wearer(
-    people: list[SkeletonFrame], markers: dict[int, np.ndarray], marker_id: int | None = None,
+    people: list[SkeletonFrame],
+    markers: dict[int, np.ndarray],
+    marker_id: int | None = None,
     margin: float = 0.15,
-) -> int | None:  # fmt: skip
+) -> int | None:
     """Index of the person whose torso box (widened by ``margin`` of its size) holds the marker
     (``marker_id``, or any marker when None); the smallest such box wins."""
     centres = [c for i, c in markers.items() if marker_id is None or i == marker_id]
@@ -396,8 +399,14 @@ class PatientTracker:
                 return float(image.shape[1])
         return self.image_width
 
-    def _pairs(self, people: list[SkeletonFrame], tracks: list[int], detections: list[int],
-               cost, gate: float) -> list[tuple[float, int, int]]:  # fmt: skip
+    def _pairs(
+        self,
+        people: list[SkeletonFrame],
+        tracks: list[int],
+        detections: list[int],
+        cost,
+        gate: float,
+    ) -> list[tuple[float, int, int]]:
         pairs = []
         for t in tracks:
             track = self.tracks_[t]

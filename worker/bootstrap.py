@@ -120,9 +120,11 @@ def train_keypoints(out: Path, urfd_dir: Path | None = None, with_generated: boo
     with threadpool_limits(limits=1):
         selected = select_model(trainer, data, np.arange(len(data.names)), n_inner=5, stride=3)
     manifest = publish(trainer, selected, data, out, metrics=metrics)
-    print(f"wrote {out} ({manifest.name}, inputs {manifest.inputs}, threshold "
-          f"{manifest.threshold:.3f}, delay {manifest.delay_ms} ms) in "
-          f"{time.perf_counter() - start:.1f} s")  # fmt: skip
+    print(
+        f"wrote {out} ({manifest.name}, inputs {manifest.inputs}, threshold "
+        f"{manifest.threshold:.3f}, delay {manifest.delay_ms} ms) in "
+        f"{time.perf_counter() - start:.1f} s"
+    )
 
 
 def register_model_dir(session: Session, model_dir: Path, store_dir: Path) -> ModelVersion:
@@ -140,11 +142,17 @@ def register_model_dir(session: Session, model_dir: Path, store_dir: Path) -> Mo
     if existing is not None:
         return existing
     classifier = load_classifier(model_dir)
-    model = register(session, model_dir, store_dir, lineage={
-        "started_by": {"user_id": None, "username": "make run", "job_id": None},
-        "source": str(model_dir), "parent": None,
-        "hyperparameters": manifest.metrics.get("params"),
-    })  # fmt: skip
+    model = register(
+        session,
+        model_dir,
+        store_dir,
+        lineage={
+            "started_by": {"user_id": None, "username": "make run", "job_id": None},
+            "source": str(model_dir),
+            "parent": None,
+            "hyperparameters": manifest.metrics.get("params"),
+        },
+    )
     model.metrics = gold_evaluation(
         session, classifier, store_path(store_dir, model.version), manifest.mode
     )
@@ -191,10 +199,15 @@ def promote_demo_models(
         gate = gate_report(model, settings.gate_false_alarm_budget, settings.gate_latency_ms)
         try:
             deployment, _ = rollout.promote(
-                session, model, signer, DeploymentScope.ROBOT, robot.id, gate,
+                session,
+                model,
+                signer,
+                DeploymentScope.ROBOT,
+                robot.id,
+                gate,
                 comment="make run: a model this robot can feed",
                 require_second_approver=settings.require_second_approver,
-            )  # fmt: skip
+            )
         except rollout.RolloutError as error:
             done.append(f"{model.version} not promoted to {robot.id}: {error}")
             return False
@@ -217,8 +230,10 @@ def promote_demo_models(
         if feeds_floor and (current is None or cannot_feed or current.id == keypoints.id):
             promote(floor, robot)
     if floor is not None and not any(not capability.missing_for(robot, floor) for robot in robots):
-        done.append(f"{floor.version} stays a candidate: no robot said it feeds "
-                    f"{', '.join(capability.model_needs(floor))}")  # fmt: skip
+        done.append(
+            f"{floor.version} stays a candidate: no robot said it feeds "
+            f"{', '.join(capability.model_needs(floor))}"
+        )
     return done
 
 
@@ -256,14 +271,19 @@ def main(argv: list[str] | None = None) -> int:
     commands = parser.add_subparsers(dest="command", required=True)
     train = commands.add_parser("train-keypoints", help="train the keypoints-only walking model")
     train.add_argument("--out", type=Path, required=True)
-    train.add_argument("--with-generated", action="store_true",
-                       help="add GENERATED walking transports (make run)")  # fmt: skip
+    train.add_argument(
+        "--with-generated", action="store_true", help="add GENERATED walking transports (make run)"
+    )
     demo = commands.add_parser("demo", help="URFD split, both models registered and promoted")
     demo.add_argument("--floor-model", type=Path, required=True)
     demo.add_argument("--keypoints-model", type=Path, required=True)
     demo.add_argument("--promote-only", action="store_true", help="models are registered")
-    demo.add_argument("--wait-for-robots", type=int, default=0,
-                      help="first wait until this many robots said hello")  # fmt: skip
+    demo.add_argument(
+        "--wait-for-robots",
+        type=int,
+        default=0,
+        help="first wait until this many robots said hello",
+    )
     demo.add_argument("--timeout", type=float, default=20.0)
     args = parser.parse_args(argv)
     if args.command == "train-keypoints":
@@ -282,8 +302,9 @@ def main(argv: list[str] | None = None) -> int:
         with transaction(factory) as session:
             lines = [] if args.promote_only else bootstrap(session, None, args.urfd_dir)
             if args.promote_only:
-                versions = [read_manifest(d)[0].version
-                            for d in (args.floor_model, args.keypoints_model)]  # fmt: skip
+                versions = [
+                    read_manifest(d)[0].version for d in (args.floor_model, args.keypoints_model)
+                ]
                 floor, keypoints = (
                     session.scalars(select(ModelVersion).where(ModelVersion.version == v)).first()
                     for v in versions
@@ -296,9 +317,11 @@ def main(argv: list[str] | None = None) -> int:
                 keypoints = register_model_dir(
                     session, args.keypoints_model, settings.model_store_dir
                 )
-                lines.append(f"registered {floor.version} (needs "
-                             f"{', '.join(floor.manifest.get('inputs') or [])}) and "
-                             f"{keypoints.version} (keypoints only)")  # fmt: skip
+                lines.append(
+                    f"registered {floor.version} (needs "
+                    f"{', '.join(floor.manifest.get('inputs') or [])}) and "
+                    f"{keypoints.version} (keypoints only)"
+                )
             lines += promote_demo_models(session, floor, keypoints)
         for line in lines:
             print(line)

@@ -111,13 +111,20 @@ def db_recordings(
         observations = tuple(
             Observation(
                 float(ts[j]),
-                [SkeletonFrame(keypoints[j], depth[j] if depth is not None else no_depth,
-                               float(ts[j]), floor[j])]
-                if seen_any[j] else [],
+                [
+                    SkeletonFrame(
+                        keypoints[j],
+                        depth[j] if depth is not None else no_depth,
+                        float(ts[j]),
+                        floor[j],
+                    )
+                ]
+                if seen_any[j]
+                else [],
                 j,
             )
             for j in range(len(rows))
-        )  # fmt: skip
+        )
         winners = frame_segments(max(indices) + 1, segments_of.get(video.id, []))
         target = np.full(len(rows), -1, np.int64)
         for j, frame_index in enumerate(indices):

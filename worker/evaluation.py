@@ -127,14 +127,21 @@ def write_plots(
     manifest = classifier.manifest
     written = []
     if truth.any() and (~truth).any():
-        plots.roc_pr(stream.scores[labelled, e], truth, manifest.threshold,
-                     f"{manifest.version}: Emergency frames of the gold set",
-                     out_dir / "roc_pr.png")  # fmt: skip
+        plots.roc_pr(
+            stream.scores[labelled, e],
+            truth,
+            manifest.threshold,
+            f"{manifest.version}: Emergency frames of the gold set",
+            out_dir / "roc_pr.png",
+        )
         written.append("roc_pr")
     if sweep is not None:
-        plots.delay_metrics(sweep, manifest.delay_ms / 1000,
-                            f"{manifest.version}: delay chosen on training predictions",
-                            out_dir / "delay.png")  # fmt: skip
+        plots.delay_metrics(
+            sweep,
+            manifest.delay_ms / 1000,
+            f"{manifest.version}: delay chosen on training predictions",
+            out_dir / "delay.png",
+        )
         written.append("delay")
     falls = [ev for ev in result.get("events", []) if ev["kind"] == "fall"]
     if falls:

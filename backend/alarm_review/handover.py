@@ -120,11 +120,27 @@ def handover(
 
 
 CSV_COLUMNS = (
-    "section", "alarm_id", "kind", "state", "robot_id", "ward", "patient", "location",
-    "transport_id", "raised_at", "transport_ended_at", "acknowledged_at", "acknowledged_by",
-    "resolved_at", "resolved_by", "verdict", "reason", "escalation_level", "was_missed",
+    "section",
+    "alarm_id",
+    "kind",
+    "state",
+    "robot_id",
+    "ward",
+    "patient",
+    "location",
+    "transport_id",
+    "raised_at",
+    "transport_ended_at",
+    "acknowledged_at",
+    "acknowledged_by",
+    "resolved_at",
+    "resolved_by",
+    "verdict",
+    "reason",
+    "escalation_level",
+    "was_missed",
     "model_version",
-)  # fmt: skip
+)
 
 
 def _cell(value) -> str:
@@ -140,17 +156,44 @@ def _cell(value) -> str:
 def to_csv(report: dict, since: datetime, until: datetime, ward: str | None) -> str:
     out = io.StringIO()
     writer = csv.writer(out, lineterminator="\n")
-    writer.writerow(["# Vigil shift handover", f"ward {ward or 'all wards'}",
-                     f"from {since.isoformat()}", f"to {until.isoformat()}"])  # fmt: skip
+    writer.writerow(
+        [
+            "# Vigil shift handover",
+            f"ward {ward or 'all wards'}",
+            f"from {since.isoformat()}",
+            f"to {until.isoformat()}",
+        ]
+    )
     figures = (f"{k}={'' if v is None else v}" for k, v in report["fatigue"].items())
     writer.writerow(["# fatigue (alarms raised in the shift)", *figures])
     writer.writerow(CSV_COLUMNS)
     for row in report["alarms"]:
         a = row["alarm"]
-        writer.writerow([_cell(v) for v in (
-            row["section"], a.id, a.kind, a.state, a.robot_id, a.ward, a.patient, a.location,
-            a.transport_id, a.raised_at, a.transport_ended_at, a.acknowledged_at,
-            a.acknowledged_by, a.resolved_at, a.resolved_by, a.verdict, a.reason,
-            a.escalation_level, "yes" if row["was_missed"] else "no", a.model_version,
-        )])  # fmt: skip
+        writer.writerow(
+            [
+                _cell(v)
+                for v in (
+                    row["section"],
+                    a.id,
+                    a.kind,
+                    a.state,
+                    a.robot_id,
+                    a.ward,
+                    a.patient,
+                    a.location,
+                    a.transport_id,
+                    a.raised_at,
+                    a.transport_ended_at,
+                    a.acknowledged_at,
+                    a.acknowledged_by,
+                    a.resolved_at,
+                    a.resolved_by,
+                    a.verdict,
+                    a.reason,
+                    a.escalation_level,
+                    "yes" if row["was_missed"] else "no",
+                    a.model_version,
+                )
+            ]
+        )
     return out.getvalue()

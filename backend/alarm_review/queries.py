@@ -50,8 +50,16 @@ def alarm_history(
     return total or 0, list(rows)
 
 
-REPLAY_COLUMNS = (Frame.seq, Frame.index, Frame.ts, Frame.keypoints, Frame.depth, Frame.decision,
-                  Frame.scores, Frame.model_version)  # fmt: skip
+REPLAY_COLUMNS = (
+    Frame.seq,
+    Frame.index,
+    Frame.ts,
+    Frame.keypoints,
+    Frame.depth,
+    Frame.decision,
+    Frame.scores,
+    Frame.model_version,
+)
 
 
 def frames_around(session: Session, alarm: Alarm, before_s: float, after_s: float) -> list[Row]:

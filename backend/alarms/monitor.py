@@ -139,8 +139,11 @@ class AlarmMonitor:
             if (reason := self._outage_over(alarm, robot, transport, now)) is not None
         }
         claimed = queries.claim(session, list(reasons))
-        return [service.clear(session, a, now, reasons[a.id]) for a in claimed
-                if a.state in (AlarmState.OPEN, AlarmState.ACKNOWLEDGED)]  # fmt: skip
+        return [
+            service.clear(session, a, now, reasons[a.id])
+            for a in claimed
+            if a.state in (AlarmState.OPEN, AlarmState.ACKNOWLEDGED)
+        ]
 
     def _outage_over(
         self, alarm: Alarm, robot: Robot, transport: Transport | None, now: datetime
@@ -157,11 +160,13 @@ class AlarmMonitor:
             )
 
         if alarm.kind == AlarmKind.PATIENT_NOT_SEEN:
-            seen = recent(transport.last_patient_at if transport else None,
-                          settings.patient_unseen_seconds)  # fmt: skip
+            seen = recent(
+                transport.last_patient_at if transport else None, settings.patient_unseen_seconds
+            )
             return "cleared: patient in view again" if seen else None
-        frames = recent(transport.last_frame_at if transport else None,
-                        settings.stream_stall_seconds)  # fmt: skip
+        frames = recent(
+            transport.last_frame_at if transport else None, settings.stream_stall_seconds
+        )
         if frames:
             return "cleared: frames flowing again"
         if alarm.kind == AlarmKind.ROBOT_OFFLINE and recent(
@@ -228,5 +233,6 @@ class AlarmMonitor:
             return now - (alarm.realarmed_at or alarm.acknowledged_at or alarm.updated_at) >= wait
 
         candidates = [a.id for a in queries.acknowledged(session) if due(a)]
-        return [service.realarm(session, a, now) for a in queries.claim(session, candidates)
-                if due(a)]  # fmt: skip
+        return [
+            service.realarm(session, a, now) for a in queries.claim(session, candidates) if due(a)
+        ]

@@ -89,8 +89,10 @@ class AlarmOut(BaseModel):
         "negative id). The stored alarm with the same key replaces it once storage recovers",
     )
 
-    @computed_field(description="robot/transport/kind: the identity a not-yet-stored alarm "
-                    "shares with the stored one that replaces it")  # fmt: skip
+    @computed_field(
+        description="robot/transport/kind: the identity a not-yet-stored alarm "
+        "shares with the stored one that replaces it"
+    )
     @property
     def key(self) -> str:
         return alarm_key(self.robot_id, self.transport_id, self.kind, self.ward)

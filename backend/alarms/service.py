@@ -175,13 +175,23 @@ def acknowledge(
     else:
         alarm.acknowledged_via = via
         actor = f"phone:{via}"
-    _record(session, alarm, AlarmAction.ACKNOWLEDGE, before, actor, user,
-            _audited(audit_prefix, comment))  # fmt: skip
+    _record(
+        session,
+        alarm,
+        AlarmAction.ACKNOWLEDGE,
+        before,
+        actor,
+        user,
+        _audited(audit_prefix, comment),
+    )
     if alarm.kind not in TECHNICAL_KINDS and alarm.robot_id:  # help is coming: tell the patient
         message = protocol.alarm_acknowledged(
-            alarm.id, str(alarm.kind), alarm.transport_id, actor,
+            alarm.id,
+            str(alarm.kind),
+            alarm.transport_id,
+            actor,
             alarm.acknowledged_at.timestamp(),
-        )  # fmt: skip
+        )
         tell_robot(session, alarm.robot_id, message.model_dump_json())
     return alarm
 
@@ -252,13 +262,24 @@ def resolve(
     note = verdict.value + (f" ({reason.value})" if reason else "")
     if comment:
         note += f": {comment}"
-    _record(session, alarm, AlarmAction.RESOLVE, before, f"{user.role}:{user.username}", user,
-            _audited(audit_prefix, note))  # fmt: skip
+    _record(
+        session,
+        alarm,
+        AlarmAction.RESOLVE,
+        before,
+        f"{user.role}:{user.username}",
+        user,
+        _audited(audit_prefix, note),
+    )
     if alarm.kind not in TECHNICAL_KINDS:  # releases the robot's emergency stop
         message = protocol.alarm_resolved(
-            alarm.id, str(alarm.kind), alarm.transport_id, f"{user.role}:{user.username}",
-            alarm.resolved_at.timestamp(), verdict.value,
-        )  # fmt: skip
+            alarm.id,
+            str(alarm.kind),
+            alarm.transport_id,
+            f"{user.role}:{user.username}",
+            alarm.resolved_at.timestamp(),
+            verdict.value,
+        )
         tell_robot(session, alarm.robot_id, message.model_dump_json())
     return alarm
 
@@ -277,8 +298,14 @@ def robot_reset(session: Session, robot_id: str, message: protocol.EmergencyRese
     ALARM.act(alarm, AlarmAction.ROBOT_RESET)
     alarm.updated_at = utcnow()
     at = datetime.fromtimestamp(message.ts, UTC).isoformat(timespec="seconds")
-    _record(session, alarm, AlarmAction.ROBOT_RESET, before, f"robot:{robot_id}",
-            comment=f"emergency stop reset on the robot ({message.by}) at {at}")  # fmt: skip
+    _record(
+        session,
+        alarm,
+        AlarmAction.ROBOT_RESET,
+        before,
+        f"robot:{robot_id}",
+        comment=f"emergency stop reset on the robot ({message.by}) at {at}",
+    )
     return alarm
 
 
@@ -310,8 +337,14 @@ def robot_behaviour(
     alarm.updated_at = utcnow()
     words = ROBOT_STATE_WORDS[message.state.value]
     at = since.isoformat(timespec="seconds")
-    _record(session, alarm, AlarmAction.ROBOT_BEHAVIOUR, before, f"robot:{robot_id}",
-            comment=f"{words} ({message.state.value}) at {at}: {message.reason}")  # fmt: skip
+    _record(
+        session,
+        alarm,
+        AlarmAction.ROBOT_BEHAVIOUR,
+        before,
+        f"robot:{robot_id}",
+        comment=f"{words} ({message.state.value}) at {at}: {message.reason}",
+    )
     return alarm
 
 
@@ -338,9 +371,15 @@ def escalate(
         if notified
         else "nobody had a board of this ward open"
     )
-    _record(session, alarm, AlarmAction.ESCALATE, before, "system",
-            comment=f"not acknowledged: escalated to level {alarm.escalation_level}; announced "
-                    f"again on every board showing ward {alarm.ward} ({audience})")  # fmt: skip
+    _record(
+        session,
+        alarm,
+        AlarmAction.ESCALATE,
+        before,
+        "system",
+        comment=f"not acknowledged: escalated to level {alarm.escalation_level}; announced "
+        f"again on every board showing ward {alarm.ward} ({audience})",
+    )
     return alarm
 
 
@@ -350,9 +389,15 @@ def miss(session: Session, alarm: Alarm, now: datetime) -> Alarm:
     ALARM.act(alarm, AlarmAction.MISS)
     # The further responders' wait counts from the miss.
     alarm.escalated_at = alarm.updated_at = now
-    _record(session, alarm, AlarmAction.MISS, before, "system",
-            comment=f"not acknowledged after the last escalation level "
-                    f"({alarm.escalation_level}): missed, needs review")  # fmt: skip
+    _record(
+        session,
+        alarm,
+        AlarmAction.MISS,
+        before,
+        "system",
+        comment=f"not acknowledged after the last escalation level "
+        f"({alarm.escalation_level}): missed, needs review",
+    )
     return alarm
 
 
@@ -365,8 +410,14 @@ def escalate_missed(session: Session, alarm: Alarm, now: datetime, responder: st
     alarm.escalation_level += 1
     alarm.escalated_at = alarm.updated_at = now
     alarm.escalated_to = responder
-    _record(session, alarm, AlarmAction.ESCALATE, before, "system",
-            comment=f"missed, unanswered {unanswered} min: escalated to {responder}")  # fmt: skip
+    _record(
+        session,
+        alarm,
+        AlarmAction.ESCALATE,
+        before,
+        "system",
+        comment=f"missed, unanswered {unanswered} min: escalated to {responder}",
+    )
     return alarm
 
 
@@ -374,6 +425,12 @@ def realarm(session: Session, alarm: Alarm, now: datetime) -> Alarm:
     before = alarm.state
     ALARM.act(alarm, AlarmAction.REALARM)
     alarm.realarmed_at = alarm.updated_at = now
-    _record(session, alarm, AlarmAction.REALARM, before, "system",
-            comment="acknowledged but not resolved in time")  # fmt: skip
+    _record(
+        session,
+        alarm,
+        AlarmAction.REALARM,
+        before,
+        "system",
+        comment="acknowledged but not resolved in time",
+    )
     return alarm

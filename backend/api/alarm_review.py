@@ -149,7 +149,7 @@ def _handover(
                 "alarm": AlarmOut.model_validate(r["alarm"]),
             }
             for r in report["alarms"]
-        ],  # fmt: skip
+        ],
     )
     return out, report
 

@@ -44,9 +44,7 @@ class ErrorOut(BaseModel):
     detail: str
 
 
-def _authenticate(
-    factory: sessionmaker[Session], username: str, password: str
-) -> User | None:  # fmt: skip
+def _authenticate(factory: sessionmaker[Session], username: str, password: str) -> User | None:
     """Runs in the hashing gate's thread. No database connection is held while hashing (a
     flood would otherwise empty the pool); a rehash, if needed, is its own short commit."""
     with factory() as session:

@@ -76,8 +76,12 @@ def compare_models(
 ) -> Comparison:
     model_a, model_b = _model(session, a), _model(session, b)
     rows, events = queries.compare(model_a, model_b)
-    return Comparison(a=queries.detail(session, model_a), b=queries.detail(session, model_b),
-                      rows=rows, events=events)  # fmt: skip
+    return Comparison(
+        a=queries.detail(session, model_a),
+        b=queries.detail(session, model_b),
+        rows=rows,
+        events=events,
+    )
 
 
 @router.get("/models/{model_id}")
@@ -117,11 +121,17 @@ def promote(
     def change(session):
         model, signer = _model(session, model_id), session.get(User, user_id)
         deployment, robots = rollout.promote(
-            session, model, signer, body.scope, body.target, _report(model, settings),
-            canary_robot_id=body.canary_robot_id, comment=body.comment,
+            session,
+            model,
+            signer,
+            body.scope,
+            body.target,
+            _report(model, settings),
+            canary_robot_id=body.canary_robot_id,
+            comment=body.comment,
             require_second_approver=settings.require_second_approver,
             only_capable=body.only_capable,
-        )  # fmt: skip
+        )
         return queries.deployment_out(session, deployment), robots
 
     return _change(session, change)
@@ -137,9 +147,16 @@ def start_shadow(
     def change(session):
         model, signer = _model(session, model_id), session.get(User, user_id)
         deployment, robots = rollout.promote(
-            session, model, signer, body.scope, body.target, _report(model, settings),
-            comment=body.comment, shadow=True, only_capable=body.only_capable,
-        )  # fmt: skip
+            session,
+            model,
+            signer,
+            body.scope,
+            body.target,
+            _report(model, settings),
+            comment=body.comment,
+            shadow=True,
+            only_capable=body.only_capable,
+        )
         return queries.deployment_out(session, deployment), robots
 
     return _change(session, change)
@@ -263,8 +280,9 @@ def download_model(
     path = Path(model.file_path)
     if not path.is_file():
         raise HTTPException(status.HTTP_404_NOT_FOUND, f"model file of {version} is missing")
-    return FileResponse(path, media_type="application/octet-stream",
-                        headers={"X-Model-Sha256": model.sha256})  # fmt: skip
+    return FileResponse(
+        path, media_type="application/octet-stream", headers={"X-Model-Sha256": model.sha256}
+    )
 
 
 @router.get("/robot/models/{version}/manifest")

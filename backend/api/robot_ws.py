@@ -126,8 +126,9 @@ async def check_transports(
     try:
         owners = await run_in_threadpool(_owners)
     except SQLAlchemyError as error:  # storage trouble: the writer's own check still applies
-        log.warning("robot %s: transport check deferred to the writer (%s)",
-                    connection.robot_id, error)  # fmt: skip
+        log.warning(
+            "robot %s: transport check deferred to the writer (%s)", connection.robot_id, error
+        )
         return
     for transport_id in sorted(unchecked):
         if owners.get(transport_id, connection.robot_id) != connection.robot_id:

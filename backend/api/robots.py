@@ -64,10 +64,14 @@ class TransportOut(BaseModel):
 
 
 def _robot_out(services: ServicesDep, robot: Robot) -> RobotOut:
-    out = RobotOut.model_validate({
-        **robot.__dict__, "has_token": robot.token_hash is not None, "inputs": robot.feeds,
-        "inputs_reported": robot.inputs is not None,
-    })  # fmt: skip
+    out = RobotOut.model_validate(
+        {
+            **robot.__dict__,
+            "has_token": robot.token_hash is not None,
+            "inputs": robot.feeds,
+            "inputs_reported": robot.inputs is not None,
+        }
+    )
     out.connected = services.robots.socket(robot.id) is not None
     return out
 

@@ -299,17 +299,40 @@ def alert_report_segments(report: AlertReport, facility: str) -> list[tuple[str,
     identifier = (alert_identifier(report.alarm_id), ALERT_IDENTIFIER_NAMESPACE)
     segments: list[tuple[str, dict]] = [
         ("MSH", _header_fields("ORU^R40^ORU_R01", report.control_id, facility)),
-        ("PID", {3: (_clean(report.patient, 60) or "unknown", "", "", "VIGIL"),
-                 5: ("", "", "", "", "", "", "U")}),
+        (
+            "PID",
+            {
+                3: (_clean(report.patient, 60) or "unknown", "", "", "VIGIL"),
+                5: ("", "", "", "", "", "", "U"),
+            },
+        ),
         ("PV1", {2: "I", 3: (_clean(report.ward, PL_MAX), _clean(report.location, PL_MAX))}),
-        ("OBR", {1: "1", 2: identifier, 3: identifier, 4: tuple(MDC_EVT_ALARM.split("^")),
-                 7: hl7_time(report.raised_at)}),
-    ]  # fmt: skip
+        (
+            "OBR",
+            {
+                1: "1",
+                2: identifier,
+                3: identifier,
+                4: tuple(MDC_EVT_ALARM.split("^")),
+                7: hl7_time(report.raised_at),
+            },
+        ),
+    ]
     for number, (value_type, code, value) in enumerate(rows, start=1):
         segments.append(
-            ("OBX", {1: str(number), 2: value_type, 3: code, 4: f"1.0.0.{number}", 5: value,
-                     11: "F", 14: hl7_time(report.at)})
-        )  # fmt: skip
+            (
+                "OBX",
+                {
+                    1: str(number),
+                    2: value_type,
+                    3: code,
+                    4: f"1.0.0.{number}",
+                    5: value,
+                    11: "F",
+                    14: hl7_time(report.at),
+                },
+            )
+        )
     return segments
 
 

@@ -16,13 +16,23 @@ from sqlalchemy.orm import Session
 # text as "text": json's binary format is that text, while psycopg's json dumper would encode
 # the Python str again, as a JSON string.
 _FRAME_COLUMN_TYPES = (
-    ("video_id", "int4"), ("index", "int4"), ("ts", "float8"), ("robot_id", "varchar"),
-    ("seq", "int4"), ("keypoints", "bytea"), ("depth", "bytea"), ("floor", "bytea"),
+    ("video_id", "int4"),
+    ("index", "int4"),
+    ("ts", "float8"),
+    ("robot_id", "varchar"),
+    ("seq", "int4"),
+    ("keypoints", "bytea"),
+    ("depth", "bytea"),
+    ("floor", "bytea"),
     ("decision", "varchar"),
-    ("scores", "text"), ("model_version", "varchar"), ("threshold", "float8"),
-    ("delay_ms", "int4"), ("shadow_decision", "varchar"), ("shadow_scores", "text"),
+    ("scores", "text"),
+    ("model_version", "varchar"),
+    ("threshold", "float8"),
+    ("delay_ms", "int4"),
+    ("shadow_decision", "varchar"),
+    ("shadow_scores", "text"),
     ("shadow_model_version", "varchar"),
-)  # fmt: skip
+)
 FRAME_COLUMNS = tuple(column for column, _ in _FRAME_COLUMN_TYPES)
 _PG_TYPES = [pg_type for _, pg_type in _FRAME_COLUMN_TYPES]
 _QUOTED = ", ".join(f'"{c}"' for c in FRAME_COLUMNS)

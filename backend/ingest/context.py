@@ -137,20 +137,34 @@ class IngestContext:
             self.transports.update(dict.fromkeys(missing))
             for row in session.execute(
                 select(
-                    Transport.id, Transport.robot_id, Transport.mode, Transport.patient,
-                    Transport.location, Transport.fps,
+                    Transport.id,
+                    Transport.robot_id,
+                    Transport.mode,
+                    Transport.patient,
+                    Transport.location,
+                    Transport.fps,
                 ).where(Transport.id.in_(missing))
-            ):  # fmt: skip
+            ):
                 self.transports[row.id] = TransportState(*row)
         names = {video_name(robot_id, tid) for robot_id, tid in streams} - self.videos.keys()
         if names:
             for row in session.execute(
-                select(Video.id, Video.name, Video.frame_count, Video.first_frame_ts,
-                       Video.last_frame_ts).where(Video.name.in_(names))
-            ):  # fmt: skip
-                self.videos[row.name] = VideoState(row.id, row.name, row.frame_count,
-                                                   row.frame_count, row.first_frame_ts,
-                                                   row.last_frame_ts)  # fmt: skip
+                select(
+                    Video.id,
+                    Video.name,
+                    Video.frame_count,
+                    Video.first_frame_ts,
+                    Video.last_frame_ts,
+                ).where(Video.name.in_(names))
+            ):
+                self.videos[row.name] = VideoState(
+                    row.id,
+                    row.name,
+                    row.frame_count,
+                    row.frame_count,
+                    row.first_frame_ts,
+                    row.last_frame_ts,
+                )
         alarming = robot_ids if alarming_robots is None else alarming_robots & robot_ids
         if alarming:
             for alarm in session.scalars(
@@ -167,33 +181,58 @@ class IngestContext:
         """One bulk update per table for the columns the flush changed."""
         robots = [r for r in self.robots.values() if r is not None and r.last_seen_at]
         robot_table = Robot.__table__
-        update_rows(session, robot_table, ("id", "last_seq", "last_seen_at"),
-                    [(r.id, r.last_seq, r.last_seen_at) for r in robots])  # fmt: skip
-        update_rows(session, robot_table, ("id", "running_model_version", "running_model_sha256"),
-                    [(r.id, r.running_model_version, r.running_model_sha256) for r in robots
-                     if r.running_model_changed])  # fmt: skip
-        update_rows(session, robot_table,
-                    ("id", "behaviour_state", "behaviour_since", "behaviour_reason"),
-                    [(r.id, *r.behaviour) for r in robots if r.behaviour])  # fmt: skip
+        update_rows(
+            session,
+            robot_table,
+            ("id", "last_seq", "last_seen_at"),
+            [(r.id, r.last_seq, r.last_seen_at) for r in robots],
+        )
+        update_rows(
+            session,
+            robot_table,
+            ("id", "running_model_version", "running_model_sha256"),
+            [
+                (r.id, r.running_model_version, r.running_model_sha256)
+                for r in robots
+                if r.running_model_changed
+            ],
+        )
+        update_rows(
+            session,
+            robot_table,
+            ("id", "behaviour_state", "behaviour_since", "behaviour_reason"),
+            [(r.id, *r.behaviour) for r in robots if r.behaviour],
+        )
         videos = [
-            v for v in self.videos.values()
+            v
+            for v in self.videos.values()
             if isinstance(v, VideoState) and v.frame_count != v.initial_count
-        ]  # fmt: skip
-        update_rows(session, Video.__table__,
-                    ("id", "frame_count", "first_frame_ts", "last_frame_ts"),
-                    [(v.id, v.frame_count, v.first_frame_ts, v.last_frame_ts)
-                     for v in videos])  # fmt: skip
+        ]
+        update_rows(
+            session,
+            Video.__table__,
+            ("id", "frame_count", "first_frame_ts", "last_frame_ts"),
+            [(v.id, v.frame_count, v.first_frame_ts, v.last_frame_ts) for v in videos],
+        )
         for video in videos:
             video.initial_count = video.frame_count
         transports = [
-            t for t in self.transports.values()
+            t
+            for t in self.transports.values()
             if isinstance(t, TransportState) and t.last_frame_at is not None
-        ]  # fmt: skip
-        update_rows(session, Transport.__table__, ("id", "last_frame_at"),
-                    [(t.id, t.last_frame_at) for t in transports])  # fmt: skip
-        update_rows(session, Transport.__table__, ("id", "last_patient_at"),
-                    [(t.id, t.last_patient_at) for t in transports
-                     if t.last_patient_at is not None])  # fmt: skip
+        ]
+        update_rows(
+            session,
+            Transport.__table__,
+            ("id", "last_frame_at"),
+            [(t.id, t.last_frame_at) for t in transports],
+        )
+        update_rows(
+            session,
+            Transport.__table__,
+            ("id", "last_patient_at"),
+            [(t.id, t.last_patient_at) for t in transports if t.last_patient_at is not None],
+        )
         for robot in robots:
             robot.last_seen_at = None
             robot.running_model_changed = False
@@ -207,15 +246,18 @@ class IngestContext:
         video rows (as plain states, ORM objects converted) and nothing else."""
         transports = {
             key: TransportState(t.id, t.robot_id, t.mode, t.patient, t.location, t.fps)
-            if isinstance(t, Transport) else t
+            if isinstance(t, Transport)
+            else t
             for key, t in self.transports.items()
-        }  # fmt: skip
+        }
         videos = {
-            key: VideoState(v.id, v.name, v.frame_count, v.frame_count, v.first_frame_ts,
-                            v.last_frame_ts)
-            if isinstance(v, Video) else v
+            key: VideoState(
+                v.id, v.name, v.frame_count, v.frame_count, v.first_frame_ts, v.last_frame_ts
+            )
+            if isinstance(v, Video)
+            else v
             for key, v in self.videos.items()
-        }  # fmt: skip
+        }
         return IngestContext(
             robots=self.robots, transports=transports, videos=videos, pushed_at=self.pushed_at
         )

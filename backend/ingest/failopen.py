@@ -120,11 +120,19 @@ class FailOpen:
             if entry is None:
                 patient, location = self._transport_info(frame.transport_id, transport_lookup)
                 alarm = provisional_alarm(
-                    AlarmKind.EMERGENCY, link.robot_id, ward, frame.transport_id, patient,
-                    location, first_seq=frame.seq, last_seq=frame.seq, decision_count=0,
-                    model_version=frame.model_version, threshold=frame.threshold,
+                    AlarmKind.EMERGENCY,
+                    link.robot_id,
+                    ward,
+                    frame.transport_id,
+                    patient,
+                    location,
+                    first_seq=frame.seq,
+                    last_seq=frame.seq,
+                    decision_count=0,
+                    model_version=frame.model_version,
+                    threshold=frame.threshold,
                     delay_ms=frame.delay_ms,
-                )  # fmt: skip
+                )
                 entry = self.unstored[key] = Unstored(alarm, job.received)
             alarm = entry.alarm
             alarm["decision_count"] += 1
@@ -162,12 +170,20 @@ class FailOpen:
                 del self.unstored[key]
         cleared = []
         if self.stalled:
-            log.warning("storage recovered: frame writes go through again (%d robots waited)",
-                        len(self.stalled))  # fmt: skip
+            log.warning(
+                "storage recovered: frame writes go through again (%d robots waited)",
+                len(self.stalled),
+            )
             at = utcnow().isoformat()
             for alarm in self.stalled.values():
-                cleared.append({**alarm, "state": AlarmState.RESOLVED.value, "resolved_at": at,
-                                "updated_at": at})  # fmt: skip
+                cleared.append(
+                    {
+                        **alarm,
+                        "state": AlarmState.RESOLVED.value,
+                        "resolved_at": at,
+                        "updated_at": at,
+                    }
+                )
             self.stalled = {}
         return cleared
 
@@ -189,23 +205,32 @@ class FailOpen:
                 log.error(
                     "Emergency of robot %s (transport %s, seq %s) not stored after %.2f s: "
                     "pushed to the nurse board as not yet stored",
-                    alarm["robot_id"], alarm["transport_id"], alarm["first_seq"],
+                    alarm["robot_id"],
+                    alarm["transport_id"],
+                    alarm["first_seq"],
                     now - entry.since,
-                )  # fmt: skip
+                )
                 out.append(dict(alarm))
         blocked = self.stalled_for(now)
         if blocked is not None:
             for robot_id, ward in waiting().items():
                 if robot_id in self.stalled:
                     continue
-                log.error("storage stalled: a frame write has been blocked for %.1f s "
-                          "(robot %s waits)", blocked, robot_id)  # fmt: skip
+                log.error(
+                    "storage stalled: a frame write has been blocked for %.1f s (robot %s waits)",
+                    blocked,
+                    robot_id,
+                )
                 alarm = provisional_alarm(
-                    AlarmKind.STORAGE_STALLED, robot_id, ward,
-                    details={"summary": f"frame writes blocked for over {self.stall_s:g} s: "
-                             "alarms are pushed before they are stored",
-                             "blocked_since_s": round(blocked, 1)},
-                )  # fmt: skip
+                    AlarmKind.STORAGE_STALLED,
+                    robot_id,
+                    ward,
+                    details={
+                        "summary": f"frame writes blocked for over {self.stall_s:g} s: "
+                        "alarms are pushed before they are stored",
+                        "blocked_since_s": round(blocked, 1),
+                    },
+                )
                 self.stalled[robot_id] = alarm
                 out.append(alarm)
         return out
@@ -224,8 +249,11 @@ class FailOpen:
                 alarm, _ = alarms.raise_or_update(
                     session, robot, None, AlarmKind.STORAGE_STALLED, evidence
                 )
-            alarm.details = {**(pushed.get("details") or {}), "pushed_at": pushed["raised_at"],
-                             "blocked_s": round(blocked_s, 1)}  # fmt: skip
+            alarm.details = {
+                **(pushed.get("details") or {}),
+                "pushed_at": pushed["raised_at"],
+                "blocked_s": round(blocked_s, 1),
+            }
             alarms.clear(session, alarm, utcnow(), note)
             session.flush()
             out.append(AlarmOut.model_validate(alarm).model_dump(mode="json"))

@@ -228,8 +228,12 @@ def store_frames(
         log.warning(
             "robot %s sent %d frames under sequence numbers it had already used for other "
             "frames (seq %d..%d); they are not stored, and their Emergency or Pause decisions "
-            "still raise alarms", robot.id, len(reused), reused[0].seq, reused[-1].seq,
-        )  # fmt: skip
+            "still raise alarms",
+            robot.id,
+            len(reused),
+            reused[0].seq,
+            reused[-1].seq,
+        )
 
     now = utcnow()
     videos: dict[str | None, Video] = {}
@@ -262,8 +266,11 @@ def store_frames(
             pending[frame.seq] = frame.ts
             video.frame_count += 1
             video.cover(frame.ts, frame.ts)
-            if (transport is not None and transport.last_patient_at != now
-                    and shows_person(frame.keypoints)):  # fmt: skip
+            if (
+                transport is not None
+                and transport.last_patient_at != now
+                and shows_person(frame.keypoints)
+            ):
                 transport.last_patient_at = now
         kind = ALARM_KIND_OF_DECISION.get(frame.decision)
         if kind is not None:
@@ -367,8 +374,11 @@ def apply_detection_status(
                 Alarm.robot_id == robot.id, Alarm.kind == kind, Alarm.state != AlarmState.RESOLVED
             )
         ).unique():
-            alarm.details = {**(alarm.details or {}), "status_ts": message.ts,
-                             "recovered_reason": message.reason}  # fmt: skip
+            alarm.details = {
+                **(alarm.details or {}),
+                "status_ts": message.ts,
+                "recovered_reason": message.reason,
+            }
             running = message.running_model or message.assigned_model or "its model"
             note = f"detection recovered: {running} has every input it needs"
             if message.reason:

@@ -465,17 +465,25 @@ class FrameWriter:
                 except ValueError as error:
                     raise _refused(error) from None
                 if changed:
-                    log.warning("robot %s: detection %s: %s", robot.id,
-                                "degraded" if message.degraded else "recovered",
-                                message.reason or ", ".join(message.missing_inputs))  # fmt: skip
+                    log.warning(
+                        "robot %s: detection %s: %s",
+                        robot.id,
+                        "degraded" if message.degraded else "recovered",
+                        message.reason or ", ".join(message.missing_inputs),
+                    )
             elif isinstance(message, BehaviourChanged):
                 service.apply_behaviour(robot, message)
                 alarm_service.robot_behaviour(session, robot.id, message)
             elif isinstance(message, EmergencyReset):
                 audited = alarm_service.robot_reset(session, robot.id, message)
-                log.warning("robot %s: emergency stop reset on the robot (%s)%s", robot.id,
-                            message.by, f", audited on alarm {audited.id}" if audited else
-                            ", no Emergency alarm to audit it on")  # fmt: skip
+                log.warning(
+                    "robot %s: emergency stop reset on the robot (%s)%s",
+                    robot.id,
+                    message.by,
+                    f", audited on alarm {audited.id}"
+                    if audited
+                    else ", no Emergency alarm to audit it on",
+                )
         store_run()
         outcome.stored = context.flush_rows(session)
         context.write_back(session)

@@ -147,10 +147,14 @@ def claim(
                 continue
             session.refresh(job)
             if taken_over:
-                job.log = _append(job.log, f"[{now:%H:%M:%S}] {worker_id}: previous worker "
-                                  "stopped sending heartbeats; restarting")  # fmt: skip
-            return Claim(job.id, JobKind(job.kind), dict(job.params), job.attempts,
-                         job.created_by_id)  # fmt: skip
+                job.log = _append(
+                    job.log,
+                    f"[{now:%H:%M:%S}] {worker_id}: previous worker "
+                    "stopped sending heartbeats; restarting",
+                )
+            return Claim(
+                job.id, JobKind(job.kind), dict(job.params), job.attempts, job.created_by_id
+            )
     return None
 
 

@@ -69,7 +69,7 @@ def agreement(
     per_label = [
         LabelAgreement(
             key, cohen_kappa(a == key, b == key), int((a == key).sum()), int((b == key).sum())
-        )  # fmt: skip
+        )
         for key in keys
     ]
     first_runs_a = _first_runs(labels_a)
@@ -91,7 +91,7 @@ def agreement(
                 offset_a,
                 offset_b,
                 offset_b - offset_a if ra and rb else None,
-            )  # fmt: skip
+            )
         )
     return Agreement(len(both), cohen_kappa(a, b) if len(both) else None, per_label, stages)
 

@@ -73,9 +73,14 @@ def run(session, args, settings: Settings) -> str:
         if not args.directory.is_dir():
             raise LabellingError(f"directory: {args.directory} is not a directory")
         video = import_openpose_dir(
-            session, args.directory, args.name, mode=TransportMode(args.mode), fps=args.fps,
-            depth_dir=args.depth_dir, depth_metres_per_unit=args.depth_metres_per_unit,
-        )  # fmt: skip
+            session,
+            args.directory,
+            args.name,
+            mode=TransportMode(args.mode),
+            fps=args.fps,
+            depth_dir=args.depth_dir,
+            depth_metres_per_unit=args.depth_metres_per_unit,
+        )
         return f"video {video.name}: {video.frame_count} frames"
     from backend.labelling import exchange
 

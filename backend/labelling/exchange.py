@@ -254,8 +254,9 @@ def import_coco(
     checked_images = validated(list[CocoImage], images, "images")
     annotations = validated(list[CocoAnnotation], document.get("annotations") or [], "annotations")
     by_image = {a.image_id: a for a in annotations}
-    frame_of = {id(im): im.id - 1 if im.frame_index is None else im.frame_index
-                for im in checked_images}  # fmt: skip
+    frame_of = {
+        id(im): im.id - 1 if im.frame_index is None else im.frame_index for im in checked_images
+    }
     if len(set(frame_of.values())) != len(checked_images):
         raise LabellingError("images: two images have the same frame number")
     indices, points, labels = [], [], []

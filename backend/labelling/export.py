@@ -27,13 +27,41 @@ JSON_VERSION = 1
 CSV_COLUMNS = ("video", "frame", "ts", "label_key", "walking", "wheelchair", "combined")
 COCO_BODY25 = [INDEX[name] for name in COCO17]
 COCO_SKELETON = [
-    [16, 14], [14, 12], [17, 15], [15, 13], [12, 13], [6, 12], [7, 13], [6, 7], [6, 8],
-    [7, 9], [8, 10], [9, 11], [2, 3], [1, 2], [1, 3], [2, 4], [3, 5], [4, 6], [5, 7],
-]  # fmt: skip
+    [16, 14],
+    [14, 12],
+    [17, 15],
+    [15, 13],
+    [12, 13],
+    [6, 12],
+    [7, 13],
+    [6, 7],
+    [6, 8],
+    [7, 9],
+    [8, 10],
+    [9, 11],
+    [2, 3],
+    [1, 2],
+    [1, 3],
+    [2, 4],
+    [3, 5],
+    [4, 6],
+    [5, 7],
+]
 VIDEO_FIELDS = (
-    "name", "source", "generated", "mode", "camera", "location", "fps", "person", "split",
-    "image_width", "image_height", "frame_count", "intrinsics",
-)  # fmt: skip
+    "name",
+    "source",
+    "generated",
+    "mode",
+    "camera",
+    "location",
+    "fps",
+    "person",
+    "split",
+    "image_width",
+    "image_height",
+    "frame_count",
+    "intrinsics",
+)
 
 
 def _segments(session: Session, video: Video, statuses) -> list[AnnotationSegment]:
@@ -148,7 +176,7 @@ def export_coco(session: Session, video: Video, statuses=(SegmentStatus.ACCEPTED
                     float(ys.min()),
                     float(xs.max() - xs.min()),
                     float(ys.max() - ys.min()),
-                ],  # fmt: skip
+                ],
                 "area": float((xs.max() - xs.min()) * (ys.max() - ys.min())),
                 "iscrowd": 0,
                 "attributes": {

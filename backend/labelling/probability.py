@@ -86,9 +86,13 @@ class LaneComputer:
             except Exception as error:  # a broken or incompatible model must not break labelling
                 log.warning("model lane for video %s failed: %s", video.id, error)
                 return Lane(
-                    "none", None, None, [None] * video.frame_count, [],
+                    "none",
+                    None,
+                    None,
+                    [None] * video.frame_count,
+                    [],
                     error=f"model in {self.model_dir} could not score this video: {error}",
-                )  # fmt: skip
+                )
 
 
 def _stored_lane(session: Session, video: Video) -> Lane | None:

@@ -33,8 +33,11 @@ def videos_matching(
     if scope is not None:
         query = query.where(scope)
     for column, value in (
-        (Video.mode, mode), (Video.split, split), (Video.source, source), (Video.person, person)
-    ):  # fmt: skip
+        (Video.mode, mode),
+        (Video.split, split),
+        (Video.source, source),
+        (Video.person, person),
+    ):
         if value is not None:
             query = query.where(column == value)
     return list(session.scalars(query))
@@ -163,9 +166,21 @@ def frame_keypoints(session: Session, video: Video, index: int) -> bytes | None:
     )
 
 
-TIMELINE_COLUMNS = (Frame.index, Frame.ts, Frame.seq, Frame.keypoints, Frame.depth, Frame.floor,
-                    Frame.decision, Frame.scores, Frame.model_version, Frame.threshold,
-                    Frame.delay_ms, Frame.shadow_decision, Frame.shadow_model_version)  # fmt: skip
+TIMELINE_COLUMNS = (
+    Frame.index,
+    Frame.ts,
+    Frame.seq,
+    Frame.keypoints,
+    Frame.depth,
+    Frame.floor,
+    Frame.decision,
+    Frame.scores,
+    Frame.model_version,
+    Frame.threshold,
+    Frame.delay_ms,
+    Frame.shadow_decision,
+    Frame.shadow_model_version,
+)
 
 
 def frames_between(session: Session, video: Video, first: int, last: int) -> list[Row]:

@@ -31,7 +31,7 @@ def load_taxonomy(session: Session, version: int | None = None) -> Taxonomy:
                 r.key, r.name, Decision(r.walking), Decision(r.wheelchair), Decision(r.combined)
             )
             for r in rows
-        ),  # fmt: skip
+        ),
     )
 
 

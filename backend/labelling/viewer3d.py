@@ -105,18 +105,23 @@ class Viewer3D:
         seen = ~np.isnan(points).any(axis=1)
         colour = np.array([220, 38, 38] if current else [100, 116, 139], np.uint8)
         server.scene.add_point_cloud(
-            f"{path}/joints", points[seen].astype(np.float32),
-            np.tile(colour, (int(seen.sum()), 1)), point_size=0.04 if current else 0.02,
-        )  # fmt: skip
+            f"{path}/joints",
+            points[seen].astype(np.float32),
+            np.tile(colour, (int(seen.sum()), 1)),
+            point_size=0.04 if current else 0.02,
+        )
         bones = [(a, b) for a, b in BONES if seen[a] and seen[b]]
         if bones:
             server.scene.add_line_segments(
-                f"{path}/bones", np.array([[points[a], points[b]] for a, b in bones], np.float32),
-                colour, thickness=0.02 if current else 0.008,
-            )  # fmt: skip
+                f"{path}/bones",
+                np.array([[points[a], points[b]] for a, b in bones], np.float32),
+                colour,
+                thickness=0.02 if current else 0.008,
+            )
         if current and seen[NECK]:
-            server.scene.add_label(f"{path}/label", path.rsplit("/", 1)[-1],
-                                   position=tuple(points[NECK]))  # fmt: skip
+            server.scene.add_label(
+                f"{path}/label", path.rsplit("/", 1)[-1], position=tuple(points[NECK])
+            )
 
     def stop(self) -> None:
         with self._lock:

@@ -56,6 +56,10 @@ def check(session: Session, budget: float, min_verdicts: int) -> list[tuple[Depl
             try:
                 done.append((deployment, rollback(session, deployment, reason)))
             except RolloutError as error:  # e.g. the mode's last keypoints-only fallback
-                log.warning("automatic rollback of deployment %s refused: %s (%s)",
-                            deployment.id, error, reason)  # fmt: skip
+                log.warning(
+                    "automatic rollback of deployment %s refused: %s (%s)",
+                    deployment.id,
+                    error,
+                    reason,
+                )
     return done

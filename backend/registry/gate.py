@@ -14,38 +14,65 @@ def gate_report(model: ModelVersion, false_alarm_budget: float, latency_ms: floa
     latency = (model.metrics or {}).get("latency")
     checks = []
     if not gold:
-        checks.append({
-            "name": "evaluated on the gold set", "passed": False, "value": None, "limit": None,
-            "detail": "no gold-set evaluation: run an evaluate job first",
-        })  # fmt: skip
+        checks.append(
+            {
+                "name": "evaluated on the gold set",
+                "passed": False,
+                "value": None,
+                "limit": None,
+                "detail": "no gold-set evaluation: run an evaluate job first",
+            }
+        )
     else:
         falls, detected = gold.get("falls_total", 0), gold.get("falls_detected", 0)
         missed = [e["sequence"] for e in gold.get("events", []) if e.get("detected") is False]
-        checks.append({
-            "name": "misses no fall of the gold set", "passed": falls > 0 and detected == falls,
-            "value": detected, "limit": falls,
-            "detail": ("gold set holds no fall" if falls == 0 else
-                       f"{detected} of {falls} falls detected"
-                       + (f"; missed: {', '.join(missed)}" if missed else "")),
-        })  # fmt: skip
+        checks.append(
+            {
+                "name": "misses no fall of the gold set",
+                "passed": falls > 0 and detected == falls,
+                "value": detected,
+                "limit": falls,
+                "detail": (
+                    "gold set holds no fall"
+                    if falls == 0
+                    else f"{detected} of {falls} falls detected"
+                    + (f"; missed: {', '.join(missed)}" if missed else "")
+                ),
+            }
+        )
         adl_total, adl_false = gold.get("adl_total", 0), gold.get("adl_false_alarms", 0)
         share = adl_false / adl_total if adl_total else 0.0
-        checks.append({
-            "name": "within the false-alarm budget", "passed": share <= false_alarm_budget + 1e-12,
-            "value": share, "limit": false_alarm_budget,
-            "detail": f"{adl_false} of {adl_total} daily-activity recordings raised a false alarm",
-        })  # fmt: skip
+        checks.append(
+            {
+                "name": "within the false-alarm budget",
+                "passed": share <= false_alarm_budget + 1e-12,
+                "value": share,
+                "limit": false_alarm_budget,
+                "detail": (
+                    f"{adl_false} of {adl_total} daily-activity recordings raised a false alarm"
+                ),
+            }
+        )
     if not latency:
-        checks.append({
-            "name": "per-frame latency", "passed": False, "value": None, "limit": latency_ms,
-            "detail": "latency not measured: run an evaluate job first",
-        })  # fmt: skip
+        checks.append(
+            {
+                "name": "per-frame latency",
+                "passed": False,
+                "value": None,
+                "limit": latency_ms,
+                "detail": "latency not measured: run an evaluate job first",
+            }
+        )
     else:
-        checks.append({
-            "name": "per-frame latency", "passed": latency["p95_ms"] <= latency_ms,
-            "value": latency["p95_ms"], "limit": latency_ms,
-            "detail": f"p95 {latency['p95_ms']:.2f} ms over {latency['frames']} frames",
-        })  # fmt: skip
+        checks.append(
+            {
+                "name": "per-frame latency",
+                "passed": latency["p95_ms"] <= latency_ms,
+                "value": latency["p95_ms"],
+                "limit": latency_ms,
+                "detail": f"p95 {latency['p95_ms']:.2f} ms over {latency['frames']} frames",
+            }
+        )
     return {
         "model_version": model.version,
         "passed": all(c["passed"] for c in checks),
@@ -67,7 +94,7 @@ def gate_report(model: ModelVersion, false_alarm_budget: float, latency_ms: floa
             )
         }
         if gold
-        else None,  # fmt: skip
+        else None,
         "latency": latency,
         "evaluated_at": utcnow().isoformat(),
     }

@@ -103,8 +103,13 @@ class AssignmentPusher:
             )
             fallback = fallback_for(session, assigned)
             session.expunge_all()
-            return (assigned, shadow, fallback, robot.running_model_version,
-                    robot.running_model_sha256)  # fmt: skip
+            return (
+                assigned,
+                shadow,
+                fallback,
+                robot.running_model_version,
+                robot.running_model_sha256,
+            )
 
     def _link(self, robot_id: str) -> RobotConnection | None:
         link = self._robots.socket(robot_id)
@@ -150,9 +155,18 @@ class AssignmentPusher:
             if not await link.send(message):  # it gets the assignment when it is back
                 log.info("robot %s disconnected before its assignment was sent", robot_id)
                 return False
-            log.info("assigned %s%s to robot %s", message.version,
-                     " (shadow)" if message.shadow else " (shadow stopped)" if message.stop_shadow
-                     else " (fallback)" if message.fallback else "", robot_id)  # fmt: skip
+            log.info(
+                "assigned %s%s to robot %s",
+                message.version,
+                " (shadow)"
+                if message.shadow
+                else " (shadow stopped)"
+                if message.stop_shadow
+                else " (fallback)"
+                if message.fallback
+                else "",
+                robot_id,
+            )
             if message.fallback:
                 fallbacks[robot_id] = message.version
             elif message.shadow:
@@ -208,8 +222,14 @@ class AssignmentPusher:
             for robot_id, model, running, running_sha256 in rows:
                 running, running_sha256 = self.sent.running.get(robot_id, (running, running_sha256))
                 fallback = fallback_for(session, model, cache)
-                out.append((robot_id, model.version, runs_assigned(model, running, running_sha256),
-                            fallback.version if fallback else None))  # fmt: skip
+                out.append(
+                    (
+                        robot_id,
+                        model.version,
+                        runs_assigned(model, running, running_sha256),
+                        fallback.version if fallback else None,
+                    )
+                )
             return out
 
     async def reconcile(self) -> list[str]:

@@ -15,8 +15,15 @@ from backend.registry import capability
 from backend.registry.autorollback import rejection_share
 from backend.registry.schemas import DeploymentOut, FleetRobot, ModelDetail, ModelSummary
 
-GOLD_HEADLINE = ("falls_detected", "falls_total", "adl_false_alarms", "adl_total",
-                 "frame_recall", "frame_f1", "median_time_to_alarm_s")  # fmt: skip
+GOLD_HEADLINE = (
+    "falls_detected",
+    "falls_total",
+    "adl_false_alarms",
+    "adl_total",
+    "frame_recall",
+    "frame_f1",
+    "median_time_to_alarm_s",
+)
 
 
 def _assigned_counts(session: Session) -> dict[int, int]:
@@ -48,16 +55,24 @@ def summary(model: ModelVersion, reach: Reach | None = None) -> ModelSummary:
     gold = (model.metrics or {}).get("gold")
     assigned = reach.assigned.get(model.id, 0) if reach else 0
     return ModelSummary(
-        id=model.id, version=model.version, mode=model.mode, kind=model.kind, status=model.status,
-        sha256=model.sha256, created_at=model.created_at, job_id=model.job_id,
-        threshold=model.manifest["threshold"], delay_ms=model.manifest["delay_ms"],
+        id=model.id,
+        version=model.version,
+        mode=model.mode,
+        kind=model.kind,
+        status=model.status,
+        sha256=model.sha256,
+        created_at=model.created_at,
+        job_id=model.job_id,
+        threshold=model.manifest["threshold"],
+        delay_ms=model.manifest["delay_ms"],
         gold={k: gold.get(k) for k in GOLD_HEADLINE} if gold else None,
-        parent=(model.lineage or {}).get("parent"), robots_assigned=assigned,
+        parent=(model.lineage or {}).get("parent"),
+        robots_assigned=assigned,
         robots_in_fleet=reach.fleet if reach else 0,
         canary_robot=reach.canary.get(model.id) if reach else None,
         inputs=capability.model_needs(model),
         keypoints_only=capability.is_fallback_candidate(model),
-    )  # fmt: skip
+    )
 
 
 def plots_dir(model: ModelVersion) -> Path:
@@ -68,8 +83,13 @@ def detail(session: Session, model: ModelVersion) -> ModelDetail:
     base = summary(model, Reach(session))
     directory = plots_dir(model)
     plots = sorted(p.stem for p in directory.glob("*.png")) if directory.is_dir() else []
-    return ModelDetail(**base.model_dump(), manifest=model.manifest, metrics=model.metrics,
-                       lineage=model.lineage, plots=plots)  # fmt: skip
+    return ModelDetail(
+        **base.model_dump(),
+        manifest=model.manifest,
+        metrics=model.metrics,
+        lineage=model.lineage,
+        plots=plots,
+    )
 
 
 def list_models(session: Session) -> list[ModelSummary]:
@@ -131,22 +151,32 @@ def fleet(
         shadow = models.get(robot.shadow_model_id)
         fallback = capability.fallback_for(session, target_model, fallbacks)
         missing = capability.missing_for(robot, model) if model is not None else []
-        out.append(FleetRobot(
-            id=robot.id, name=robot.name, ward=robot.ward, connected=robot.id in connected,
-            target_version=target, running_version=robot.running_model_version,
-            shadow_version=shadow.version if shadow else None,
-            running_sha256=robot.running_model_sha256,
-            in_sync=in_sync(target_model, robot),
-            agent_version=robot.agent_version, last_seen_at=robot.last_seen_at,
-            inputs=robot.feeds, inputs_reported=robot.inputs is not None,
-            fallback_version=fallback.version if fallback else None,
-            target_feedable=target_model is None
-            or not capability.missing_for(robot, target_model),
-            detection_degraded=robot.id in degraded,
-            behaviour_state=robot.behaviour_state, behaviour_since=robot.behaviour_since,
-            behaviour_reason=robot.behaviour_reason,
-            qualifies=None if model is None else not missing, missing_inputs=missing,
-        ))  # fmt: skip
+        out.append(
+            FleetRobot(
+                id=robot.id,
+                name=robot.name,
+                ward=robot.ward,
+                connected=robot.id in connected,
+                target_version=target,
+                running_version=robot.running_model_version,
+                shadow_version=shadow.version if shadow else None,
+                running_sha256=robot.running_model_sha256,
+                in_sync=in_sync(target_model, robot),
+                agent_version=robot.agent_version,
+                last_seen_at=robot.last_seen_at,
+                inputs=robot.feeds,
+                inputs_reported=robot.inputs is not None,
+                fallback_version=fallback.version if fallback else None,
+                target_feedable=target_model is None
+                or not capability.missing_for(robot, target_model),
+                detection_degraded=robot.id in degraded,
+                behaviour_state=robot.behaviour_state,
+                behaviour_since=robot.behaviour_since,
+                behaviour_reason=robot.behaviour_reason,
+                qualifies=None if model is None else not missing,
+                missing_inputs=missing,
+            )
+        )
     return out
 
 
@@ -171,11 +201,19 @@ def list_jobs(session: Session, status: JobStatus | None = None, limit: int = 10
 
 
 COMPARED = (
-    ("falls_detected", "higher"), ("adl_false_alarms", "lower"), ("frame_recall", "higher"),
-    ("frame_precision", "higher"), ("frame_f1", "higher"), ("fp", "lower"), ("fp_d", "lower"),
-    ("fn", "lower"), ("fn_d", "lower"), ("event_f1", "higher"),
-    ("median_time_to_alarm_s", "lower"), ("max_time_to_alarm_s", "lower"),
-)  # fmt: skip
+    ("falls_detected", "higher"),
+    ("adl_false_alarms", "lower"),
+    ("frame_recall", "higher"),
+    ("frame_precision", "higher"),
+    ("frame_f1", "higher"),
+    ("fp", "lower"),
+    ("fp_d", "lower"),
+    ("fn", "lower"),
+    ("fn_d", "lower"),
+    ("event_f1", "higher"),
+    ("median_time_to_alarm_s", "lower"),
+    ("max_time_to_alarm_s", "lower"),
+)
 
 
 def compare(a: ModelVersion, b: ModelVersion) -> tuple[list[dict], list[dict]]:
@@ -186,8 +224,14 @@ def compare(a: ModelVersion, b: ModelVersion) -> tuple[list[dict], list[dict]]:
         {"metric": "delay_ms", "a": a.manifest["delay_ms"], "b": b.manifest["delay_ms"]},
     ]
     la, lb = (a.metrics or {}).get("latency") or {}, (b.metrics or {}).get("latency") or {}
-    rows.append({"metric": "latency_p95_ms", "a": la.get("p95_ms"), "b": lb.get("p95_ms"),
-                 "better": "lower"})  # fmt: skip
+    rows.append(
+        {
+            "metric": "latency_p95_ms",
+            "a": la.get("p95_ms"),
+            "b": lb.get("p95_ms"),
+            "better": "lower",
+        }
+    )
     for key, better in COMPARED:
         rows.append({"metric": key, "a": ga.get(key), "b": gb.get(key), "better": better})
     for row in rows:

@@ -226,7 +226,7 @@ def promote(
                 if narrow
                 else {}
             ),
-        },  # fmt: skip
+        },
     )
     session.add(deployment)
     session.flush()

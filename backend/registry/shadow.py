@@ -39,7 +39,7 @@ def record_disagreements(session: Session, limit_frames: int = 50_000) -> list[A
             Frame.shadow_decision,
             Frame.model_version,
             Frame.shadow_model_version,
-        )  # fmt: skip
+        )
         .where(Frame.shadow_decision.is_not(None), Frame.decision.is_not(None))
         .where(Frame.shadow_decision != Frame.decision)
         .order_by(Frame.video_id, Frame.index)

@@ -36,8 +36,12 @@ def automatic_rollback(factory: sessionmaker[Session], settings: SweepSettings) 
             session, settings.false_alarm_budget, settings.false_alarm_min_verdicts
         )
         for deployment, robots in done:
-            log.warning("rolled back deployment %s on %s: %s", deployment.id, robots,
-                        deployment.rollback_reason)  # fmt: skip
+            log.warning(
+                "rolled back deployment %s on %s: %s",
+                deployment.id,
+                robots,
+                deployment.rollback_reason,
+            )
 
 
 Sweep = Callable[[sessionmaker[Session], SweepSettings], None]

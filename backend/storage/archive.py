@@ -49,12 +49,42 @@ SCHEMA = pa.schema(
         ("label", pa.string()),  # fine label of an accepted segment covering the frame
     ]
 )
-VIDEO_FIELDS = ("name", "source", "generated", "mode", "camera", "location", "fps", "person",
-                "split", "transport_id", "robot_id", "frame_count", "image_width",
-                "image_height", "intrinsics", "rgb_crop", "rgb_frame_offset")  # fmt: skip
-FRAME_FIELDS = ("index", "ts", "robot_id", "seq", "keypoints", "depth", "floor", "decision",
-                "scores", "model_version", "threshold", "delay_ms", "shadow_decision",
-                "shadow_scores", "shadow_model_version")  # fmt: skip
+VIDEO_FIELDS = (
+    "name",
+    "source",
+    "generated",
+    "mode",
+    "camera",
+    "location",
+    "fps",
+    "person",
+    "split",
+    "transport_id",
+    "robot_id",
+    "frame_count",
+    "image_width",
+    "image_height",
+    "intrinsics",
+    "rgb_crop",
+    "rgb_frame_offset",
+)
+FRAME_FIELDS = (
+    "index",
+    "ts",
+    "robot_id",
+    "seq",
+    "keypoints",
+    "depth",
+    "floor",
+    "decision",
+    "scores",
+    "model_version",
+    "threshold",
+    "delay_ms",
+    "shadow_decision",
+    "shadow_scores",
+    "shadow_model_version",
+)
 JSON_FIELDS = ("scores", "shadow_scores")
 
 
@@ -97,17 +127,22 @@ def export_video(
     columns["label"] = _labels(segments, columns["index"])
     video_meta = {k: getattr(video, k) for k in VIDEO_FIELDS}
     segment_meta = [
-        {"first_frame": s.first_frame, "last_frame": s.last_frame, "label_key": s.label_key,
-         "taxonomy_version": s.taxonomy_version, "source": s.source,
-         "model_version": s.model_version}
+        {
+            "first_frame": s.first_frame,
+            "last_frame": s.last_frame,
+            "label_key": s.label_key,
+            "taxonomy_version": s.taxonomy_version,
+            "source": s.source,
+            "model_version": s.model_version,
+        }
         for s in segments
-    ]  # fmt: skip
+    ]
     table = pa.table(columns, schema=SCHEMA).replace_schema_metadata(
         {
             "vigil": json.dumps(
                 {"format": FORMAT, "video": video_meta, "segments": segment_meta}, default=str
             )
-        }  # fmt: skip
+        }
     )
     directory.mkdir(parents=True, exist_ok=True)
     stem = f"{_slug(video.name)}-v{video.id}"
@@ -132,12 +167,20 @@ def export_video(
     manifest_path = directory / f"{stem}.manifest.json"
     manifest_path.write_text(json.dumps(manifest, indent=2, default=str))
     archive = FrameArchive(
-        video_id=video.id, video_name=video.name, robot_id=video.robot_id,
-        transport_id=video.transport_id, path=str(path), manifest_path=str(manifest_path),
-        sha256=digest, frame_count=len(frames), labelled_frames=manifest["labelled_frames"],
-        bytes=manifest["bytes"], first_ts=manifest["first_ts"], last_ts=manifest["last_ts"],
+        video_id=video.id,
+        video_name=video.name,
+        robot_id=video.robot_id,
+        transport_id=video.transport_id,
+        path=str(path),
+        manifest_path=str(manifest_path),
+        sha256=digest,
+        frame_count=len(frames),
+        labelled_frames=manifest["labelled_frames"],
+        bytes=manifest["bytes"],
+        first_ts=manifest["first_ts"],
+        last_ts=manifest["last_ts"],
         created_by_id=created_by_id,
-    )  # fmt: skip
+    )
     session.add(archive)
     session.flush()
     return archive
@@ -194,13 +237,16 @@ def import_archive(session: Session, archive: FrameArchive) -> Video:
     if not has_segments and meta.get("segments"):
         session.add_all(
             AnnotationSegment(
-                video_id=video.id, first_frame=s["first_frame"], last_frame=s["last_frame"],
-                label_key=s["label_key"], taxonomy_version=s["taxonomy_version"],
+                video_id=video.id,
+                first_frame=s["first_frame"],
+                last_frame=s["last_frame"],
+                label_key=s["label_key"],
+                taxonomy_version=s["taxonomy_version"],
                 status=SegmentStatus.ACCEPTED,
                 source=SegmentSource(s.get("source") or SegmentSource.IMPORT),
                 model_version=s.get("model_version"),
             )
             for s in meta["segments"]
-        )  # fmt: skip
+        )
     session.flush()
     return video

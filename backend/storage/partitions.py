@@ -45,9 +45,11 @@ FRAME_COLUMNS_DDL = """
     shadow_model_version VARCHAR(64),
     floor BYTEA
 """
-COLUMNS = ('id, video_id, "index", ts, robot_id, seq, keypoints, depth, decision, scores, '
-           "model_version, threshold, delay_ms, shadow_decision, shadow_scores, "
-           "shadow_model_version, floor")  # fmt: skip
+COLUMNS = (
+    'id, video_id, "index", ts, robot_id, seq, keypoints, depth, decision, scores, '
+    "model_version, threshold, delay_ms, shadow_decision, shadow_scores, "
+    "shadow_model_version, floor"
+)
 # The partition key (ts) is part of every unique key; a resent frame has the same ts.
 INDEXES = (
     ("frames_pkey", "PRIMARY KEY", "(id, ts)"),
@@ -121,7 +123,7 @@ def _new_table_like_frames(connection: Connection, name: str, day: int) -> None:
         text(
             f"ALTER TABLE {name} ADD CONSTRAINT {name}_bounds "
             f"CHECK (ts >= {low!r} AND ts < {high!r})"
-        )  # fmt: skip
+        )
     )
 
 

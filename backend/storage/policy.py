@@ -35,8 +35,16 @@ DOWNSAMPLED = "downsampled"
 NOT_ROBOT = "not_robot"
 KEPT_REASONS = (ALARM_WINDOW, LABELLED, SPLIT, LINEAGE, DOWNSAMPLED)
 #: `PolicyFacts.reasons` codes: the index into this tuple (0: dropped).
-REASON_CODES: tuple[str | None, ...] = (None, NOT_ROBOT, RECENT, LABELLED, SPLIT, LINEAGE,
-                                        ALARM_WINDOW, DOWNSAMPLED)  # fmt: skip
+REASON_CODES: tuple[str | None, ...] = (
+    None,
+    NOT_ROBOT,
+    RECENT,
+    LABELLED,
+    SPLIT,
+    LINEAGE,
+    ALARM_WINDOW,
+    DOWNSAMPLED,
+)
 DROPPED_CODE = 0
 _CODE = {reason: code for code, reason in enumerate(REASON_CODES)}
 
@@ -67,9 +75,13 @@ class RetentionPolicy:
         return self.cutoff(now) - self.downsample_days * DAY_S
 
     def as_dict(self) -> dict:
-        return {"days": self.days, "alarm_before_s": self.alarm_before_s,
-                "alarm_after_s": self.alarm_after_s, "downsample_fps": self.downsample_fps,
-                "downsample_days": self.downsample_days}  # fmt: skip
+        return {
+            "days": self.days,
+            "alarm_before_s": self.alarm_before_s,
+            "alarm_after_s": self.alarm_after_s,
+            "downsample_fps": self.downsample_fps,
+            "downsample_days": self.downsample_days,
+        }
 
 
 @dataclass

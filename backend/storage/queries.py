@@ -130,8 +130,11 @@ def database_bytes(session: Session) -> dict:
         page_size = session.execute(text("PRAGMA page_size")).scalar_one()
         pages = session.execute(text("PRAGMA page_count")).scalar_one()
         free = session.execute(text("PRAGMA freelist_count")).scalar_one()
-        return {"database_bytes": page_size * pages, "free_bytes": page_size * free,
-                "frames_bytes": None}  # fmt: skip
+        return {
+            "database_bytes": page_size * pages,
+            "free_bytes": page_size * free,
+            "frames_bytes": None,
+        }
     total = session.execute(text("SELECT pg_database_size(current_database())")).scalar_one()
     frames = session.execute(
         text(
@@ -172,12 +175,16 @@ def video_frames(session: Session, video_id: int) -> list[Frame]:
 def video_segments(session: Session, video_id: int) -> list[AnnotationSegment]:
     return list(
         session.scalars(
-            select(AnnotationSegment).where(
-                and_(AnnotationSegment.video_id == video_id,
-                     AnnotationSegment.status == SegmentStatus.ACCEPTED)
-            ).order_by(AnnotationSegment.first_frame)
+            select(AnnotationSegment)
+            .where(
+                and_(
+                    AnnotationSegment.video_id == video_id,
+                    AnnotationSegment.status == SegmentStatus.ACCEPTED,
+                )
+            )
+            .order_by(AnnotationSegment.first_frame)
         )
-    )  # fmt: skip
+    )
 
 
 def frame_count(session: Session, video_id: int) -> int:

@@ -180,8 +180,13 @@ def _run_retention(factory, settings, dry_run, now, progress, job_id) -> dict:
         partitioned = dialect == "postgresql" and partitions.is_partitioned(session.connection())
         if partitioned:
             partitions.ensure_ahead(session.connection(), settings.partitions_ahead_days, now)
-        record = RetentionRun(dry_run=dry_run, job_id=job_id, cutoff_ts=facts.cutoff,
-                              policy=policy.as_dict(), status=RETENTION_RUN.initial)  # fmt: skip
+        record = RetentionRun(
+            dry_run=dry_run,
+            job_id=job_id,
+            cutoff_ts=facts.cutoff,
+            policy=policy.as_dict(),
+            status=RETENTION_RUN.initial,
+        )
         session.add(record)
         session.flush()
         run_id = record.id
@@ -192,8 +197,9 @@ def _run_retention(factory, settings, dry_run, now, progress, job_id) -> dict:
         elif partitioned:
             _partitioned(factory, facts, settings, tally, progress)
         else:
-            _chunked(factory, facts, settings, tally, progress, delete=True,
-                     vacuum=dialect == "sqlite")  # fmt: skip
+            _chunked(
+                factory, facts, settings, tally, progress, delete=True, vacuum=dialect == "sqlite"
+            )
     except BaseException as error:
         with transaction(factory) as session:
             record = session.get(RetentionRun, run_id)
@@ -205,22 +211,33 @@ def _run_retention(factory, settings, dry_run, now, progress, job_id) -> dict:
     verb = "would drop" if dry_run else "dropped"
     kept = ", ".join(f"{n} {r}" for r, n in sorted(tally.kept.items())) or "none"
     cutoff = datetime.fromtimestamp(facts.cutoff, UTC)
-    message = (f"{verb} {tally.dropped} frames ({tally.dropped_bytes / 1e6:.1f} MB) older than "
-               f"{cutoff:%Y-%m-%d %H:%M} UTC; kept {kept}")  # fmt: skip
+    message = (
+        f"{verb} {tally.dropped} frames ({tally.dropped_bytes / 1e6:.1f} MB) older than "
+        f"{cutoff:%Y-%m-%d %H:%M} UTC; kept {kept}"
+    )
     if tally.partitions_dropped:
-        message += (f"; {len(tally.partitions_dropped)} day partitions trimmed, "
-                    f"{tally.disk_bytes_freed / 1e6:.1f} MB freed on disk")  # fmt: skip
+        message += (
+            f"; {len(tally.partitions_dropped)} day partitions trimmed, "
+            f"{tally.disk_bytes_freed / 1e6:.1f} MB freed on disk"
+        )
     with transaction(factory) as session:
         record = session.get(RetentionRun, run_id)
         RETENTION_RUN.move(record, RetentionRunStatus.DONE)
         record.finished_at, record.message = datetime.now(UTC), message
         _fill(record, tally)
     progress(1.0, message)
-    return {"summary": message, "run_id": run_id, "dry_run": dry_run, "cutoff_ts": facts.cutoff,
-            "dropped_frames": tally.dropped, "dropped_bytes": tally.dropped_bytes,
-            "kept": dict(tally.kept), "partitions_dropped": tally.partitions_dropped,
-            "disk_bytes_freed": tally.disk_bytes_freed,
-            "chunk_hold_ms": summary_ms(tally.chunk_holds_ms, "chunks")}  # fmt: skip
+    return {
+        "summary": message,
+        "run_id": run_id,
+        "dry_run": dry_run,
+        "cutoff_ts": facts.cutoff,
+        "dropped_frames": tally.dropped,
+        "dropped_bytes": tally.dropped_bytes,
+        "kept": dict(tally.kept),
+        "partitions_dropped": tally.partitions_dropped,
+        "disk_bytes_freed": tally.disk_bytes_freed,
+        "chunk_hold_ms": summary_ms(tally.chunk_holds_ms, "chunks"),
+    }
 
 
 def _fill(record: RetentionRun, tally: Tally) -> None:
@@ -251,8 +268,9 @@ def _chunked(
     share: tuple[float, float] = (0.0, 1.0),
 ) -> None:
     pause = settings.retention_chunk_pause_ms / 1000
-    sizer = ChunkSizer(settings.retention_chunk_rows,
-                       getattr(settings, "retention_chunk_hold_ms", 30))  # fmt: skip
+    sizer = ChunkSizer(
+        settings.retention_chunk_rows, getattr(settings, "retention_chunk_hold_ms", 30)
+    )
     adaptive = delete and vacuum  # SQLite: the write lock is the whole database's
     total = max(1, _count_candidates(factory, facts.cutoff, table))
     seen, after = 0, 0
@@ -280,9 +298,11 @@ def _chunked(
         if adaptive and drop:
             holds.append(hold_ms)
             sizer.update(len(rows), hold_ms)
-        progress(share[0] + share[1] * min(1.0, seen / total),
-                 f"{table}: {seen}/{total} old frames checked, {tally.dropped} "
-                 + ("dropped" if delete else "would go"))  # fmt: skip
+        progress(
+            share[0] + share[1] * min(1.0, seen / total),
+            f"{table}: {seen}/{total} old frames checked, {tally.dropped} "
+            + ("dropped" if delete else "would go"),
+        )
         if delete and pause:
             time.sleep(pause)
     if delete and vacuum:
@@ -299,9 +319,14 @@ def _columns(rows) -> tuple[np.ndarray, ...]:
     ids, video_ids, robot_ids, ts, index, nbytes = zip(*rows, strict=True)
     robots = np.empty(len(robot_ids), dtype=object)
     robots[:] = robot_ids
-    return (np.array(ids, dtype=np.int64), np.array(video_ids, dtype=np.int64), robots,
-            np.array(ts, dtype=np.float64), np.array(index, dtype=np.int64),
-            np.array([b or 0 for b in nbytes], dtype=np.int64))  # fmt: skip
+    return (
+        np.array(ids, dtype=np.int64),
+        np.array(video_ids, dtype=np.int64),
+        robots,
+        np.array(ts, dtype=np.float64),
+        np.array(index, dtype=np.int64),
+        np.array([b or 0 for b in nbytes], dtype=np.int64),
+    )
 
 
 def _incremental_vacuum(factory: sessionmaker[Session], pages: int) -> None:
@@ -333,8 +358,16 @@ def _partitioned(
         tally.merge(day_tally)
         if day_tally.dropped:
             tally.partitions_dropped.append(name)
-    _chunked(factory, facts, settings, tally, progress, delete=True,
-             table=partitions.DEFAULT_PARTITION, share=(0.9, 0.1))  # fmt: skip
+    _chunked(
+        factory,
+        facts,
+        settings,
+        tally,
+        progress,
+        delete=True,
+        table=partitions.DEFAULT_PARTITION,
+        share=(0.9, 0.1),
+    )
 
 
 def lock_partition(connection: Connection, name: str, mode: str) -> None:
@@ -376,10 +409,12 @@ def _trim_day(factory: sessionmaker[Session], facts: PolicyFacts, name: str) -> 
         kept_ids = ids[codes != DROPPED_CODE].tolist()
         columns = partitions.COLUMNS
         connection.execute(
-            text(f"CREATE TEMPORARY TABLE retention_kept ON COMMIT DROP AS "
-                 f"SELECT {columns} FROM {name} WHERE id = ANY(:ids)"),
+            text(
+                f"CREATE TEMPORARY TABLE retention_kept ON COMMIT DROP AS "
+                f"SELECT {columns} FROM {name} WHERE id = ANY(:ids)"
+            ),
             {"ids": kept_ids},
-        )  # fmt: skip
+        )
         lock_partition(connection, name, "ACCESS EXCLUSIVE")
         connection.execute(text(f"TRUNCATE {name}"))
         connection.execute(
@@ -389,6 +424,7 @@ def _trim_day(factory: sessionmaker[Session], facts: PolicyFacts, name: str) -> 
             after_truncate_hook(connection, name)
         after = connection.execute(text(f"SELECT pg_total_relation_size('{name}')")).scalar_one()
         tally.disk_bytes_freed = int(before) - int(after)
-    log.info("retention: %s trimmed, %d frames kept, %d dropped", name, len(kept_ids),
-             tally.dropped)  # fmt: skip
+    log.info(
+        "retention: %s trimmed, %d frames kept, %d dropped", name, len(kept_ids), tally.dropped
+    )
     return tally

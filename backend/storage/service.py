@@ -47,11 +47,19 @@ def summary(session: Session, settings) -> StorageSummary:
         frames, nbytes = by_day[day]
         total_frames += frames
         total_bytes += nbytes
-        days.append(DayFigure(day=_day_label(day), frames=frames, bytes=nbytes,
-                              cumulative_frames=total_frames,
-                              cumulative_bytes=total_bytes))  # fmt: skip
-    robots = [RobotFigure(robot_id=r, frames=v[0], bytes=v[1])
-              for r, v in sorted(by_robot.items(), key=lambda kv: -kv[1][1])]  # fmt: skip
+        days.append(
+            DayFigure(
+                day=_day_label(day),
+                frames=frames,
+                bytes=nbytes,
+                cumulative_frames=total_frames,
+                cumulative_bytes=total_bytes,
+            )
+        )
+    robots = [
+        RobotFigure(robot_id=r, frames=v[0], bytes=v[1])
+        for r, v in sorted(by_robot.items(), key=lambda kv: -kv[1][1])
+    ]
     due = _next_due(session, settings)
     at = due.timestamp() if due else now
     cutoff = day_of(policy.cutoff(at)) * DAY_S
@@ -80,7 +88,7 @@ def summary(session: Session, settings) -> StorageSummary:
             older_frames=sum(f for f, _ in older),
             older_bytes=sum(b for _, b in older),
             preview=RetentionRunOut.model_validate(preview) if preview else None,
-        ),  # fmt: skip
+        ),
         runs=[RetentionRunOut.model_validate(r) for r in queries.recent_runs(session)],
         archives=len(queries.archives(session, limit=100_000)),
     )
@@ -133,8 +141,9 @@ def archive_out(session: Session, found) -> ArchiveOut:
     return out
 
 
-def make_archives(session: Session, settings, video_id: int | None, transport_id: str | None,
-                  user_id: int | None) -> list:  # fmt: skip
+def make_archives(
+    session: Session, settings, video_id: int | None, transport_id: str | None, user_id: int | None
+) -> list:
     if video_id is not None:
         video = session.get(Video, video_id)
         if video is None:

@@ -29,8 +29,10 @@ def upgrade() -> None:
 
 def downgrade() -> None:
     if op.get_bind().dialect.name == "postgresql":
-        op.execute("DELETE FROM alarm_events WHERE alarm_id IN "
-                   "(SELECT id FROM alarms WHERE kind = 'detection_degraded')")  # fmt: skip
+        op.execute(
+            "DELETE FROM alarm_events WHERE alarm_id IN "
+            "(SELECT id FROM alarms WHERE kind = 'detection_degraded')"
+        )
         op.execute("DELETE FROM alarms WHERE kind = 'detection_degraded'")
         op.alter_column("alarms", "kind", type_=sa.String(16), existing_type=sa.String(32))
     with op.batch_alter_table("alarms") as batch_op:

@@ -23,10 +23,12 @@ AHEAD_DAYS = 7
 
 
 def _partition_frames(connection) -> None:
-    for old, new in (("frames_pkey", "frames_old_pkey"),
-                     ("uq_frames_robot_seq", "frames_old_robot_seq"),
-                     ("uq_frames_video_index", "frames_old_video_index"),
-                     ("ix_frames_video_ts", "frames_old_video_ts")):  # fmt: skip
+    for old, new in (
+        ("frames_pkey", "frames_old_pkey"),
+        ("uq_frames_robot_seq", "frames_old_robot_seq"),
+        ("uq_frames_video_index", "frames_old_video_index"),
+        ("ix_frames_video_ts", "frames_old_video_ts"),
+    ):
         op.execute(f"ALTER INDEX {old} RENAME TO {new}")
     op.execute("ALTER TABLE frames RENAME TO frames_old")
     op.execute("ALTER SEQUENCE frames_id_seq OWNED BY NONE")
@@ -50,8 +52,13 @@ def _partition_frames(connection) -> None:
 
 def _unpartition_frames(connection) -> None:
     op.execute("ALTER TABLE frames RENAME TO frames_part")
-    for name in ("frames_pkey", "uq_frames_robot_seq", "uq_frames_video_index",
-                 "ix_frames_video_ts", "ix_frames_robot_ts"):  # fmt: skip
+    for name in (
+        "frames_pkey",
+        "uq_frames_robot_seq",
+        "uq_frames_video_index",
+        "ix_frames_video_ts",
+        "ix_frames_robot_ts",
+    ):
         op.execute(f"ALTER INDEX {name} RENAME TO part_{name}")
     op.execute("ALTER SEQUENCE frames_id_seq OWNED BY NONE")
     op.execute(

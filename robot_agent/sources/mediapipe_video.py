@@ -167,9 +167,11 @@ class MediaPipeVideoSource:
 
     def estimator(self) -> MediaPipePose:
         return MediaPipePose(
-            self._pose_module, self.model_complexity, self.min_detection_confidence,
+            self._pose_module,
+            self.model_complexity,
+            self.min_detection_confidence,
             self.min_tracking_confidence,
-        )  # fmt: skip
+        )
 
     def __iter__(self) -> Iterator[Observation]:
         capture = self._open()

@@ -61,9 +61,7 @@ def make_account(client: TestClient, session_factory):
         username = username or f"{role.value}-{ward or 'all'}"
         with transaction(session_factory) as session:
             session.add(
-                User(
-                    username=username, password_hash=password_hash(PASSWORD), role=role, ward=ward
-                )  # fmt: skip
+                User(username=username, password_hash=password_hash(PASSWORD), role=role, ward=ward)
             )
         response = client.post("/api/auth/login", json={"username": username, "password": PASSWORD})
         assert response.status_code == 200, response.text
@@ -76,8 +74,9 @@ def make_account(client: TestClient, session_factory):
 @pytest.fixture
 def robot(session_factory) -> str:
     with transaction(session_factory) as session:
-        session.add(Robot(id="robot-a", name="A", ward="ward-a",
-                          token_hash=hash_robot_token(ROBOT_TOKEN)))  # fmt: skip
+        session.add(
+            Robot(id="robot-a", name="A", ward="ward-a", token_hash=hash_robot_token(ROBOT_TOKEN))
+        )
     return "robot-a"
 
 
@@ -85,8 +84,12 @@ def robot(session_factory) -> str:
 def nurse_token(session_factory) -> str:
     """A ward-a nurse's access token, valid on a subprocess backend (`SUBPROCESS_SECRET`)."""
     with transaction(session_factory) as session:
-        user = User(username="nurse", password_hash=password_hash("nurse-password"),
-                    role=Role.NURSE, ward="ward-a")  # fmt: skip
+        user = User(
+            username="nurse",
+            password_hash=password_hash("nurse-password"),
+            role=Role.NURSE,
+            ward="ward-a",
+        )
         session.add(user)
         session.flush()
         user_id = user.id

@@ -38,9 +38,10 @@ def stream(client, robot_id: str, token: str, transport: str, *frames, end: bool
         ws.send_text(Hello(robot_id=robot_id, token=token).model_dump_json())
         ws.receive_text()
         ws.send_text(
-            TransportStart(transport_id=transport, mode="walking", patient="P-1", ts=0.0)
-            .model_dump_json()
-        )  # fmt: skip
+            TransportStart(
+                transport_id=transport, mode="walking", patient="P-1", ts=0.0
+            ).model_dump_json()
+        )
         ws.send_text(FrameBatch(frames=list(frames)).model_dump_json())
         assert json.loads(ws.receive_text())["type"] == "ack"
         if end:
@@ -87,24 +88,28 @@ def test_unacknowledged_emergency_escalates_per_ward_and_is_pushed_again(
 
         changed = tick(client, start + timedelta(seconds=62))
         assert sorted((a["robot_id"], a["escalation_level"]) for a in changed) == [
-            ("robot-a", 2), ("robot-b", 1)
-        ]  # fmt: skip
+            ("robot-a", 2),
+            ("robot-b", 1),
+        ]
         # The maximum level (2 here) is not exceeded: one more escalation time after it, the
         # alarm is "missed: needs review".
         changed = tick(client, start + timedelta(seconds=200))
         assert sorted((a["robot_id"], a["escalation_level"], a["state"]) for a in changed) == [
-            ("robot-a", 2, "missed"), ("robot-b", 2, "open")
-        ]  # fmt: skip
+            ("robot-a", 2, "missed"),
+            ("robot-b", 2, "open"),
+        ]
         # Latched: the missed alarm stays missed and goes on to the ward's further responders
         # (120 s each here); robot-b's is missed after its 60 s.
         changed = tick(client, start + timedelta(seconds=400))
         assert sorted((a["robot_id"], a["state"], a["escalated_to"]) for a in changed) == [
-            ("robot-a", "missed", "charge nurse"), ("robot-b", "missed", None)
-        ]  # fmt: skip
+            ("robot-a", "missed", "charge nurse"),
+            ("robot-b", "missed", None),
+        ]
         changed = tick(client, start + timedelta(seconds=4000))
         assert sorted((a["robot_id"], a["state"], a["escalated_to"]) for a in changed) == [
-            ("robot-a", "missed", "rapid-response team"), ("robot-b", "missed", "charge nurse B")
-        ]  # fmt: skip
+            ("robot-a", "missed", "rapid-response team"),
+            ("robot-b", "missed", "charge nurse B"),
+        ]
         assert tick(client, start + timedelta(seconds=8000)) == []  # the chains ended
 
     assert events(session_factory, alarm_a.id) == [
@@ -121,10 +126,16 @@ def test_unacknowledged_emergency_escalates_per_ward_and_is_pushed_again(
             (e.alarm_id, e.comment)
             for e in session.scalars(select(AlarmEvent).where(AlarmEvent.action == "escalate"))
         }
-    assert (alarm_a.id, "not acknowledged: escalated to level 1; announced again on every board "
-            "showing ward ward-a (signed in: nurse-ward-a (nurse))") in comments  # fmt: skip
-    assert (alarm_b.id, "not acknowledged: escalated to level 1; announced again on every board "
-            "showing ward ward-b (nobody had a board of this ward open)") in comments  # fmt: skip
+    assert (
+        alarm_a.id,
+        "not acknowledged: escalated to level 1; announced again on every board "
+        "showing ward ward-a (signed in: nurse-ward-a (nurse))",
+    ) in comments
+    assert (
+        alarm_b.id,
+        "not acknowledged: escalated to level 1; announced again on every board "
+        "showing ward ward-b (nobody had a board of this ward open)",
+    ) in comments
 
 
 def test_acknowledged_alarm_not_resolved_in_time_realarms(
@@ -135,8 +146,9 @@ def test_acknowledged_alarm_not_resolved_in_time_realarms(
     with session_factory() as session:
         alarm = session.scalars(select(Alarm)).one()
     assert (alarm.kind, alarm.priority) == (AlarmKind.PAUSE, "medium")
-    response = client.post(f"/api/alarms/{alarm.id}/acknowledge", headers=nurse.headers,
-                           json={"comment": "on my way"})  # fmt: skip
+    response = client.post(
+        f"/api/alarms/{alarm.id}/acknowledge", headers=nurse.headers, json={"comment": "on my way"}
+    )
     assert response.status_code == 200, response.text
     acknowledged_at = utcnow()
 
@@ -150,9 +162,7 @@ def test_acknowledged_alarm_not_resolved_in_time_realarms(
         # Not again before another full period.
         assert tick(client, acknowledged_at + timedelta(minutes=15)) == []
 
-    assert [e[0] for e in events(session_factory, alarm.id)] == [
-        "raise", "acknowledge", "realarm"
-    ]  # fmt: skip
+    assert [e[0] for e in events(session_factory, alarm.id)] == ["raise", "acknowledge", "realarm"]
 
 
 def test_stalled_stream_then_offline_robot_raise_one_technical_alarm_each(
@@ -260,8 +270,11 @@ def test_technical_alarms_clear_themselves_when_their_cause_ends(
     assert {a["id"] for a in history.json()} == {stalled["id"], offline["id"], again["id"]}
     handover = client.get("/api/handover", headers=nurse.headers).json()
     rows = {(r["section"], r["alarm"]["id"]) for r in handover["alarms"]}
-    assert rows == {("resolved", stalled["id"]), ("resolved", offline["id"]),
-                    ("resolved", again["id"])}  # fmt: skip
+    assert rows == {
+        ("resolved", stalled["id"]),
+        ("resolved", offline["id"]),
+        ("resolved", again["id"]),
+    }
     assert handover["fatigue"]["technical"] == 3
 
 
@@ -278,8 +291,11 @@ def test_resolve_verdicts_illegal_transitions_and_audit(
     # A false alarm needs a reason; a true emergency must not have one.
     bad = client.post(f"{url}/resolve", headers=nurse.headers, json={"verdict": "false_alarm"})
     assert bad.status_code == 422 and "reason" in bad.text
-    bad = client.post(f"{url}/resolve", headers=nurse.headers,
-                      json={"verdict": "true_emergency", "reason": "bending"})  # fmt: skip
+    bad = client.post(
+        f"{url}/resolve",
+        headers=nurse.headers,
+        json={"verdict": "true_emergency", "reason": "bending"},
+    )
     assert bad.status_code == 422
     # Engineers see alarms but do not handle them.
     assert client.post(f"{url}/acknowledge", headers=engineer.headers).status_code == 403
@@ -292,16 +308,22 @@ def test_resolve_verdicts_illegal_transitions_and_audit(
     assert resolved.status_code == 200, resolved.text
     body = resolved.json()
     assert (body["state"], body["verdict"], body["reason"], body["resolved_by"]) == (
-        "resolved", "false_alarm", "bending", "alice"
-    )  # fmt: skip
+        "resolved",
+        "false_alarm",
+        "bending",
+        "alice",
+    )
     again = client.post(f"{url}/acknowledge", headers=nurse.headers)
     assert again.status_code == 409 and "resolved" in again.json()["detail"]
-    assert client.post(f"{url}/resolve", headers=nurse.headers,
-                       json={"verdict": "unsure"}).status_code == 409  # fmt: skip
+    assert (
+        client.post(f"{url}/resolve", headers=nurse.headers, json={"verdict": "unsure"}).status_code
+        == 409
+    )
 
     # Filters.
-    listed = client.get("/api/alarms", params={"state": "resolved", "kind": "emergency"},
-                        headers=nurse.headers).json()  # fmt: skip
+    listed = client.get(
+        "/api/alarms", params={"state": "resolved", "kind": "emergency"}, headers=nurse.headers
+    ).json()
     assert [a["id"] for a in listed] == [alarm_id]
     assert client.get("/api/alarms", params={"state": "open"}, headers=nurse.headers).json() == []
 
@@ -323,8 +345,9 @@ def test_resolve_verdicts_illegal_transitions_and_audit(
 
 def test_reconnecting_browser_first_receives_every_open_alarm(client, robot, make_account):
     nurse = make_account(Role.NURSE, ward="ward-a")
-    stream(client, robot, ROBOT_TOKEN, "t-1", frame(0, "emergency", "t-1"),
-           frame(1, "pause", "t-1"))  # fmt: skip
+    stream(
+        client, robot, ROBOT_TOKEN, "t-1", frame(0, "emergency", "t-1"), frame(1, "pause", "t-1")
+    )
     with client.websocket_connect("/ws/browser", headers=nurse.headers) as browser:
         snapshot = browser.receive_json()
     assert snapshot["type"] == "snapshot"
@@ -335,8 +358,9 @@ def test_snapshot_holds_each_alarm_as_the_api_shows_it(client, robot, make_accou
     """The board's snapshot is one query of columns (alarms.queries.unresolved_rows): each alarm
     in it is what GET /api/alarms/{id} gives, who acknowledged it and its transport's end too."""
     nurse = make_account(Role.NURSE, ward="ward-a", username="nell")
-    stream(client, robot, ROBOT_TOKEN, "t-1", frame(0, "emergency", "t-1"),
-           frame(1, "pause", "t-1"))  # fmt: skip
+    stream(
+        client, robot, ROBOT_TOKEN, "t-1", frame(0, "emergency", "t-1"), frame(1, "pause", "t-1")
+    )
     alarms = client.get("/api/alarms", headers=nurse.headers).json()
     emergency = next(a for a in alarms if a["kind"] == "emergency")
     acknowledged = client.post(f"/api/alarms/{emergency['id']}/acknowledge", headers=nurse.headers)
@@ -396,10 +420,18 @@ def test_missed_emergency_is_latched_says_its_transport_ended_and_counts_in_the_
     assert body["counts"]["missed"] == 1 and body["counts"]["escalated"] == 1
     # The robot_offline alarm of the silent robot cleared itself once the robot talked again
     # and the transport ended; the missed Emergency stays latched.
-    assert body["per_robot"] == [{
-        "robot_id": robot, "alarms": 2, "open": 0, "missed": 1, "acknowledged_unresolved": 0,
-        "resolved": 1, "escalated": 1, "ever_missed": 1,
-    }]  # fmt: skip
+    assert body["per_robot"] == [
+        {
+            "robot_id": robot,
+            "alarms": 2,
+            "open": 0,
+            "missed": 1,
+            "acknowledged_unresolved": 0,
+            "resolved": 1,
+            "escalated": 1,
+            "ever_missed": 1,
+        }
+    ]
     rows = [(r["section"], r["alarm"]["id"]) for r in body["alarms"]]
     assert ("missed", alarm.id) in rows and len(rows) == 2
 
@@ -407,8 +439,9 @@ def test_missed_emergency_is_latched_says_its_transport_ended_and_counts_in_the_
     response = client.post(f"/api/alarms/{alarm.id}/acknowledge", headers=nurse.headers)
     assert response.status_code == 200, response.text
     assert response.json()["state"] == "acknowledged"
-    response = client.post(f"/api/alarms/{alarm.id}/resolve", headers=nurse.headers,
-                           json={"verdict": "true_emergency"})  # fmt: skip
+    response = client.post(
+        f"/api/alarms/{alarm.id}/resolve", headers=nurse.headers, json={"verdict": "true_emergency"}
+    )
     assert response.status_code == 200, response.text
     body = client.get("/api/handover", headers=nurse.headers).json()
     assert body["counts"]["missed"] == 0 and body["counts"]["ever_missed"] == 1
@@ -466,8 +499,10 @@ def test_frames_without_the_patient_raise_patient_not_seen_until_the_patient_is_
     stream(client, robot, ROBOT_TOKEN, "t-1", unseen(2), end=False)
     (lost,) = tick(client, seen_at + timedelta(seconds=4.5))
     assert (lost["kind"], lost["priority"], lost["transport_id"]) == (
-        "patient_not_seen", "technical", "t-1"
-    )  # fmt: skip
+        "patient_not_seen",
+        "technical",
+        "t-1",
+    )
     stream(client, robot, ROBOT_TOKEN, "t-1", unseen(3), end=False)
     assert tick(client, utcnow()) == []  # empty frames neither clear it nor raise another
     board = client.get("/api/alarms", headers=nurse.headers).json()
@@ -521,8 +556,11 @@ def test_missed_emergency_escalates_on_to_the_wards_further_responders_with_audi
             rows = session.scalars(
                 select(AlarmEvent).where(AlarmEvent.alarm_id == alarm_id).order_by(AlarmEvent.id)
             )
-            return [e.comment for e in rows if e.comment and "escalated to" in e.comment
-                    and e.from_state == "missed"]  # fmt: skip
+            return [
+                e.comment
+                for e in rows
+                if e.comment and "escalated to" in e.comment and e.from_state == "missed"
+            ]
 
     assert tick(client, missed_at_a + timedelta(seconds=119)) == []  # (ward-b missed at 186 s)
     first = tick(client, missed_at_a + timedelta(seconds=121))

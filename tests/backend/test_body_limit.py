@@ -65,18 +65,21 @@ def test_import_larger_than_the_limit_gets_413_and_smaller_is_still_read(client,
     for content in (big, iter([big[:10_000], big[10_000:]])):  # declared length, then chunked
         if isinstance(content, bytes):
             response = client.post(
-                "/api/labelling/import?format=json", files={"file": ("big.json", content)},
+                "/api/labelling/import?format=json",
+                files={"file": ("big.json", content)},
                 headers=annotator.headers,
-            )  # fmt: skip
+            )
         else:
             response = client.post(
-                "/api/labelling/import?format=json", content=content,
+                "/api/labelling/import?format=json",
+                content=content,
                 headers={**annotator.headers, "content-type": "multipart/form-data; boundary=b"},
-            )  # fmt: skip
+            )
         assert response.status_code == 413, response.text
         assert "VIGIL_MAX_UPLOAD_BYTES" in response.json()["detail"]
     small = client.post(
-        "/api/labelling/import?format=json", files={"file": ("small.json", b"{}")},
+        "/api/labelling/import?format=json",
+        files={"file": ("small.json", b"{}")},
         headers=annotator.headers,
-    )  # fmt: skip
+    )
     assert small.status_code == 422 and small.json()["detail"].startswith("format")

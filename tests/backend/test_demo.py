@@ -26,8 +26,16 @@ def test_seed_demo_prints_generated_passwords_that_sign_in(
     monkeypatch.setenv("VIGIL_DATABASE_URL", database_url)
     monkeypatch.setenv("VIGIL_SECRET_KEY", "demo-test")
     passwords_file = tmp_path / "demo_passwords.json"
-    args = ["seed-demo", "--no-urfd", "--robots", "1", "--tokens-file", str(tmp_path / "t.json"),
-            "--passwords-file", str(passwords_file)]  # fmt: skip
+    args = [
+        "seed-demo",
+        "--no-urfd",
+        "--robots",
+        "1",
+        "--tokens-file",
+        str(tmp_path / "t.json"),
+        "--passwords-file",
+        str(passwords_file),
+    ]
     assert cli.main(args) == 0
     printed = dict(re.findall(r"user (\w+)\s+password (\S+)", capsys.readouterr().out))
     assert set(printed) == {username for username, _, _ in DEMO_USERS}
@@ -56,8 +64,9 @@ def test_legacy_fixed_passwords_are_replaced_and_set_ones_kept(session_factory, 
     with transaction(session_factory) as session:
         for username, role, ward in DEMO_USERS:
             password = "chosen-by-admin" if username == "admin" else username + "-demo-pass"
-            session.add(User(username=username, password_hash=hash_password(password),
-                             role=role, ward=ward))  # fmt: skip
+            session.add(
+                User(username=username, password_hash=hash_password(password), role=role, ward=ward)
+            )
     with transaction(session_factory) as session:
         credentials = {u: p for u, p, _ in ensure_demo_users(session, tmp_path / "p.json")}
     assert credentials["admin"] is None

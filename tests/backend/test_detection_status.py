@@ -27,10 +27,12 @@ def commit(ws, *frames) -> None:
 
 def degraded(ts: float, degraded: bool = True, **fields) -> str:
     values = {
-        "transport_id": "t-1", "missing_inputs": ["floor"] if degraded else [],
-        "assigned_model": "gbt-floor-1", "running_model": "gbt-kp-1" if degraded else "gbt-floor-1",
+        "transport_id": "t-1",
+        "missing_inputs": ["floor"] if degraded else [],
+        "assigned_model": "gbt-floor-1",
+        "running_model": "gbt-kp-1" if degraded else "gbt-floor-1",
         "reason": "no camera mount" if degraded else "camera mount restored",
-    } | fields  # fmt: skip
+    } | fields
     return DetectionStatus(ts=ts, degraded=degraded, **values).model_dump_json()
 
 
@@ -66,7 +68,7 @@ def test_detection_degraded_is_raised_in_stream_order_and_cleared_on_recovery(
         ws.send_text(
             TransportStart(
                 transport_id="t-1", mode="walking", patient="P-4", location="lift 2", ts=0.0
-            ).model_dump_json()  # fmt: skip
+            ).model_dump_json()
         )
         # Frames 0-2, then the status, then frame 3, all in one flush: the alarm is placed
         # after frame 2, where the robot's stream put it.
@@ -76,19 +78,24 @@ def test_detection_degraded_is_raised_in_stream_order_and_cleared_on_recovery(
 
         pushed = browser.receive_json()["alarm"]
         assert (pushed["kind"], pushed["priority"], pushed["state"]) == (
-            "detection_degraded", "technical", "open"
-        )  # fmt: skip
+            "detection_degraded",
+            "technical",
+            "open",
+        )
         assert (pushed["transport_id"], pushed["patient"], pushed["location"]) == (
-            "t-1", "P-4", "lift 2"
-        )  # fmt: skip
+            "t-1",
+            "P-4",
+            "lift 2",
+        )
         assert (pushed["first_seq"], pushed["model_version"]) == (2, "gbt-kp-1")
         details = pushed["details"]
         assert details["missing_inputs"] == ["floor"] and details["reason"] == "no camera mount"
         assert details["summary"] == "no floor measures, running keypoints-only fallback gbt-kp-1"
         assert details["fallback"] is True
 
-        listed = client.get("/api/alarms", params={"kind": "detection_degraded"},
-                            headers=nurse.headers).json()  # fmt: skip
+        listed = client.get(
+            "/api/alarms", params={"kind": "detection_degraded"}, headers=nurse.headers
+        ).json()
         assert [a["id"] for a in listed] == [pushed["id"]]
 
         # Still degraded (a later status): the same alarm, updated; a replay changes nothing.
@@ -104,8 +111,10 @@ def test_detection_degraded_is_raised_in_stream_order_and_cleared_on_recovery(
         commit(ws, frame(5))
         cleared = browser.receive_json()["alarm"]
         assert (cleared["id"], cleared["state"], cleared["verdict"]) == (
-            pushed["id"], "resolved", None
-        )  # fmt: skip
+            pushed["id"],
+            "resolved",
+            None,
+        )
         # A replay of the first status (resent from the outbox after a reconnect) is older
         # than what the alarm last saw: it raises nothing.
         ws.send_text(degraded(100.0))
@@ -119,14 +128,16 @@ def test_detection_degraded_is_raised_in_stream_order_and_cleared_on_recovery(
     with session_factory() as session:
         alarms = session.scalars(select(Alarm).order_by(Alarm.id)).all()
         assert [(a.kind, a.state) for a in alarms] == [
-            ("detection_degraded", "resolved"), ("detection_degraded", "open")
-        ]  # fmt: skip
+            ("detection_degraded", "resolved"),
+            ("detection_degraded", "open"),
+        ]
         trail = session.scalars(
             select(AlarmEvent).where(AlarmEvent.alarm_id == pushed["id"]).order_by(AlarmEvent.id)
         ).all()
         assert [(e.action, e.from_state, e.to_state, e.actor) for e in trail] == [
-            ("raise", None, "open", "system"), ("clear", "open", "resolved", "system"),
-        ]  # fmt: skip
+            ("raise", None, "open", "system"),
+            ("clear", "open", "resolved", "system"),
+        ]
         assert "detection recovered" in trail[-1].comment
 
 

@@ -42,8 +42,12 @@ def test_readiness_is_503_with_the_reason_when_the_database_refuses(database_url
         wrong = "postgresql+psycopg://postgres@127.0.0.1:1/vigil"  # nothing listens on port 1
     else:
         wrong = f"sqlite:///{tmp_path / 'no-such-dir' / 'vigil.db'}"
-    settings = Settings(database_url=wrong, frontend_dir=tmp_path / "no-frontend",
-                        secret_key="x", health_timeout_s=2)  # fmt: skip
+    settings = Settings(
+        database_url=wrong,
+        frontend_dir=tmp_path / "no-frontend",
+        secret_key="x",
+        health_timeout_s=2,
+    )
     with TestClient(create_app(settings)) as client:
         assert client.get("/api/health/live").status_code == 200
         for path in ("/api/health/ready", "/api/health"):

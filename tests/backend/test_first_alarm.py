@@ -45,8 +45,11 @@ def test_emergency_reaches_nurse_and_acknowledgement_is_stored(
         assert other.receive_json() == {"type": "snapshot", "alarms": []}
         ws.send_text(Hello(robot_id=robot, token=ROBOT_TOKEN).model_dump_json())
         assert json.loads(ws.receive_text()) == {
-            "type": "welcome", "protocol": 1, "robot_id": robot, "last_seq": None
-        }  # fmt: skip
+            "type": "welcome",
+            "protocol": 1,
+            "robot_id": robot,
+            "last_seq": None,
+        }
         start = TransportStart(
             transport_id="t-1", mode="walking", patient="P-17", location="corridor B", ts=0.0
         )

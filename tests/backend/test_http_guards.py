@@ -54,9 +54,10 @@ def test_same_origin_fetch_and_bearer_writes_pass(client, make_account):
 
 def test_a_cross_site_login_form_is_refused(client):
     response = client.post(
-        "/api/auth/login", data={"username": "a", "password": "b"},
+        "/api/auth/login",
+        data={"username": "a", "password": "b"},
         headers={**FORM, "Sec-Fetch-Site": "cross-site"},
-    )  # fmt: skip
+    )
     assert response.status_code == 403
 
 

@@ -12,8 +12,17 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[2]
 ROUTERS = sorted((ROOT / "backend" / "api").rglob("*.py")) + [ROOT / "backend" / "main.py"]
-SQL_CALLS = {"select", "insert", "update", "delete", "text", "query", "execute", "scalar",
-             "scalars"}  # fmt: skip
+SQL_CALLS = {
+    "select",
+    "insert",
+    "update",
+    "delete",
+    "text",
+    "query",
+    "execute",
+    "scalar",
+    "scalars",
+}
 
 
 def calls(path: Path) -> list[tuple[int, str]]:

@@ -79,7 +79,7 @@ HOSTILE_IMPORTS = [
         "coco-hostile",
         json.dumps({"info": {"video": {}}, "images": [{"id": [1]}]}),
         422,
-    ),  # fmt: skip
+    ),
     ("over the size limit", "json", "huge", b"{" + b" " * (3 * UPLOAD_LIMIT) + b"}", 413),
     ("emoji name", "json", None, json.dumps(vigil_json(EMOJI_NAME)), 201),
     (
@@ -90,7 +90,7 @@ HOSTILE_IMPORTS = [
             vigil_json(DEPTH_NAME, intrinsics=INTRINSICS, image_width=640, image_height=480)
         ),
         201,
-    ),  # fmt: skip
+    ),
 ]
 
 
@@ -101,9 +101,12 @@ def attempt_hostile_imports(base: str, headers: dict) -> list[str]:
         params = {"format": fmt} | ({"name": name} if name else {})
         try:
             response = requests.post(
-                f"{base}/api/labelling/import", params=params, headers=headers,
-                files={"file": ("hostile", body)}, timeout=30,
-            )  # fmt: skip
+                f"{base}/api/labelling/import",
+                params=params,
+                headers=headers,
+                files={"file": ("hostile", body)},
+                timeout=30,
+            )
         except requests.RequestException as error:
             problems.append(f"import {what}: connection dropped ({error})")
             continue
@@ -120,17 +123,21 @@ def use_the_imported_videos(base: str, headers: dict) -> list[str]:
     for fmt, ext in (("csv", "csv"), ("json", "json"), ("coco", "coco.json")):
         response = requests.get(
             f"{base}/api/labelling/videos/{by_name[EMOJI_NAME]}/export",
-            params={"format": fmt}, headers=headers, timeout=30,
-        )  # fmt: skip
+            params={"format": fmt},
+            headers=headers,
+            timeout=30,
+        )
         disposition = response.headers.get("content-disposition", "")
         if response.status_code != 200 or (
             unquote(disposition.partition("filename*=UTF-8''")[2]) != f"{EMOJI_NAME}.{ext}"
         ):
             problems.append(f"export {fmt}: {response.status_code} {disposition!r}")
     response = requests.post(
-        f"{base}/api/labelling/videos/{by_name[DEPTH_NAME]}/view3d", params={"frame": 3},
-        headers=headers, timeout=30,
-    )  # fmt: skip
+        f"{base}/api/labelling/videos/{by_name[DEPTH_NAME]}/view3d",
+        params={"frame": 3},
+        headers=headers,
+        timeout=30,
+    )
     if response.status_code != 200 or response.json()["centre_frame"] != 3:
         problems.append(f"view3d: {response.status_code} {response.text[:200]}")
     facets = requests.get(f"{base}/api/labelling/facets", headers=headers, timeout=30)
@@ -143,8 +150,12 @@ def fuzz(operation, base: str, role: Role, headers: dict) -> list[str]:
     """Generated requests to one operation as one role: each 5xx or dropped connection."""
     failures: list[str] = []
 
-    @settings(max_examples=EXAMPLES_PER_OPERATION, deadline=None, database=None,
-              suppress_health_check=list(HealthCheck))  # fmt: skip
+    @settings(
+        max_examples=EXAMPLES_PER_OPERATION,
+        deadline=None,
+        database=None,
+        suppress_health_check=list(HealthCheck),
+    )
     @given(case=operation.as_strategy())
     def check(case) -> None:
         where = f"{role}: {case.method} {case.formatted_path}"
@@ -170,8 +181,12 @@ def test_generated_requests_never_get_a_server_error(
     tokens = {}
     with transaction(session_factory) as session:
         for role in Role:
-            user = User(username=f"fuzz-{role}", password_hash=password_hash("fuzz-password"),
-                        role=role, ward="ward-a" if role == Role.NURSE else None)  # fmt: skip
+            user = User(
+                username=f"fuzz-{role}",
+                password_hash=password_hash("fuzz-password"),
+                role=role,
+                ward="ward-a" if role == Role.NURSE else None,
+            )
             session.add(user)
             session.flush()
             tokens[role] = create_access_token(SUBPROCESS_SECRET, user.id, 60)

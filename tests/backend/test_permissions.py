@@ -140,17 +140,29 @@ def two_wards(client, robot, session_factory) -> dict:
     from vigil.protocol import FrameBatch, Hello, TransportStart
 
     with transaction(session_factory) as session:
-        session.add(Robot(id="robot-b", name="B", ward="ward-b",
-                          token_hash=hash_robot_token(OTHER_ROBOT_TOKEN)))  # fmt: skip
+        session.add(
+            Robot(
+                id="robot-b",
+                name="B",
+                ward="ward-b",
+                token_hash=hash_robot_token(OTHER_ROBOT_TOKEN),
+            )
+        )
         session.add(Video(name="dataset-1", source="urfd", mode="walking"))
     for robot_id, token in (("robot-a", ROBOT_TOKEN), ("robot-b", OTHER_ROBOT_TOKEN)):
         transport = f"t-{robot_id}"
         with client.websocket_connect("/ws/robot") as ws:
             ws.send_text(Hello(robot_id=robot_id, token=token).model_dump_json())
             assert ws.receive_json()["type"] == "welcome"
-            ws.send_text(TransportStart(transport_id=transport, mode="walking", ts=0.0,
-                                        patient=f"P-{robot_id}", location=f"room of {robot_id}",
-                                        ).model_dump_json())  # fmt: skip
+            ws.send_text(
+                TransportStart(
+                    transport_id=transport,
+                    mode="walking",
+                    ts=0.0,
+                    patient=f"P-{robot_id}",
+                    location=f"room of {robot_id}",
+                ).model_dump_json()
+            )
             frames = [frame(0, transport=transport), frame(1, "emergency", transport)]
             ws.send_text(FrameBatch(frames=frames).model_dump_json())
             assert ws.receive_json() == {"type": "ack", "seq": 1}
@@ -178,16 +190,20 @@ def test_every_resource_carrying_a_ward_is_scoped_by_role_and_ward(client, make_
         ("/api/transports/{transport_id}", f"/api/transports/t-{r}", w)
         for r, w in WARD_OF_ROBOT.items()
     ]
-    singles += [("/api/alarms/{alarm_id}", f"/api/alarms/{alarms[r]}", w)
-                for r, w in WARD_OF_ROBOT.items()]  # fmt: skip
+    singles += [
+        ("/api/alarms/{alarm_id}", f"/api/alarms/{alarms[r]}", w) for r, w in WARD_OF_ROBOT.items()
+    ]
     for robot_id, ward in resource_wards.items():
         video = videos[robot_id]
         singles += [
             ("/api/videos/{video_id}", f"/api/videos/{video}", ward),
             ("/api/videos/{video_id}/frames", f"/api/videos/{video}/frames", ward),
-            ("/api/labelling/videos/{video_id}/rgb/{frame}",
-             f"/api/labelling/videos/{video}/rgb/0", ward),
-        ]  # fmt: skip
+            (
+                "/api/labelling/videos/{video_id}/rgb/{frame}",
+                f"/api/labelling/videos/{video}/rgb/0",
+                ward,
+            ),
+        ]
     # list route -> (how to read the ids it returned, id -> ward)
     lists = {
         "/api/robots": (lambda body: {r["id"] for r in body}, WARD_OF_ROBOT),
@@ -222,8 +238,9 @@ def test_every_resource_carrying_a_ward_is_scoped_by_role_and_ward(client, make_
                 if response.status_code != 403:
                     failures.append(f"{who} GET {template}: {response.status_code}, not 403")
                 continue
-            expected = {i for i, w in ward_of_id.items()
-                        if _expected_visible(caller.role, caller.ward, w)}  # fmt: skip
+            expected = {
+                i for i, w in ward_of_id.items() if _expected_visible(caller.role, caller.ward, w)
+            }
             body = response.text if template.endswith(".csv") else response.json()
             got = ids_of(body) & set(ward_of_id)
             checked += 1

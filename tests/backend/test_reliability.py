@@ -84,9 +84,10 @@ def test_kill_9_loses_no_acknowledged_frame_and_the_emergency_reaches_the_nurse(
         async with connect(f"{backend.ws}/ws/robot") as ws:
             await robot_hello(ws)
             await ws.send(
-                TransportStart(transport_id="t-crash", mode="wheelchair", patient="P-9", ts=0.0)
-                .model_dump_json()
-            )  # fmt: skip
+                TransportStart(
+                    transport_id="t-crash", mode="wheelchair", patient="P-9", ts=0.0
+                ).model_dump_json()
+            )
 
             async def read_acks() -> None:
                 nonlocal acked
@@ -243,7 +244,7 @@ def test_garbage_on_the_real_robot_socket_gets_a_close_code_and_others_keep_stre
         (
             '{"type": "frames", "frames": [{"seq": 1, "ts": 1.0, "keypoints": [[1.0',
             protocol.CLOSE_BAD_MESSAGE,
-        ),  # fmt: skip
+        ),
         ("x" * (protocol.MAX_MESSAGE_BYTES + 10), protocol.CLOSE_TOO_LARGE),
         ("x" * (5 * 1024 * 1024), 1009),  # beyond the server's websocket frame limit
     ]

@@ -49,9 +49,10 @@ def test_acknowledge_and_resolve_are_sent_to_the_robot(client, make_account, rob
         assert told.by == "nurse:alice" and told.at >= before - 1
 
         response = client.post(
-            f"/api/alarms/{alarm['id']}/resolve", headers=nurse.headers,
+            f"/api/alarms/{alarm['id']}/resolve",
+            headers=nurse.headers,
             json={"verdict": "true_emergency"},
-        )  # fmt: skip
+        )
         assert response.status_code == 200, response.text
         told = server_message_adapter.validate_json(ws.receive_text())
         assert told.type == "alarm_resolved"
@@ -97,9 +98,12 @@ def test_what_the_robot_did_is_on_its_alarm_its_audit_and_the_fleet(
             first = browser.receive_json()["alarm"]
             assert first["robot_state"] is None
             stop = BehaviourChanged(
-                ts=stopped_at, state="emergency_stop", since=stopped_at, transport_id="t-1",
+                ts=stopped_at,
+                state="emergency_stop",
+                since=stopped_at,
+                transport_id="t-1",
                 reason="Emergency decision: stop, call for help",
-            )  # fmt: skip
+            )
             ws.send_text(stop.model_dump_json())
             ws.send_text(FrameBatch(frames=[frame(2)]).model_dump_json())
             assert json.loads(ws.receive_text()) == {"type": "ack", "seq": 2}
@@ -131,9 +135,16 @@ def test_a_behaviour_change_with_an_unknown_state_is_refused_with_a_reason(clien
     with client.websocket_connect("/ws/robot") as ws:
         ws.send_text(Hello(robot_id=robot, token=ROBOT_TOKEN).model_dump_json())
         assert json.loads(ws.receive_text())["type"] == "welcome"
-        ws.send_text(json.dumps({
-            "type": "behaviour_changed", "ts": 1.0, "since": 1.0, "state": "dancing",
-        }))  # fmt: skip
+        ws.send_text(
+            json.dumps(
+                {
+                    "type": "behaviour_changed",
+                    "ts": 1.0,
+                    "since": 1.0,
+                    "state": "dancing",
+                }
+            )
+        )
         message = ws.receive()
     assert message["type"] == "websocket.close" and message["code"] == 4400
     assert "state" in message["reason"]

@@ -27,10 +27,13 @@ def registered(session_factory, robot, tmp_path) -> tuple[str, str]:
     manifest, directory = read_manifest(write_upright_model(tmp_path / "m", "upright-7"))
     with transaction(session_factory) as session:
         model = ModelVersion(
-            version=manifest.version, mode=manifest.mode, kind="test",
-            file_path=str(directory / manifest.file), sha256=manifest.sha256,
+            version=manifest.version,
+            mode=manifest.mode,
+            kind="test",
+            file_path=str(directory / manifest.file),
+            sha256=manifest.sha256,
             manifest=manifest.model_dump(mode="json"),
-        )  # fmt: skip
+        )
         session.add(model)
         session.flush()
         session.get(Robot, robot).assigned_model_id = model.id
@@ -62,9 +65,14 @@ def test_a_robot_running_another_file_under_the_target_version_is_not_in_sync(
     version, registry_sha = registered
     engineer = make_account(Role.ENGINEER)
     with client.websocket_connect("/ws/robot") as ws:
-        hello = Hello(robot_id="robot-a", token=ROBOT_TOKEN, running_model=version,
-                      running_sha256=TAMPERED, fallback_model="not-registered",
-                      fallback_sha256="cd" * 32)  # fmt: skip
+        hello = Hello(
+            robot_id="robot-a",
+            token=ROBOT_TOKEN,
+            running_model=version,
+            running_sha256=TAMPERED,
+            fallback_model="not-registered",
+            fallback_sha256="cd" * 32,
+        )
         ws.send_text(hello.model_dump_json(exclude_none=True))
         welcome = json.loads(ws.receive_text())
         assert welcome["type"] == "welcome"
@@ -77,8 +85,9 @@ def test_a_robot_running_another_file_under_the_target_version_is_not_in_sync(
         assert row["target_version"] == version and row["in_sync"] is False
 
         # The robot now runs the registry's file (heartbeat), and the fleet says so.
-        ws.send_text(Heartbeat(ts=1.0, running_model=version,
-                               running_sha256=registry_sha).model_dump_json())  # fmt: skip
+        ws.send_text(
+            Heartbeat(ts=1.0, running_model=version, running_sha256=registry_sha).model_dump_json()
+        )
         ws.send_text(FrameBatch(frames=[frame(0)]).model_dump_json())
         receive_until(ws, "ack")  # committed after the heartbeat
         row = fleet_row(client, engineer.headers)
@@ -91,8 +100,11 @@ def test_an_agent_that_reports_no_sha256_gets_the_old_welcome_and_is_not_shown_i
     version, _ = registered
     engineer = make_account(Role.ENGINEER)
     with client.websocket_connect("/ws/robot") as ws:
-        ws.send_text(Hello(robot_id="robot-a", token=ROBOT_TOKEN,
-                           running_model=version).model_dump_json(exclude_none=True))  # fmt: skip
+        ws.send_text(
+            Hello(robot_id="robot-a", token=ROBOT_TOKEN, running_model=version).model_dump_json(
+                exclude_none=True
+            )
+        )
         welcome = json.loads(ws.receive_text())
         assert welcome["type"] == "welcome" and "model_sha256" not in welcome
         row = fleet_row(client, engineer.headers, reported=version)

@@ -60,72 +60,72 @@ BAD_MESSAGES = [
         protocol.CLOSE_BAD_MESSAGE,
         "not valid JSON",
         id="truncated-json",
-    ),  # fmt: skip
+    ),
     pytest.param(
         '{"type": "teleport"}',
         protocol.CLOSE_BAD_MESSAGE,
         "unknown message type",
         id="unknown-type",
-    ),  # fmt: skip
+    ),
     pytest.param("[1, 2, 3]", protocol.CLOSE_BAD_MESSAGE, "JSON object", id="not-an-object"),
     pytest.param(
         json.dumps({"type": "frames", "frames": [{"seq": 1, "ts": 1.0}]}),
         protocol.CLOSE_BAD_MESSAGE,
         "frames.0.keypoints",
         id="missing-field",
-    ),  # fmt: skip
+    ),
     pytest.param(
         frames_message(ts=None).replace('"ts": null', '"ts": NaN'),
         protocol.CLOSE_BAD_MESSAGE,
         "frames.0.ts",
         id="nan",
-    ),  # fmt: skip
+    ),
     pytest.param(
         frames_message(keypoints=[[1.0, 2.0, 0.5]] * 24),
         protocol.CLOSE_BAD_MESSAGE,
         "frames.0.keypoints",
         id="24-keypoints",
-    ),  # fmt: skip
+    ),
     pytest.param(
         frames_message(keypoints=[[1.0, 2.0]] * 25),
         protocol.CLOSE_BAD_MESSAGE,
         "frames.0.keypoints.0",
         id="2-values-per-keypoint",
-    ),  # fmt: skip
+    ),
     pytest.param(
         frames_message(depth=[1.0] * 26),
         protocol.CLOSE_BAD_MESSAGE,
         "frames.0.depth",
         id="26-depths",
-    ),  # fmt: skip
+    ),
     pytest.param(
         frames_message(floor=[1.0, 0.5]),
         protocol.CLOSE_BAD_MESSAGE,
         "frames.0.floor",
         id="2-floor-measures",
-    ),  # fmt: skip
+    ),
     pytest.param(
         frames_message(decision="panic"),
         protocol.CLOSE_BAD_MESSAGE,
         "frames.0.decision",
         id="unknown-decision",
-    ),  # fmt: skip
+    ),
     pytest.param(
         frames_message(seq=-1), protocol.CLOSE_BAD_MESSAGE, "frames.0.seq", id="negative-seq"
-    ),  # fmt: skip
+    ),
     # Strict types: a number sent as a string is the robot's bug, not something to guess at.
     pytest.param(
         frames_message(seq="12"), protocol.CLOSE_BAD_MESSAGE, "frames.0.seq", id="string-seq"
-    ),  # fmt: skip
+    ),
     pytest.param(
         frames_message(ts="1.5"), protocol.CLOSE_BAD_MESSAGE, "frames.0.ts", id="string-ts"
-    ),  # fmt: skip
+    ),
     pytest.param(
         frames_message(delay_ms="5"),
         protocol.CLOSE_BAD_MESSAGE,
         "frames.0.delay_ms",
         id="string-delay",
-    ),  # fmt: skip
+    ),
     # A start or end time no datetime can hold was closed with 1011 (server error) before.
     pytest.param(
         json.dumps(
@@ -134,7 +134,7 @@ BAD_MESSAGES = [
         protocol.CLOSE_BAD_MESSAGE,
         "invalid ts",
         id="start-ts-1e300",
-    ),  # fmt: skip
+    ),
     pytest.param(
         json.dumps(
             {"type": "transport_start", "transport_id": "t-before", "mode": "walking", "ts": -1e12}
@@ -142,25 +142,25 @@ BAD_MESSAGES = [
         protocol.CLOSE_BAD_MESSAGE,
         "invalid ts",
         id="start-ts-negative",
-    ),  # fmt: skip
+    ),
     pytest.param(
         json.dumps({"type": "transport_end", "transport_id": "t-far", "ts": 1e300}),
         protocol.CLOSE_BAD_MESSAGE,
         "invalid ts",
         id="end-ts-1e300",
-    ),  # fmt: skip
+    ),
     pytest.param(
         " " * (protocol.MAX_MESSAGE_BYTES + 1) + "{}",
         protocol.CLOSE_TOO_LARGE,
         "exceeds",
         id="oversized",
-    ),  # fmt: skip
+    ),
     pytest.param(
         Hello(robot_id="robot-a", token=ROBOT_TOKEN).model_dump_json(),
         protocol.CLOSE_BAD_MESSAGE,
         "hello sent twice",
         id="second-hello",
-    ),  # fmt: skip
+    ),
 ]
 
 
@@ -190,8 +190,13 @@ def test_bad_message_closes_only_that_connection_and_keeps_stored_frames(
 
     with session_factory() as session:
         stored = session.execute(select(Frame.robot_id, Frame.seq).order_by(Frame.id)).all()
-    assert sorted(stored) == [("robot-a", 0), ("robot-a", 1), ("robot-b", 0), ("robot-b", 1),
-                              ("robot-b", 2)]  # fmt: skip
+    assert sorted(stored) == [
+        ("robot-a", 0),
+        ("robot-a", 1),
+        ("robot-b", 0),
+        ("robot-b", 1),
+        ("robot-b", 2),
+    ]
 
 
 @pytest.mark.parametrize(
@@ -201,22 +206,22 @@ def test_bad_message_closes_only_that_connection_and_keeps_stored_frames(
             Hello(robot_id="robot-a", token="wrong").model_dump_json(),
             protocol.CLOSE_UNAUTHORIZED,
             "token",
-        ),  # fmt: skip
+        ),
         (
             Hello(robot_id="nobody", token="x").model_dump_json(),
             protocol.CLOSE_UNAUTHORIZED,
             "unknown robot",
-        ),  # fmt: skip
+        ),
         (
             Hello(robot_id="robot-a", token=ROBOT_TOKEN, protocol=99).model_dump_json(),
             protocol.CLOSE_PROTOCOL_VERSION,
             "protocol 99",
-        ),  # fmt: skip
+        ),
         (
             FrameBatch(frames=[frame(0)]).model_dump_json(),
             protocol.CLOSE_BAD_MESSAGE,
             "first message must be hello",
-        ),  # fmt: skip
+        ),
         ('{"type": "hello", "robot_id": "robot-a"}', protocol.CLOSE_BAD_MESSAGE, "token"),
     ],
 )

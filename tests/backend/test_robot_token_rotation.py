@@ -91,5 +91,6 @@ def test_a_rotation_committed_while_the_robot_connects_still_closes_it(
         with pytest.raises(WebSocketDisconnect) as closed:
             ws.receive_text()
     assert (closed.value.code, closed.value.reason) == (
-        protocol.CLOSE_UNAUTHORIZED, "robot token rotated or revoked",
-    )  # fmt: skip
+        protocol.CLOSE_UNAUTHORIZED,
+        "robot token rotated or revoked",
+    )

@@ -39,8 +39,11 @@ def connect(ws, robot_id: str, token: str) -> None:
 
 
 def start(ws, transport_id: str) -> None:
-    ws.send_text(TransportStart(transport_id=transport_id, mode="walking", ts=0.0,
-                                patient="P-b", location="3b-12").model_dump_json())  # fmt: skip
+    ws.send_text(
+        TransportStart(
+            transport_id=transport_id, mode="walking", ts=0.0, patient="P-b", location="3b-12"
+        ).model_dump_json()
+    )
 
 
 def send(ws, frames) -> None:
@@ -138,8 +141,9 @@ def test_every_message_naming_another_robots_transport_is_refused(
         connect(a, robot, ROBOT_TOKEN)
         a.send_text(message.model_dump_json())
         assert closed_with(a) == (
-            protocol.CLOSE_FORBIDDEN, "transport_id t-b1 belongs to another robot"
-        )  # fmt: skip
+            protocol.CLOSE_FORBIDDEN,
+            "transport_id t-b1 belongs to another robot",
+        )
     with session_factory() as session:
         assert session.get(Robot, other_robot) is not None
     assert alarms_of(session_factory, robot) == []
@@ -239,8 +243,9 @@ def test_over_a_real_socket_the_forger_is_closed_and_the_owner_keeps_streaming(t
                 a.recv(timeout=10)
             assert closed.value.rcvd is not None
             assert (closed.value.rcvd.code, closed.value.rcvd.reason) == (
-                protocol.CLOSE_FORBIDDEN, "transport_id t-b1 belongs to another robot"
-            )  # fmt: skip
+                protocol.CLOSE_FORBIDDEN,
+                "transport_id t-b1 belongs to another robot",
+            )
             b.send(FrameBatch(frames=[frame(1, transport="t-b1")]).model_dump_json())
             assert json.loads(b.recv(timeout=10)) == {"type": "ack", "seq": 1}
     finally:

@@ -9,12 +9,17 @@ from robot_agent.agent import TransportPlan, transport_started
 
 def test_falls_are_counted_per_robot_from_the_agents_transport_lines():
     lines = ["==> starting backend", "15:46:18 INFO    transport robot-2-17-1 ended: 901 frames"]
-    for number, (robot, events) in enumerate((
-        ("robot-1", ("stumbling",)), ("robot-1", ("turning",)), ("robot-2", ("fall",)),
-        ("robot-3", ()),
-    )):  # fmt: skip
-        plan = TransportPlan([], patient=None, location="corridor (GENERATED data)",
-                             generated_events=events)  # fmt: skip
+    for number, (robot, events) in enumerate(
+        (
+            ("robot-1", ("stumbling",)),
+            ("robot-1", ("turning",)),
+            ("robot-2", ("fall",)),
+            ("robot-3", ()),
+        )
+    ):
+        plan = TransportPlan(
+            [], patient=None, location="corridor (GENERATED data)", generated_events=events
+        )
         lines.append(f"15:47:36 INFO    {transport_started(robot, f'{robot}-17-{number}', plan)}")
     counted = generated_falls("\n".join(lines))
     assert counted["transports"] == {"robot-1": 2, "robot-2": 1, "robot-3": 1}
@@ -29,10 +34,12 @@ def test_alarms_are_matched_to_the_generated_falls_of_their_transport():
     lines = [
         transport_started(robot, transport, TransportPlan([], generated_events=events))
         for robot, transport, events in (
-            ("robot-1", "t-fall", ("fall",)), ("robot-1", "t-stumble", ("stumbling",)),
-            ("robot-2", "t-turn", ("turning",)), ("robot-2", "t-bed", ("lying_down_deliberately",)),
+            ("robot-1", "t-fall", ("fall",)),
+            ("robot-1", "t-stumble", ("stumbling",)),
+            ("robot-2", "t-turn", ("turning",)),
+            ("robot-2", "t-bed", ("lying_down_deliberately",)),
         )
-    ]  # fmt: skip
+    ]
     generated = generated_falls("\n".join(lines))
     alarms = [{"kind": "emergency", "transport_id": t} for t in ("t-fall", "t-turn", "t-bed")]
     alarms.append({"kind": "pause", "transport_id": "t-stumble"})  # not an Emergency

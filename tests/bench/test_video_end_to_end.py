@@ -123,8 +123,16 @@ def test_best_matches_finds_the_frame_of_each_picture_over_a_still_background():
 
 
 def test_shown_command_hides_the_token_and_temporary_paths():
-    command = ["/repo/.venv/bin/vigil-robot", "run", "--backend", "ws://127.0.0.1:5555/ws/robot",
-               "--token", "secret", "--outbox", "/tmp/x/outbox.sqlite"]  # fmt: skip
+    command = [
+        "/repo/.venv/bin/vigil-robot",
+        "run",
+        "--backend",
+        "ws://127.0.0.1:5555/ws/robot",
+        "--token",
+        "secret",
+        "--outbox",
+        "/tmp/x/outbox.sqlite",
+    ]
     shown = shown_command(command)
     assert "secret" not in shown and "/tmp/x" not in shown and "5555" not in shown
     assert shown.startswith("vigil-robot run --backend ws://127.0.0.1:<port>/ws/robot")
@@ -139,9 +147,12 @@ def test_robot_pace_reads_the_agents_transport_end_line(tmp_path, caplog):
     from vigil.observation import Observation
 
     ticks = iter(np.arange(100.0, 200.0, 0.025))  # every clock reading 25 ms later (GENERATED)
-    pipeline = Pipeline(Outbox(tmp_path / "o.sqlite"), TransportMode.WALKING,
-                        clock=lambda: float(next(ticks)),
-                        cpu_clock=lambda: float(next(ticks)))  # fmt: skip
+    pipeline = Pipeline(
+        Outbox(tmp_path / "o.sqlite"),
+        TransportMode.WALKING,
+        clock=lambda: float(next(ticks)),
+        cpu_clock=lambda: float(next(ticks)),
+    )
     pipeline.start_transport("t-1", ts=1_700_000_000.0, fps=30.0)
     for i in range(31):
         pipeline.process(Observation(i / 30.0, [], i))

@@ -21,9 +21,19 @@ from tests.support.live_backend import (
     prepare_database,
 )
 
-__all__ = ["PASSWORD", "REPO_ROOT", "SCREENSHOTS", "ROBOT_ID", "ROBOT_TOKEN", "LiveServer",
-           "free_port", "prepare_database", "build_frontend", "list_alarm_ids",
-           "sign_in"]  # fmt: skip
+__all__ = [
+    "PASSWORD",
+    "REPO_ROOT",
+    "SCREENSHOTS",
+    "ROBOT_ID",
+    "ROBOT_TOKEN",
+    "LiveServer",
+    "free_port",
+    "prepare_database",
+    "build_frontend",
+    "list_alarm_ids",
+    "sign_in",
+]
 
 FRONTEND = REPO_ROOT / "frontend"
 #: Where browser tests save screenshots: a temporary folder, unless `make screenshots` points
@@ -34,9 +44,13 @@ SCREENSHOTS = Path(
 )
 CHROMIUM = os.environ.get("VIGIL_CHROMIUM", "/usr/bin/chromium")
 CHROMIUM_ARGS = [
-    "--no-sandbox", "--disable-gpu", "--disable-background-networking",
-    "--disable-component-update", "--disable-sync", "--no-first-run",
-]  # fmt: skip
+    "--no-sandbox",
+    "--disable-gpu",
+    "--disable-background-networking",
+    "--disable-component-update",
+    "--disable-sync",
+    "--no-first-run",
+]
 TABLET = {"width": 1024, "height": 768}
 
 
@@ -48,9 +62,13 @@ def build_frontend() -> Path:
     """The production build in frontend/dist, rebuilt when a source file is newer than it. A
     file lock keeps two test runs side by side (`make test`) from building it at once."""
     index = FRONTEND / "dist" / "index.html"
-    sources = [*FRONTEND.joinpath("src").rglob("*"), *FRONTEND.joinpath("public").rglob("*"),
-               FRONTEND / "index.html",
-               FRONTEND / "package.json", FRONTEND / "vite.config.ts"]  # fmt: skip
+    sources = [
+        *FRONTEND.joinpath("src").rglob("*"),
+        *FRONTEND.joinpath("public").rglob("*"),
+        FRONTEND / "index.html",
+        FRONTEND / "package.json",
+        FRONTEND / "vite.config.ts",
+    ]
     lock_path = Path(tempfile.gettempdir()) / f"vigil-frontend-build-{_path_key(FRONTEND)}.lock"
     with lock_path.open("w") as lock:
         fcntl.flock(lock, fcntl.LOCK_EX)  # released when the file closes

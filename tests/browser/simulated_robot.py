@@ -16,11 +16,32 @@ from vigil.protocol import FrameBatch, FrameRecord, Hello, TransportStart
 
 # A standing stick figure in BODY_25 order: (x, y) in pixels, y grows downwards.
 _STANDING = [
-    (0, -160), (0, -140), (-20, -140), (-28, -105), (-32, -70), (20, -140), (28, -105), (32, -70),
-    (0, -70), (-12, -70), (-14, -35), (-15, 0), (12, -70), (14, -35), (15, 0),
-    (-5, -165), (5, -165), (-10, -162), (10, -162), (22, 2), (26, 2), (12, 2), (-22, 2), (-26, 2),
+    (0, -160),
+    (0, -140),
+    (-20, -140),
+    (-28, -105),
+    (-32, -70),
+    (20, -140),
+    (28, -105),
+    (32, -70),
+    (0, -70),
+    (-12, -70),
+    (-14, -35),
+    (-15, 0),
+    (12, -70),
+    (14, -35),
+    (15, 0),
+    (-5, -165),
+    (5, -165),
+    (-10, -162),
+    (10, -162),
+    (22, 2),
+    (26, 2),
+    (12, 2),
+    (-22, 2),
+    (-26, 2),
     (-12, 2),
-]  # fmt: skip
+]
 
 
 def posed_keypoints(tilt_rad: float, x0: float = 320.0, y0: float = 400.0) -> list[list[float]]:
@@ -56,12 +77,20 @@ def fall_frames(
             tilt, p = math.pi / 2, 0.95
         held = held + 1000 / fps if p >= threshold else 0.0
         decision = "emergency" if p >= threshold and held > delay_ms else "normal"
-        frames.append(FrameRecord(
-            seq=start_seq + i, ts=t0 + i / fps, transport_id=transport_id,
-            keypoints=posed_keypoints(tilt), depth=[2.5] * 25, decision=decision,
-            scores={"normal": round(1 - p, 4), "emergency": round(p, 4)},
-            model_version=model_version, threshold=threshold, delay_ms=delay_ms,
-        ))  # fmt: skip
+        frames.append(
+            FrameRecord(
+                seq=start_seq + i,
+                ts=t0 + i / fps,
+                transport_id=transport_id,
+                keypoints=posed_keypoints(tilt),
+                depth=[2.5] * 25,
+                decision=decision,
+                scores={"normal": round(1 - p, 4), "emergency": round(p, 4)},
+                model_version=model_version,
+                threshold=threshold,
+                delay_ms=delay_ms,
+            )
+        )
     return frames
 
 
@@ -98,8 +127,15 @@ class SimulatedRobot:
                 raise AssertionError(f"server error: {message}")
 
     def start_transport(self, transport_id: str, patient: str, location: str) -> None:
-        self.send(TransportStart(transport_id=transport_id, mode="walking", patient=patient,
-                                 location=location, ts=time.time()))  # fmt: skip
+        self.send(
+            TransportStart(
+                transport_id=transport_id,
+                mode="walking",
+                patient=patient,
+                location=location,
+                ts=time.time(),
+            )
+        )
 
     def send_batch(self, frames: list[FrameRecord]) -> None:
         self.send(FrameBatch(frames=frames))

@@ -47,8 +47,9 @@ def test_annotator_labels_fall_stages_reviewer_accepts_export_matches(live_serve
     SCREENSHOTS.mkdir(parents=True, exist_ok=True)
     with transaction(db) as session:
         import_urfd(session, urfd.default_dir(), ["fall-01"], labels=False)
-        session.add(User(username="rita", password_hash=password_hash(PASSWORD),
-                         role=Role.ANNOTATOR))  # fmt: skip
+        session.add(
+            User(username="rita", password_hash=password_hash(PASSWORD), role=Role.ANNOTATOR)
+        )
     with db() as session:
         video_id = session.scalars(select(Video.id).where(Video.name == "fall-01")).one()
     stages = _official_stages()
@@ -77,10 +78,13 @@ def test_annotator_labels_fall_stages_reviewer_accepts_export_matches(live_serve
     page.keyboard.press("Control+Shift+z")
     expect(segments).to_have_count(3)
     shown = sorted(
-        (int(s.get_attribute("data-first")), int(s.get_attribute("data-last")),
-         s.get_attribute("data-label"))
+        (
+            int(s.get_attribute("data-first")),
+            int(s.get_attribute("data-last")),
+            s.get_attribute("data-label"),
+        )
         for s in segments.all()
-    )  # fmt: skip
+    )
     assert shown == sorted(stages)
 
     # Playback: faster with ], space plays and pauses; V switches to skeleton only.
@@ -135,8 +139,9 @@ def test_annotator_labels_fall_stages_reviewer_accepts_export_matches(live_serve
     exported = label_runs([r["label_key"] or None for r in rows_csv])
     assert exported == stages
     with db() as session:
-        stored = session.scalars(select(AnnotationSegment)
-                                 .where(AnnotationSegment.status == "accepted")).all()  # fmt: skip
+        stored = session.scalars(
+            select(AnnotationSegment).where(AnnotationSegment.status == "accepted")
+        ).all()
         assert {s.annotator_id for s in stored} != {None}
         assert sorted((s.first_frame, s.last_frame, s.label_key) for s in stored) == sorted(stages)
 

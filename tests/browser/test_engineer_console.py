@@ -34,16 +34,22 @@ def system(tmp_path, frontend_dist, trained_model_dir):  # noqa: F811
     engine = make_engine(server.database_url)
     factory = make_session_factory(engine)
     with transaction(factory) as session:
-        session.add(User(username="erin", password_hash=password_hash(PASSWORD),
-                         role=Role.ENGINEER))  # fmt: skip
+        session.add(
+            User(username="erin", password_hash=password_hash(PASSWORD), role=Role.ENGINEER)
+        )
         import_urfd(session, names=TRAIN[:2] + TRAIN[6:8], split=Split.TRAIN)
         import_urfd(session, names=GOLD, split=Split.TEST)
         queue.enqueue(session, JobKind.REGISTER, {"path": str(trained_model_dir)})
         blind = derive_model(trained_model_dir, tmp_path / "blind", "blind-1", delay_ms=10_000)
         queue.enqueue(session, JobKind.REGISTER, {"path": str(blind)})
-    settings = WorkerSettings(database_url=server.database_url, model_store_dir=store,
-                              worker_id="browser-worker", worker_poll_s=0.2,
-                              worker_heartbeat_s=0.3, worker_sweep_s=5)  # fmt: skip
+    settings = WorkerSettings(
+        database_url=server.database_url,
+        model_store_dir=store,
+        worker_id="browser-worker",
+        worker_poll_s=0.2,
+        worker_heartbeat_s=0.3,
+        worker_sweep_s=5,
+    )
     worker = Worker(settings, factory)
     assert worker.run_once() and worker.run_once()  # both registered before the page opens
     thread = threading.Thread(target=worker.run_forever, daemon=True)

@@ -124,18 +124,28 @@ def test_fall_alarm_sounds_is_acknowledged_resolved_and_becomes_a_label(live_ser
 
     with db() as session:
         alarm = session.get(Alarm, alarm_id)
-        assert (alarm.state, alarm.verdict, alarm.reason) == ("resolved", "false_alarm",
-                                                             "sitting_down")  # fmt: skip
-        span = session.execute(
-            select(Frame.index).where(Frame.seq.in_([alarm.first_seq, alarm.last_seq]))
-            .order_by(Frame.index)
-        ).scalars().all()  # fmt: skip
+        assert (alarm.state, alarm.verdict, alarm.reason) == (
+            "resolved",
+            "false_alarm",
+            "sitting_down",
+        )
+        span = (
+            session.execute(
+                select(Frame.index)
+                .where(Frame.seq.in_([alarm.first_seq, alarm.last_seq]))
+                .order_by(Frame.index)
+            )
+            .scalars()
+            .all()
+        )
         segment = session.scalars(
             select(AnnotationSegment).where(AnnotationSegment.alarm_id == alarm_id)
         ).one()
         assert (segment.status, segment.source, segment.label_key) == (
-            "pending", "nurse_verdict", "sitting_down"
-        )  # fmt: skip
+            "pending",
+            "nurse_verdict",
+            "sitting_down",
+        )
         assert (segment.first_frame, segment.last_frame) == (span[0], span[-1])
         assert segment.video_id == alarm.video_id and segment.model_version == "mlp-7"
 
@@ -234,11 +244,17 @@ def test_detection_degraded_shows_as_a_technical_card_and_leaves_on_recovery(liv
         robot.start_transport("t-9", patient="P-9", location="lift 1")
         frames = fall_frames(500, time.time() - 5, "t-9")[:5]
         robot.stream(frames[:2])
-        robot.send(DetectionStatus(
-            ts=time.time(), transport_id="t-9", degraded=True, missing_inputs=["depth", "floor"],
-            assigned_model="gbt-floor-2", running_model="gbt-kp-3",
-            reason="depth stream stopped",
-        ))  # fmt: skip
+        robot.send(
+            DetectionStatus(
+                ts=time.time(),
+                transport_id="t-9",
+                degraded=True,
+                missing_inputs=["depth", "floor"],
+                assigned_model="gbt-floor-2",
+                running_model="gbt-kp-3",
+                reason="depth stream stopped",
+            )
+        )
         robot.stream(frames[2:4])  # acknowledged: the status before them is committed
         card = page.locator("article.alarm-technical")
         expect(card).to_have_count(1)
@@ -377,16 +393,29 @@ def test_triage_order_missed_state_banner_filters_and_handover_export(live_serve
         nina = session.scalars(select(User).where(User.username == "nina")).one()
         ids = {}
         # Ended transports: the monitor raises no robot-offline alarm for them.
-        for name, ended in (("t-missed", now - timedelta(minutes=40)),
-                            ("t-acked", now - timedelta(seconds=20)),
-                            ("t-pause", now - timedelta(seconds=20))):  # fmt: skip
-            session.add(Transport(id=name, robot_id="robot-a", mode="walking", patient=f"P-{name}",
-                                  location="corridor C", started_at=now - timedelta(hours=1),
-                                  ended_at=ended))  # fmt: skip
+        for name, ended in (
+            ("t-missed", now - timedelta(minutes=40)),
+            ("t-acked", now - timedelta(seconds=20)),
+            ("t-pause", now - timedelta(seconds=20)),
+        ):
+            session.add(
+                Transport(
+                    id=name,
+                    robot_id="robot-a",
+                    mode="walking",
+                    patient=f"P-{name}",
+                    location="corridor C",
+                    started_at=now - timedelta(hours=1),
+                    ended_at=ended,
+                )
+            )
         session.flush()
         evidence = DecisionEvidence(seq=None, ts=None)
-        for name, kind in (("t-missed", AlarmKind.EMERGENCY), ("t-acked", AlarmKind.EMERGENCY),
-                           ("t-pause", AlarmKind.PAUSE)):  # fmt: skip
+        for name, kind in (
+            ("t-missed", AlarmKind.EMERGENCY),
+            ("t-acked", AlarmKind.EMERGENCY),
+            ("t-pause", AlarmKind.PAUSE),
+        ):
             alarm, _ = service.raise_or_update(
                 session, robot, session.get(Transport, name), kind, evidence
             )
@@ -509,9 +538,15 @@ def test_list_of_hundreds_of_alarms_is_in_triage_order_and_draws_the_rows_in_vie
         nina = session.scalars(select(User).where(User.username == "nina")).one()
         evidence = DecisionEvidence(seq=None, ts=None)
         for i in range(300):
-            transport = Transport(id=f"t-{i}", robot_id="robot-a", mode="walking",
-                                  patient=f"GEN-{i}", location="generated corridor",
-                                  started_at=now - timedelta(hours=3), ended_at=now)  # fmt: skip
+            transport = Transport(
+                id=f"t-{i}",
+                robot_id="robot-a",
+                mode="walking",
+                patient=f"GEN-{i}",
+                location="generated corridor",
+                started_at=now - timedelta(hours=3),
+                ended_at=now,
+            )
             session.add(transport)
             session.flush()
             alarm, _ = service.raise_or_update(

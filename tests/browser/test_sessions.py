@@ -31,8 +31,7 @@ def _watch_csp(page) -> list[str]:
 
 def _add_admin(db) -> None:
     with transaction(db) as session:
-        session.add(User(username="ada", password_hash=password_hash(PASSWORD),
-                         role=Role.ADMIN))  # fmt: skip
+        session.add(User(username="ada", password_hash=password_hash(PASSWORD), role=Role.ADMIN))
 
 
 def test_a_deactivated_nurse_is_sent_back_to_sign_in(live_server, page, db):

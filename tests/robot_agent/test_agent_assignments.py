@@ -24,8 +24,14 @@ def _agent(tmp_path) -> RobotAgent:
         Outbox(tmp_path / "o.sqlite"), TransportMode.WALKING, FrameClassifier.from_dir(production)
     )
     pipeline.set_shadow(FrameClassifier.from_dir(candidate))
-    return RobotAgent("robot-a", "token", pipeline, iter([]), AgentOptions(url="ws://x/ws/robot"),
-                      tmp_path / "models")  # fmt: skip
+    return RobotAgent(
+        "robot-a",
+        "token",
+        pipeline,
+        iter([]),
+        AgentOptions(url="ws://x/ws/robot"),
+        tmp_path / "models",
+    )
 
 
 def _run(coroutine) -> None:
@@ -37,9 +43,13 @@ def _run(coroutine) -> None:
 
 def _production(tmp_path, **extra) -> ModelAssignment:
     manifest, _ = read_manifest(tmp_path / "m1")
-    return ModelAssignment(version="upright-1", url="http://127.0.0.1:9/api/robot/models/"
-                           "upright-1/file", sha256=manifest.sha256,
-                           manifest=manifest.model_dump(mode="json"), **extra)  # fmt: skip
+    return ModelAssignment(
+        version="upright-1",
+        url="http://127.0.0.1:9/api/robot/models/upright-1/file",
+        sha256=manifest.sha256,
+        manifest=manifest.model_dump(mode="json"),
+        **extra,
+    )
 
 
 def test_a_production_assignment_with_stop_shadow_stops_the_shadow_model(tmp_path):

@@ -23,16 +23,16 @@ from .tiny_model import write_upright_model
 
 
 def fleet_row(backend, token: str) -> dict:
-    response = httpx.get(f"{backend.base_url}/api/fleet", timeout=10,
-                         headers={"Authorization": f"Bearer {token}"})  # fmt: skip
+    response = httpx.get(
+        f"{backend.base_url}/api/fleet", timeout=10, headers={"Authorization": f"Bearer {token}"}
+    )
     return next(r for r in response.json() if r["id"] == ROBOT_ID)
 
 
 def test_a_tampered_model_on_the_robots_disk_is_refused(backend, agents, tmp_path):
     engine = make_engine(backend.database_url)
     with transaction(make_session_factory(engine)) as session:
-        session.add(User(username="eve", password_hash=password_hash(PASSWORD),
-                         role=Role.ENGINEER))  # fmt: skip
+        session.add(User(username="eve", password_hash=password_hash(PASSWORD), role=Role.ENGINEER))
     engine.dispose()
     engineer = backend.login("eve")
 

@@ -153,8 +153,10 @@ def test_only_a_resolved_emergency_alarm_releases_the_stop(tmp_path):
     agent.behaviour.update(Decision.EMERGENCY, 1.0, transport_id="t-1")
     agent.on_alarm(alarm_acknowledged(5, "emergency", "t-1", "nurse:alice", 2.0))
     assert (seen[-1].event, seen[-1].alarm_id, seen[-1].state) == (
-        "alarm_acknowledged", 5, "emergency_stop"
-    )  # fmt: skip
+        "alarm_acknowledged",
+        5,
+        "emergency_stop",
+    )
     agent.on_alarm(alarm_resolved(6, "pause", "t-1", "nurse:alice", 3.0))
     assert agent.behaviour.state == "emergency_stop"
     agent.on_alarm(alarm_resolved(5, "emergency", "t-1", "nurse:alice", 4.0, "true_emergency"))

@@ -61,11 +61,14 @@ def agent_running_tampered(tmp_path, with_fallback: bool) -> tuple[RobotAgent, s
         )
         fallback_sha = fallback.sha256
     pipeline = Pipeline(
-        Outbox(tmp_path / "o.sqlite"), TransportMode.WALKING, FrameClassifier.from_dir(directory),
+        Outbox(tmp_path / "o.sqlite"),
+        TransportMode.WALKING,
+        FrameClassifier.from_dir(directory),
         fallback=fallback,
-    )  # fmt: skip
-    agent = RobotAgent("robot-a", "token", pipeline, iter([]), AgentOptions(url="ws://x/ws/robot"),
-                       models)  # fmt: skip
+    )
+    agent = RobotAgent(
+        "robot-a", "token", pipeline, iter([]), AgentOptions(url="ws://x/ws/robot"), models
+    )
     return agent, genuine, fallback_sha
 
 
@@ -80,16 +83,19 @@ def test_the_hello_tells_the_sha256_of_the_files_the_robot_runs(tmp_path):
     agent, _, fallback_sha = agent_running_tampered(tmp_path, with_fallback=True)
     tampered = read_manifest(tmp_path / "robot-models" / VERSION)[0].sha256
     assert agent.pipeline.loaded_models() == {
-        "running_sha256": tampered, "fallback_model": "kp-1", "fallback_sha256": fallback_sha,
-    }  # fmt: skip
+        "running_sha256": tampered,
+        "fallback_model": "kp-1",
+        "fallback_sha256": fallback_sha,
+    }
 
 
 def test_after_the_welcome_a_tampered_model_is_refused_and_the_fallback_decides(tmp_path):
     agent, genuine, fallback_sha = agent_running_tampered(tmp_path, with_fallback=True)
     agent._on_welcome(
-        Welcome(robot_id="robot-a", last_seq=None,
-                model_sha256={VERSION: genuine, "kp-1": fallback_sha})
-    )  # fmt: skip
+        Welcome(
+            robot_id="robot-a", last_seq=None, model_sha256={VERSION: genuine, "kp-1": fallback_sha}
+        )
+    )
     pipeline = agent.pipeline
     assert pipeline.running_model == "kp-1"
     assert pipeline.running_sha256 == fallback_sha  # what the heartbeat reports
@@ -120,9 +126,11 @@ def test_an_assignment_of_the_running_version_with_another_sha256_refuses_it(tmp
     agent, genuine, _ = agent_running_tampered(tmp_path, with_fallback=False)
     manifest, _ = read_manifest(tmp_path / "robot-models" / VERSION)
     assignment = ModelAssignment(
-        version=VERSION, url="http://127.0.0.1:9/api/robot/models/upright-7/file",
-        sha256=genuine, manifest=manifest.model_dump(mode="json"),
-    )  # fmt: skip
+        version=VERSION,
+        url="http://127.0.0.1:9/api/robot/models/upright-7/file",
+        sha256=genuine,
+        manifest=manifest.model_dump(mode="json"),
+    )
     run(agent.on_assignment(assignment))  # the download of the genuine file fails here
     assert agent.pipeline.running_model is None
     assert "refused" in statuses(agent.pipeline.outbox)[0].reason
@@ -140,8 +148,9 @@ def test_a_tampered_model_is_refused_at_start_against_the_noted_registry_sha256(
     genuine, _ = genuine_and_tampered(models / "robot-a")
     remember_running(models / "robot-a", VERSION, genuine)  # noted with the assignment
     shipped = write_upright_model(tmp_path / "shipped", "upright-1")
-    settings = load_settings(None, robot_id="robot-a", model_dir=str(shipped),
-                             models_dir=str(models))  # fmt: skip
+    settings = load_settings(
+        None, robot_id="robot-a", model_dir=str(shipped), models_dir=str(models)
+    )
     classifier, refusal = starting_model(settings, "robot-a")
     assert classifier.version == "upright-1"  # the configured model, not the tampered one
     assert refusal.version == VERSION and genuine in refusal.reason

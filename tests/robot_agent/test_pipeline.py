@@ -195,8 +195,9 @@ def test_losing_floor_measures_switches_to_the_fallback_and_raises_degraded(tmp_
             tmp_path / "floor", "floor-1", delay_ms=0, feature_set="full", always_normal=True
         )
     )
-    fallback = FrameClassifier.from_dir(write_upright_model(
-        tmp_path / "kp", "kp-1", delay_ms=0, feature_set="keypoints"))  # fmt: skip
+    fallback = FrameClassifier.from_dir(
+        write_upright_model(tmp_path / "kp", "kp-1", delay_ms=0, feature_set="keypoints")
+    )
     outbox = Outbox(tmp_path / "o.sqlite")
     pipeline = Pipeline(outbox, TransportMode.WALKING, floor_model, fallback=fallback)
     pipeline.start_transport("t-1", ts=1_700_000_000.0)
@@ -205,10 +206,14 @@ def test_losing_floor_measures_switches_to_the_fallback_and_raises_degraded(tmp_
         # The depth stream stops 2 s in: no floor measures from then on, until 9 s.
         lost = 2.0 <= obs.timestamp < 9.0
         people = [
-            SkeletonFrame(p.keypoints, p.depth, p.timestamp,
-                          np.full(3, np.nan) if lost else np.array([1.7, 0.9, 0.0]))
+            SkeletonFrame(
+                p.keypoints,
+                p.depth,
+                p.timestamp,
+                np.full(3, np.nan) if lost else np.array([1.7, 0.9, 0.0]),
+            )
             for p in obs.people
-        ]  # fmt: skip
+        ]
         result = pipeline.process(Observation(obs.timestamp, people, obs.index, truth=obs.truth))
         decisions.append((obs.timestamp, result.decision, result.classification.model_version))
     statuses = _statuses(outbox)
@@ -226,8 +231,9 @@ def test_losing_floor_measures_switches_to_the_fallback_and_raises_degraded(tmp_
 
 
 def test_a_robot_that_cannot_feed_its_model_reports_degraded_at_once_every_transport(tmp_path):
-    floor_model = FrameClassifier.from_dir(write_upright_model(
-        tmp_path / "floor", "floor-1", feature_set="full"))  # fmt: skip
+    floor_model = FrameClassifier.from_dir(
+        write_upright_model(tmp_path / "floor", "floor-1", feature_set="full")
+    )
     outbox = Outbox(tmp_path / "o.sqlite")
     pipeline = Pipeline(outbox, TransportMode.WALKING, floor_model, available_inputs=["keypoints"])
     for transport in ("t-1", "t-2"):
@@ -273,8 +279,12 @@ class _SlowClock:
 def _transport_end_line(tmp_path, caplog, clock_step: float, cpu_step: float = 0.001) -> str:
     """30 frames of a 30 frames/s source through a pipeline whose clocks advance by the given
     steps on every reading; the transport-end log line."""
-    pipeline = Pipeline(Outbox(tmp_path / "o.sqlite"), TransportMode.WALKING,
-                        clock=_SlowClock(clock_step), cpu_clock=_SlowClock(cpu_step))  # fmt: skip
+    pipeline = Pipeline(
+        Outbox(tmp_path / "o.sqlite"),
+        TransportMode.WALKING,
+        clock=_SlowClock(clock_step),
+        cpu_clock=_SlowClock(cpu_step),
+    )
     pipeline.start_transport("t-1", ts=1_700_000_000.0, fps=30.0)
     for i in range(30):
         pipeline.process(Observation(i / 30.0, [], i))

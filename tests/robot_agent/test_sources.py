@@ -36,11 +36,15 @@ def _write_openpose_dir(tmp_path, frames=12):
         doc = {
             "version": 1.3,
             "people": [
-                {"person_id": [-1], "pose_keypoints_2d": p.keypoints.ravel().tolist(),
-                 "face_keypoints_2d": [], "hand_left_keypoints_2d": []}
+                {
+                    "person_id": [-1],
+                    "pose_keypoints_2d": p.keypoints.ravel().tolist(),
+                    "face_keypoints_2d": [],
+                    "hand_left_keypoints_2d": [],
+                }
                 for p in people
             ],
-        }  # fmt: skip
+        }
         (json_dir / f"clip_{t:012d}_keypoints.json").write_text(json.dumps(doc))
         expected.append(people)
         if t % 3 == 0:  # depth for every third frame only, millimetres
@@ -186,8 +190,7 @@ def test_vigil_export_bad_input_names_the_field(tmp_path, mutate, message):
 
 
 def test_simulator_source_several_people_truth_and_back_to_back_transports():
-    source = SimulatorSource("wheelchair", seed=4, duration_s=5, n_people=3, transports=2,
-                             speed=0)  # fmt: skip
+    source = SimulatorSource("wheelchair", seed=4, duration_s=5, n_people=3, transports=2, speed=0)
     assert_keypoint_source(source)
     observations = list(source)
     first, second = source.transport(0), source.transport(1)

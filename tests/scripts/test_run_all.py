@@ -10,9 +10,14 @@ import scripts.run_all as run_all
 
 
 def test_var_dir_moves_everything_make_run_writes(tmp_path, monkeypatch):
-    for name in ("VIGIL_DATABASE_URL", "VIGIL_SECRET_KEY_FILE", "VIGIL_MODEL_STORE_DIR",
-                 "VIGIL_LABELLING_MODEL_DIR", "VIGIL_ARCHIVE_DIR",
-                 "VIGIL_ROBOT_MODELS_DIR"):  # fmt: skip
+    for name in (
+        "VIGIL_DATABASE_URL",
+        "VIGIL_SECRET_KEY_FILE",
+        "VIGIL_MODEL_STORE_DIR",
+        "VIGIL_LABELLING_MODEL_DIR",
+        "VIGIL_ARCHIVE_DIR",
+        "VIGIL_ROBOT_MODELS_DIR",
+    ):
         monkeypatch.delenv(name, raising=False)
     monkeypatch.setenv("VIGIL_VAR_DIR", str(tmp_path / "var"))
     monkeypatch.setenv("VIGIL_ARCHIVE_DIR", "/elsewhere/archive")  # given: kept
@@ -22,8 +27,12 @@ def test_var_dir_moves_everything_make_run_writes(tmp_path, monkeypatch):
         assert module.TOKENS.parent == module.VAR and module.MODEL_DIR.is_relative_to(module.VAR)
         module.use_var_dir()
         assert os.environ["VIGIL_DATABASE_URL"] == f"sqlite:///{module.VAR / 'vigil.db'}"
-        for name in ("VIGIL_SECRET_KEY_FILE", "VIGIL_MODEL_STORE_DIR",
-                     "VIGIL_LABELLING_MODEL_DIR", "VIGIL_ROBOT_MODELS_DIR"):  # fmt: skip
+        for name in (
+            "VIGIL_SECRET_KEY_FILE",
+            "VIGIL_MODEL_STORE_DIR",
+            "VIGIL_LABELLING_MODEL_DIR",
+            "VIGIL_ROBOT_MODELS_DIR",
+        ):
             assert os.environ[name].startswith(str(module.VAR)), name
         assert os.environ["VIGIL_ARCHIVE_DIR"] == "/elsewhere/archive"
 
@@ -33,8 +42,13 @@ def test_var_dir_moves_everything_make_run_writes(tmp_path, monkeypatch):
         assert Settings().model_store_dir == module.VAR / "models"
         assert AgentSettings().models_dir == module.VAR / "robot-models"
     finally:
-        for name in ("VIGIL_DATABASE_URL", "VIGIL_SECRET_KEY_FILE", "VIGIL_MODEL_STORE_DIR",
-                     "VIGIL_LABELLING_MODEL_DIR", "VIGIL_ROBOT_MODELS_DIR"):  # fmt: skip
+        for name in (
+            "VIGIL_DATABASE_URL",
+            "VIGIL_SECRET_KEY_FILE",
+            "VIGIL_MODEL_STORE_DIR",
+            "VIGIL_LABELLING_MODEL_DIR",
+            "VIGIL_ROBOT_MODELS_DIR",
+        ):
             os.environ.pop(name, None)
         monkeypatch.delenv("VIGIL_VAR_DIR")
         importlib.reload(run_all)
@@ -60,12 +74,20 @@ def test_the_demo_models_must_be_trained_with_the_generated_walking_transports(t
 
     def write(directory, dataset: str):
         manifest = ModelManifest(
-            version=f"m-{dataset}", name="m", mode=TransportMode.WALKING,
-            classes=[Decision.NORMAL, Decision.EMERGENCY], feature_version=FEATURE_VERSION,
-            feature_set="pose", taxonomy_version=DEFAULT_TAXONOMY.version, threshold=0.5,
-            delay_ms=200, metrics={"dataset": dataset}, training_data_sha256="0" * 64,
-            generated_data=dataset != "urfd", sha256="0" * 64,
-        )  # fmt: skip
+            version=f"m-{dataset}",
+            name="m",
+            mode=TransportMode.WALKING,
+            classes=[Decision.NORMAL, Decision.EMERGENCY],
+            feature_version=FEATURE_VERSION,
+            feature_set="pose",
+            taxonomy_version=DEFAULT_TAXONOMY.version,
+            threshold=0.5,
+            delay_ms=200,
+            metrics={"dataset": dataset},
+            training_data_sha256="0" * 64,
+            generated_data=dataset != "urfd",
+            sha256="0" * 64,
+        )
         write_model(directory, upright_model_bytes(), manifest)
         return directory
 

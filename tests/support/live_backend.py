@@ -38,11 +38,13 @@ def prepare_database(database_url: str) -> None:
     engine = make_engine(database_url)
     with transaction(make_session_factory(engine)) as session:
         password_hash = cached_password_hash(PASSWORD)
-        session.add(User(username="nina", password_hash=password_hash, role=Role.NURSE,
-                         ward="ward-a"))  # fmt: skip
+        session.add(
+            User(username="nina", password_hash=password_hash, role=Role.NURSE, ward="ward-a")
+        )
         session.add(User(username="anna", password_hash=password_hash, role=Role.ANNOTATOR))
-        session.add(Robot(id=ROBOT_ID, name="A", ward="ward-a",
-                          token_hash=hash_robot_token(ROBOT_TOKEN)))  # fmt: skip
+        session.add(
+            Robot(id=ROBOT_ID, name="A", ward="ward-a", token_hash=hash_robot_token(ROBOT_TOKEN))
+        )
     engine.dispose()
 
 
@@ -101,10 +103,24 @@ class LiveServer:
     def start(self) -> None:
         log = self.log_path.open("ab")
         self.process = subprocess.Popen(
-            [sys.executable, "-m", "uvicorn", "backend.main:create_app", "--factory",
-             "--host", "127.0.0.1", "--port", str(self.port), "--log-level", "warning"],
-            cwd=REPO_ROOT, env=self.env, stdout=log, stderr=subprocess.STDOUT,
-        )  # fmt: skip
+            [
+                sys.executable,
+                "-m",
+                "uvicorn",
+                "backend.main:create_app",
+                "--factory",
+                "--host",
+                "127.0.0.1",
+                "--port",
+                str(self.port),
+                "--log-level",
+                "warning",
+            ],
+            cwd=REPO_ROOT,
+            env=self.env,
+            stdout=log,
+            stderr=subprocess.STDOUT,
+        )
         deadline = time.monotonic() + STARTUP_TIMEOUT_S
         while time.monotonic() < deadline:
             if self.process.poll() is not None:

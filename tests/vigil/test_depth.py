@@ -61,8 +61,9 @@ def test_vectorised_equals_a_plain_loop_on_real_images(urfd_frames):
     rng = np.random.default_rng(0)
     for obs in urfd_frames:
         keypoints = obs.people[0].keypoints.copy()
-        random = np.column_stack([rng.uniform(-20, 660, 25), rng.uniform(-20, 500, 25),
-                                  rng.uniform(-0.2, 1, 25)]).astype(np.float32)  # fmt: skip
+        random = np.column_stack(
+            [rng.uniform(-20, 660, 25), rng.uniform(-20, 500, 25), rng.uniform(-0.2, 1, 25)]
+        ).astype(np.float32)
         for kp in (keypoints, random):
             for window in (1, 5, 9):
                 expected = reference_depth(obs.depth_image, kp, SCALE, window)
@@ -113,8 +114,12 @@ def test_people_with_depth_samples_everyone_or_keeps_known_depth(urfd_frames):
     person = obs.people[0]
     shifted = SkeletonFrame(person.keypoints.copy(), timestamp=person.timestamp)
     shifted.keypoints[person.present, 0] -= 150  # a second "person" further left
-    obs = Observation(obs.timestamp, [person, shifted], depth_image=obs.depth_image,
-                      depth_scale_mm=obs.depth_scale_mm)  # fmt: skip
+    obs = Observation(
+        obs.timestamp,
+        [person, shifted],
+        depth_image=obs.depth_image,
+        depth_scale_mm=obs.depth_scale_mm,
+    )
     people = people_with_depth(obs)
     assert len(people) == 2
     for got, source in zip(people, obs.people, strict=True):

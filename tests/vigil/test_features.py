@@ -116,8 +116,14 @@ def test_window_index_stays_inside_each_stream():
 def test_non_finite_coordinates_count_as_missing():
     kp = np.zeros((N_KEYPOINTS, 3), np.float32)
     kp[[0, 1, 2, 5, 8, 9, 12], :] = [
-        [50, 10, 1], [50, 30, 1], [40, 30, 1], [60, 30, 1], [50, 80, 1], [45, 80, 1], [55, 80, 1]
-    ]  # fmt: skip
+        [50, 10, 1],
+        [50, 30, 1],
+        [40, 30, 1],
+        [60, 30, 1],
+        [50, 80, 1],
+        [45, 80, 1],
+        [55, 80, 1],
+    ]
     broken = kp.copy()
     broken[3] = (np.nan, 5, 0.9)
     broken[4] = (np.inf, np.nan, 0.8)

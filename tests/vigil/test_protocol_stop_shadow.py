@@ -8,8 +8,12 @@ from pydantic import ValidationError
 
 from vigil.protocol import ModelAssignment, server_message_adapter
 
-FIELDS = {"version": "m1", "url": "http://b/api/robot/models/m1/file", "sha256": "ab",
-          "manifest": {}}  # fmt: skip
+FIELDS = {
+    "version": "m1",
+    "url": "http://b/api/robot/models/m1/file",
+    "sha256": "ab",
+    "manifest": {},
+}
 
 
 def test_an_assignment_without_stop_shadow_parses_and_does_not_stop_the_shadow():

@@ -23,8 +23,12 @@ def test_decode_many_matches_per_blob_decoding_with_nan_rows_for_none():
     keypoints = [
         encode_keypoints(rng.normal(300, 80, (25, 3)).astype(np.float32)) for _ in range(4)
     ]
-    depth = [encode_depth(rng.uniform(1, 4, 25).astype(np.float32)), None,
-             encode_depth(np.full(25, np.nan, np.float32)), None]  # fmt: skip
+    depth = [
+        encode_depth(rng.uniform(1, 4, 25).astype(np.float32)),
+        None,
+        encode_depth(np.full(25, np.nan, np.float32)),
+        None,
+    ]
     floor = [None, encode_floor(rng.normal(size=3).astype(np.float32)), None, None]
 
     got = decode_many(keypoints, N_KEYPOINTS * 3).reshape(4, N_KEYPOINTS, 3)

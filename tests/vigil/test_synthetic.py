@@ -106,9 +106,12 @@ def test_lying_down_deliberately_is_on_a_bed_not_on_the_floor():
     lying, fallen = [], []
     for seed in range(6):
         transport = generate_transport(
-            "walking", seed=seed, duration_s=20, events=["lying_down_deliberately", "fall"],
+            "walking",
+            seed=seed,
+            duration_s=20,
+            events=["lying_down_deliberately", "fall"],
             n_people=1,
-        )  # fmt: skip
+        )
         floor = transport.patient_sequence().floor
         labels = np.array(transport.labels)
         lying.append(np.nanmedian(floor[labels == "lying_down_deliberately"][-15:], axis=0))

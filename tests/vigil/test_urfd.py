@@ -64,8 +64,9 @@ def _write(path, header, rows):
 
 def test_a_keypoint_file_in_urfds_format_loads_from_anywhere(tmp_path):
     header, rows = _keypoint_rows("fall-05")
-    (sequence,) = urfd.load(names=["fall-05"], keypoints_file=_write(tmp_path / "k.csv.gz",
-                                                                      header, rows))  # fmt: skip
+    (sequence,) = urfd.load(
+        names=["fall-05"], keypoints_file=_write(tmp_path / "k.csv.gz", header, rows)
+    )
     (original,) = urfd.load(names=["fall-05"])
     np.testing.assert_array_equal(sequence.keypoints, original.keypoints)
     np.testing.assert_array_equal(sequence.target, original.target)

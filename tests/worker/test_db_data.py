@@ -49,9 +49,13 @@ def test_export_and_training_labels_agree_row_by_row_with_overlapping_segments(f
         # A new segment (the highest id) over the walking run and into the next, labelled
         # Emergency; the walking run (a lower id) is then updated last.
         overlap = create_segment(
-            session, video, SegmentDraft(first.first_frame, end, "lying_on_floor"), None,
-            source=SegmentSource.IMPORT, entry="import",
-        )  # fmt: skip
+            session,
+            video,
+            SegmentDraft(first.first_frame, end, "lying_on_floor"),
+            None,
+            source=SegmentSource.IMPORT,
+            entry="import",
+        )
         session.flush()
         first.updated_at = overlap.updated_at + timedelta(minutes=5)
         walking = (first.first_frame, first.last_frame)

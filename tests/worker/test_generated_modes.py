@@ -64,8 +64,9 @@ def test_generated_walking_frames_without_depth_join_real_data_and_say_generated
     from worker.training.data import concatenate
 
     generated = generated_frames(TransportMode.WALKING, repeats=1, seed=7, depth=False)
-    assert np.isnan(np.array([f.depth for r in generated.recordings for o in r
-                              for f in o.people])).all()  # fmt: skip
+    assert np.isnan(
+        np.array([f.depth for r in generated.recordings for o in r for f in o.people])
+    ).all()
     assert generated.features[:, FEATURE_NAMES.index("has_depth")].max() == 0
     assert generated.features[generated.usable, FEATURE_NAMES.index("has_floor")].min() == 1
     with_depth = generated_frames(TransportMode.WALKING, repeats=1, seed=7)
@@ -81,8 +82,11 @@ def test_generated_walking_frames_without_depth_join_real_data_and_say_generated
     assert len(both.recordings) == len(both.names) == both.group.max() + 1
     assert both.data_sha256 not in (real.data_sha256, generated.data_sha256)
 
-    spec = ModelSpec("rf-tiny", "rf", {"n_estimators": [10], "max_depth": [6],
-                                       "min_samples_leaf": [5], "max_features": [0.3]})  # fmt: skip
+    spec = ModelSpec(
+        "rf-tiny",
+        "rf",
+        {"n_estimators": [10], "max_depth": [6], "min_samples_leaf": [5], "max_features": [0.3]},
+    )
     trainer = SklearnTrainer(spec)
     selected = select(trainer, both, np.arange(len(both.names)), n_inner=3, stride=3)
     manifest = publish(trainer, selected, both, tmp_path / "demo")

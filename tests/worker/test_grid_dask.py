@@ -30,9 +30,13 @@ def test_grid_search_on_a_local_dask_cluster_matches_the_local_run(data):
     sequences = np.arange(len(NAMES))
     local = select(trainer, data, sequences, n_inner=2)
     with LocalCluster(
-        n_workers=1, threads_per_worker=2, processes=False, protocol="tcp://",
-        scheduler_port=0, dashboard_address=None,
-    ) as cluster:  # fmt: skip
+        n_workers=1,
+        threads_per_worker=2,
+        processes=False,
+        protocol="tcp://",
+        scheduler_port=0,
+        dashboard_address=None,
+    ) as cluster:
         with GridBackend(cluster.scheduler_address).active():
             on_dask = select(trainer, data, sequences, n_inner=2)
         executed = sum(w.state.executed_count for w in cluster.workers.values())

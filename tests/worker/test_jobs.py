@@ -35,8 +35,9 @@ def test_retrain_on_urfd_registers_a_model_with_lineage_metrics_and_plots(
         session.add(engineer)
         session.flush()
         engineer_id = engineer.id
-    job = _run(factory, worker_settings, JobKind.RETRAIN,
-               {"n_inner": 3, "grid": SMALL_GRID}, engineer_id)  # fmt: skip
+    job = _run(
+        factory, worker_settings, JobKind.RETRAIN, {"n_inner": 3, "grid": SMALL_GRID}, engineer_id
+    )
     assert job.status == JobStatus.SUCCEEDED, job.log
     assert job.progress == 1.0 and "grid search: 2/2 configurations" in job.log
     with factory() as session:
@@ -115,8 +116,9 @@ def test_rethreshold_evaluate_and_what_if(factory, worker_settings, urfd_db, tra
         assert session.scalar(select(func.count()).select_from(ModelVersion)) == 2
 
 
-def test_register_refuses_a_tampered_model_file(factory, worker_settings, trained_model_dir,
-                                                tmp_path):  # fmt: skip
+def test_register_refuses_a_tampered_model_file(
+    factory, worker_settings, trained_model_dir, tmp_path
+):
     import shutil
 
     copy = tmp_path / "tampered"

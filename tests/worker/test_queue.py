@@ -35,7 +35,11 @@ def test_claim_takes_the_oldest_job_once_and_records_the_outcome(factory):
     with factory() as session:
         job = session.get(Job, first)
         assert (job.status, job.progress, job.result, job.worker_id) == (
-            JobStatus.SUCCEEDED, 1.0, {"x": 1}, "w1")  # fmt: skip
+            JobStatus.SUCCEEDED,
+            1.0,
+            {"x": 1},
+            "w1",
+        )
         assert "a line" in job.log and "succeeded: done" in job.log
         assert job.finished_at is not None
     with pytest.raises(queue.JobStateError), transaction(factory) as session:
@@ -145,5 +149,6 @@ def test_the_claim_query_skips_locked_rows_on_postgresql():
 
     query = queue.claim_query("postgresql", utcnow(), 30)
     assert "FOR UPDATE SKIP LOCKED" in str(query.compile(dialect=postgresql.dialect()))
-    assert "FOR UPDATE" not in str(queue.claim_query("sqlite", utcnow(), 30).compile(
-        dialect=sqlite.dialect()))  # fmt: skip
+    assert "FOR UPDATE" not in str(
+        queue.claim_query("sqlite", utcnow(), 30).compile(dialect=sqlite.dialect())
+    )

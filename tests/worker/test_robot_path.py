@@ -31,8 +31,11 @@ def data():
 
 @pytest.fixture(scope="module")
 def model_dir(data, tmp_path_factory):
-    spec = ModelSpec("rf-path", "rf", {"n_estimators": [20], "max_depth": [8],
-                     "min_samples_leaf": [3], "max_features": [0.3]})  # fmt: skip
+    spec = ModelSpec(
+        "rf-path",
+        "rf",
+        {"n_estimators": [20], "max_depth": [8], "min_samples_leaf": [3], "max_features": [0.3]},
+    )
     trainer = SklearnTrainer(spec)
     selected = select(trainer, data, np.arange(len(NAMES)), n_inner=2, stride=2)
     out = tmp_path_factory.mktemp("model") / "rf-path"
@@ -58,8 +61,10 @@ def test_bulk_and_robot_path_decide_the_same_on_every_frame(data, model_dir):
         rows = data.group == s
         bulk = apply_delay(
             raw_decisions(bulk_scores[rows], manifest.classes, manifest.threshold),
-            times, manifest.delay_ms / 1000, normal,
-        )  # fmt: skip
+            times,
+            manifest.delay_ms / 1000,
+            normal,
+        )
         assert np.array_equal(bulk, robot.decisions_of(s)), data.names[s]
         np.testing.assert_allclose(robot_scores, bulk_scores[rows], atol=1e-6)
     emergency = manifest.classes.index(Decision.EMERGENCY)

@@ -29,15 +29,27 @@ def test_a_killed_worker_process_leaves_its_job_to_the_next_worker(
     # The successor takes retrain jobs only: the doomed worker's own sweeps queue the scheduled
     # retention run (backend.storage.sweeps), which is not what this test is about.
     retrain_only = {JobKind.RETRAIN: HANDLERS[JobKind.RETRAIN]}
-    successor = Worker(worker_settings.model_copy(update={"worker_stale_after_s": 3.0}), factory,
-                       handlers=retrain_only, sweeps=[])  # fmt: skip
-    env = {**os.environ, "VIGIL_DATABASE_URL": database_url,
-           "VIGIL_MODEL_STORE_DIR": str(worker_settings.model_store_dir),
-           "VIGIL_WORKER_ID": "doomed", "VIGIL_WORKER_HEARTBEAT_S": "0.2"}  # fmt: skip
+    successor = Worker(
+        worker_settings.model_copy(update={"worker_stale_after_s": 3.0}),
+        factory,
+        handlers=retrain_only,
+        sweeps=[],
+    )
+    env = {
+        **os.environ,
+        "VIGIL_DATABASE_URL": database_url,
+        "VIGIL_MODEL_STORE_DIR": str(worker_settings.model_store_dir),
+        "VIGIL_WORKER_ID": "doomed",
+        "VIGIL_WORKER_HEARTBEAT_S": "0.2",
+    }
     process = subprocess.Popen(
-        [sys.executable, "-m", "worker.cli", "run"], cwd=REPO, env=env,
-        stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
-    )  # fmt: skip
+        [sys.executable, "-m", "worker.cli", "run"],
+        cwd=REPO,
+        env=env,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     try:
         # Generous: on a loaded 2-core machine, start-up and loading URFD took over a minute once.
         deadline = time.monotonic() + 180

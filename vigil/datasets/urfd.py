@@ -53,9 +53,10 @@ FINE_LABELS: dict[str, dict[int, str]] = {
     "adl": {-1: "walking", 0: "bending", 1: "lying_down_deliberately"},
 }
 TRUTH_LABELS = {
-    (kind, float(value)): label for kind, labels in FINE_LABELS.items()
+    (kind, float(value)): label
+    for kind, labels in FINE_LABELS.items()
     for value, label in labels.items()
-}  # fmt: skip
+}
 #: Every fifth sequence of each kind is a gold (test) recording: 6 falls and 8 daily activities,
 #: 56 training recordings (split by recording, never by frame).
 TEST_EVERY = 5

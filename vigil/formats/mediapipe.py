@@ -8,12 +8,40 @@ from vigil.formats._body25 import map_to_body25, scale_xy
 from vigil.skeleton import SkeletonFrame
 
 MEDIAPIPE33: tuple[str | None, ...] = (
-    "nose", None, "l_eye", None, None, "r_eye", None, "l_ear", "r_ear", None, None,
-    "l_shoulder", "r_shoulder", "l_elbow", "r_elbow", "l_wrist", "r_wrist",
-    None, None, None, None, None, None,
-    "l_hip", "r_hip", "l_knee", "r_knee", "l_ankle", "r_ankle",
-    "l_heel", "r_heel", "l_big_toe", "r_big_toe",
-)  # fmt: skip
+    "nose",
+    None,
+    "l_eye",
+    None,
+    None,
+    "r_eye",
+    None,
+    "l_ear",
+    "r_ear",
+    None,
+    None,
+    "l_shoulder",
+    "r_shoulder",
+    "l_elbow",
+    "r_elbow",
+    "l_wrist",
+    "r_wrist",
+    None,
+    None,
+    None,
+    None,
+    None,
+    None,
+    "l_hip",
+    "r_hip",
+    "l_knee",
+    "r_knee",
+    "l_ankle",
+    "r_ankle",
+    "l_heel",
+    "r_heel",
+    "l_big_toe",
+    "r_big_toe",
+)
 
 
 def mediapipe33_to_body25(

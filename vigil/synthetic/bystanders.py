@@ -10,8 +10,12 @@ from vigil.synthetic.camera import FPS
 from vigil.synthetic.kinematics import PARAMS, P, pose
 
 
-def bystander_params(rng: np.random.Generator, n: int, scale: float, patient_z: float,
-                      ) -> np.ndarray:  # fmt: skip
+def bystander_params(
+    rng: np.random.Generator,
+    n: int,
+    scale: float,
+    patient_z: float,
+) -> np.ndarray:
     """Someone crossing the view once, in front of or behind the patient."""
     speed = rng.uniform(0.8, 1.4) * rng.choice([-1.0, 1.0])
     crossing_time = rng.uniform(0.15, 0.85) * n / FPS

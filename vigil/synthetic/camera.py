@@ -18,9 +18,13 @@ CAMERA_HEIGHT_M = 1.0
 CAMERA_TILT_RAD = math.radians(6.0)  # looking slightly down
 #: The generated robot's depth camera, so generated frames carry floor measures (vigil.floor).
 CAMERA_MOUNT = CameraMount(
-    fx=FOCAL_PX, fy=FOCAL_PX, cx=IMAGE_WIDTH / 2, cy=IMAGE_HEIGHT / 2,
-    height_m=CAMERA_HEIGHT_M, pitch_deg=math.degrees(CAMERA_TILT_RAD),
-)  # fmt: skip
+    fx=FOCAL_PX,
+    fy=FOCAL_PX,
+    cx=IMAGE_WIDTH / 2,
+    cy=IMAGE_HEIGHT / 2,
+    height_m=CAMERA_HEIGHT_M,
+    pitch_deg=math.degrees(CAMERA_TILT_RAD),
+)
 MIN_VISIBLE_KEYPOINTS = 5
 MARKER_SIZE_M = 0.09  # ArUco marker worn on the patient's chest
 
@@ -45,8 +49,18 @@ class CameraNoise:
     depth_dropout: float = 0.03
 
 
-_EXTREMITY_NAMES = ("r_wrist", "l_wrist", "l_big_toe", "l_small_toe", "l_heel", "r_big_toe",
-                    "r_small_toe", "r_heel", "r_ear", "l_ear")  # fmt: skip
+_EXTREMITY_NAMES = (
+    "r_wrist",
+    "l_wrist",
+    "l_big_toe",
+    "l_small_toe",
+    "l_heel",
+    "r_big_toe",
+    "r_small_toe",
+    "r_heel",
+    "r_ear",
+    "l_ear",
+)
 _EXTREMITIES = np.array([INDEX[k] for k in _EXTREMITY_NAMES])
 
 
@@ -75,13 +89,13 @@ def render(
     keypoints = np.concatenate([px, conf[..., None]], axis=-1).astype(np.float32)
     keypoints[missing] = 0.0
     measured = depth + rng.normal(0, 1, depth.shape) * noise.depth_sigma_per_m2 * dist**2
-    measured = np.where(missing | (rng.random(depth.shape) < noise.depth_dropout), np.nan,
-                        measured)  # fmt: skip
+    measured = np.where(missing | (rng.random(depth.shape) < noise.depth_dropout), np.nan, measured)
     return keypoints, measured.astype(np.float32)
 
 
-def occlude(front: np.ndarray, front_depth: np.ndarray, back: np.ndarray,
-             back_depth: np.ndarray) -> None:  # fmt: skip
+def occlude(
+    front: np.ndarray, front_depth: np.ndarray, back: np.ndarray, back_depth: np.ndarray
+) -> None:
     """Hide, in place, keypoints of ``back`` that lie inside the box of a nearer ``front``."""
     for t in range(front.shape[0]):
         f_present = front[t, :, 2] > 0

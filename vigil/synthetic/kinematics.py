@@ -8,19 +8,49 @@ import numpy as np
 from vigil.skeleton import INDEX, N_KEYPOINTS
 
 PARAMS: tuple[str, ...] = (
-    "x", "z", "pelvis_h", "yaw", "pitch", "roll", "head_pitch",
-    "hip_flex_r", "hip_flex_l", "knee_r", "knee_l", "hip_abd_r", "hip_abd_l",
-    "sh_flex_r", "sh_flex_l", "sh_abd_r", "sh_abd_l", "elbow_r", "elbow_l",
-)  # fmt: skip
+    "x",
+    "z",
+    "pelvis_h",
+    "yaw",
+    "pitch",
+    "roll",
+    "head_pitch",
+    "hip_flex_r",
+    "hip_flex_l",
+    "knee_r",
+    "knee_l",
+    "hip_abd_r",
+    "hip_abd_l",
+    "sh_flex_r",
+    "sh_flex_l",
+    "sh_abd_r",
+    "sh_abd_l",
+    "elbow_r",
+    "elbow_l",
+)
 P = {name: i for i, name in enumerate(PARAMS)}
 
-STAND: dict[str, float] = {"pelvis_h": 0.95, "sh_abd_r": 0.08, "sh_abd_l": 0.08, "elbow_r": 0.1,
-                           "elbow_l": 0.1}  # fmt: skip
+STAND: dict[str, float] = {
+    "pelvis_h": 0.95,
+    "sh_abd_r": 0.08,
+    "sh_abd_l": 0.08,
+    "elbow_r": 0.1,
+    "elbow_l": 0.1,
+}
 SIT_WHEELCHAIR: dict[str, float] = {
-    "pelvis_h": 0.52, "hip_flex_r": 1.5, "hip_flex_l": 1.5, "knee_r": 1.45, "knee_l": 1.45,
-    "sh_flex_r": 0.35, "sh_flex_l": 0.35, "sh_abd_r": 0.25, "sh_abd_l": 0.25,
-    "elbow_r": 1.2, "elbow_l": 1.2, "pitch": 0.05,
-}  # fmt: skip
+    "pelvis_h": 0.52,
+    "hip_flex_r": 1.5,
+    "hip_flex_l": 1.5,
+    "knee_r": 1.45,
+    "knee_l": 1.45,
+    "sh_flex_r": 0.35,
+    "sh_flex_l": 0.35,
+    "sh_abd_r": 0.25,
+    "sh_abd_l": 0.25,
+    "elbow_r": 1.2,
+    "elbow_l": 1.2,
+    "pitch": 0.05,
+}
 
 
 def pose(base: np.ndarray, scale: float, **overrides: float) -> np.ndarray:

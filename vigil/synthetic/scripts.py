@@ -114,8 +114,17 @@ class Builder:
 
 def upright(b: Builder) -> np.ndarray:
     if b.locomotion is Locomotion.ROLLATOR:
-        return pose(b.last, b.scale, pitch=0.25, sh_flex_r=0.75, sh_flex_l=0.75, elbow_r=0.7,
-                     elbow_l=0.7, sh_abd_r=0.1, sh_abd_l=0.1)  # fmt: skip
+        return pose(
+            b.last,
+            b.scale,
+            pitch=0.25,
+            sh_flex_r=0.75,
+            sh_flex_l=0.75,
+            elbow_r=0.7,
+            elbow_l=0.7,
+            sh_abd_r=0.1,
+            sh_abd_l=0.1,
+        )
     return pose(b.last, b.scale)
 
 
@@ -126,9 +135,13 @@ def base_activity(b: Builder, seconds: float) -> None:
         return
     label = "walking_rollator" if b.locomotion is Locomotion.ROLLATOR else "walking"
     amplitude = 0.22 if b.locomotion is Locomotion.ROLLATOR else 0.35
-    b.gait(label, seconds, amplitude=amplitude,
-           arm_swing=0.05 if b.locomotion is Locomotion.ROLLATOR else 0.3,
-           z_target=b.follow_z + b.rng.uniform(-0.15, 0.15))  # fmt: skip
+    b.gait(
+        label,
+        seconds,
+        amplitude=amplitude,
+        arm_swing=0.05 if b.locomotion is Locomotion.ROLLATOR else 0.3,
+        z_target=b.follow_z + b.rng.uniform(-0.15, 0.15),
+    )
 
 
 def _lying_pose(b: Builder) -> np.ndarray:
@@ -136,8 +149,19 @@ def _lying_pose(b: Builder) -> np.ndarray:
     sign = b.rng.choice([-1.0, 1.0])
     roll = sign * b.rng.uniform(1.3, 1.5) if direction == "side" else sign * 0.2
     pitch = {"side": 0.1, "forward": 1.45, "backward": -1.45}[str(direction)]
-    return pose(b.last, b.scale, pelvis_h=0.12, roll=roll, pitch=pitch, sh_abd_r=1.1,
-                 sh_abd_l=0.9, hip_flex_r=0.3, knee_r=0.4, elbow_r=0.4, elbow_l=0.6)  # fmt: skip
+    return pose(
+        b.last,
+        b.scale,
+        pelvis_h=0.12,
+        roll=roll,
+        pitch=pitch,
+        sh_abd_r=1.1,
+        sh_abd_l=0.9,
+        hip_flex_r=0.3,
+        knee_r=0.4,
+        elbow_r=0.4,
+        elbow_l=0.6,
+    )
 
 
 def _fall_to_floor(b: Builder, first_label: str) -> None:
@@ -157,16 +181,46 @@ def _get_up(b: Builder, final: np.ndarray, final_label: str, sit_first: bool | N
     if sit_first is None:
         sit_first = bool(b.rng.random() < 0.6)
     if sit_first:
-        sit = pose(b.last, b.scale, pelvis_h=0.12, hip_flex_r=1.45, hip_flex_l=1.45, knee_r=0.5,
-                    knee_l=0.3, pitch=0.2, sh_flex_r=0.5, sh_flex_l=0.4)  # fmt: skip
+        sit = pose(
+            b.last,
+            b.scale,
+            pelvis_h=0.12,
+            hip_flex_r=1.45,
+            hip_flex_l=1.45,
+            knee_r=0.5,
+            knee_l=0.3,
+            pitch=0.2,
+            sh_flex_r=0.5,
+            sh_flex_l=0.4,
+        )
         b.move("sitting_on_floor_after_fall", sit, b.rng.uniform(1.0, 1.8))
         b.hold("sitting_on_floor_after_fall", b.rng.uniform(1.0, 2.5), jitter=0.02)
-    kneel = pose(b.last, b.scale, pelvis_h=0.45, pitch=1.2, hip_flex_r=1.4, hip_flex_l=1.4,
-                  knee_r=1.9, knee_l=1.9, sh_flex_r=1.3, sh_flex_l=1.3)  # fmt: skip
+    kneel = pose(
+        b.last,
+        b.scale,
+        pelvis_h=0.45,
+        pitch=1.2,
+        hip_flex_r=1.4,
+        hip_flex_l=1.4,
+        knee_r=1.9,
+        knee_l=1.9,
+        sh_flex_r=1.3,
+        sh_flex_l=1.3,
+    )
     for _ in range(int(b.rng.integers(1, 3))):  # failed attempts
         b.move("trying_to_get_up", kneel, b.rng.uniform(0.8, 1.3))
-        down = pose(b.last, b.scale, pelvis_h=0.2, pitch=1.3, hip_flex_r=1.2, hip_flex_l=1.2,
-                     knee_r=1.7, knee_l=1.7, sh_flex_r=1.4, sh_flex_l=1.4)  # fmt: skip
+        down = pose(
+            b.last,
+            b.scale,
+            pelvis_h=0.2,
+            pitch=1.3,
+            hip_flex_r=1.2,
+            hip_flex_l=1.2,
+            knee_r=1.7,
+            knee_l=1.7,
+            sh_flex_r=1.4,
+            sh_flex_l=1.4,
+        )
         b.move("trying_to_get_up", down, b.rng.uniform(0.5, 0.9))
     b.move("trying_to_get_up", kneel, b.rng.uniform(0.8, 1.2))
     half = (b.last + final) / 2
@@ -239,14 +293,32 @@ def _too_far_away(b: Builder) -> None:
 
 def _lying_down_deliberately(b: Builder) -> None:
     home = b.last
-    sit = pose(home, b.scale, pelvis_h=0.45, hip_flex_r=1.5, hip_flex_l=1.5, knee_r=1.5,
-                knee_l=1.5, pitch=0.15, sh_flex_r=0.4, sh_flex_l=0.4)  # fmt: skip
+    sit = pose(
+        home,
+        b.scale,
+        pelvis_h=0.45,
+        hip_flex_r=1.5,
+        hip_flex_l=1.5,
+        knee_r=1.5,
+        knee_l=1.5,
+        pitch=0.15,
+        sh_flex_r=0.4,
+        sh_flex_l=0.4,
+    )
     # On a bed or couch: a hospital bed's mattress is 0.45-0.8 m above the floor, so the pelvis
     # rests 0.55-0.8 m up (absolute, not scaled with the body). Lying lower than that is lying on
     # the floor, which looks like (and is labelled as) the end of a fall.
     bed = b.rng.uniform(0.55, 0.8) / b.scale
-    lie = pose(home, b.scale, pelvis_h=float(bed), roll=1.45 * b.rng.choice([-1.0, 1.0]),
-                hip_flex_r=0.3, hip_flex_l=0.2, knee_r=0.3, sh_flex_r=0.3)  # fmt: skip
+    lie = pose(
+        home,
+        b.scale,
+        pelvis_h=float(bed),
+        roll=1.45 * b.rng.choice([-1.0, 1.0]),
+        hip_flex_r=0.3,
+        hip_flex_l=0.2,
+        knee_r=0.3,
+        sh_flex_r=0.3,
+    )
     b.move("lying_down_deliberately", sit, b.rng.uniform(1.5, 2.2))
     b.move("lying_down_deliberately", lie, b.rng.uniform(2.0, 3.0))
     b.hold("lying_down_deliberately", b.rng.uniform(2.0, 4.0), jitter=0.005)
@@ -279,10 +351,23 @@ def _sitting_down(b: Builder) -> None:
 
 
 def _slump(b: Builder) -> None:
-    slumped = pose(b.last, b.scale, **{**SIT_WHEELCHAIR, "pitch": 0.75,
-                    "roll": 0.35 * b.rng.choice([-1.0, 1.0]), "head_pitch": 0.7, "sh_flex_r": 0.1,
-                    "sh_flex_l": 0.05, "elbow_r": 0.1, "elbow_l": 0.15, "sh_abd_r": 0.1,
-                    "sh_abd_l": 0.1, "pelvis_h": 0.5})  # fmt: skip
+    slumped = pose(
+        b.last,
+        b.scale,
+        **{
+            **SIT_WHEELCHAIR,
+            "pitch": 0.75,
+            "roll": 0.35 * b.rng.choice([-1.0, 1.0]),
+            "head_pitch": 0.7,
+            "sh_flex_r": 0.1,
+            "sh_flex_l": 0.05,
+            "elbow_r": 0.1,
+            "elbow_l": 0.15,
+            "sh_abd_r": 0.1,
+            "sh_abd_l": 0.1,
+            "pelvis_h": 0.5,
+        },
+    )
     b.move("slumped_unconscious_wheelchair", slumped, b.rng.uniform(1.0, 2.0))
     b.hold("slumped_unconscious_wheelchair", b.rng.uniform(3.0, 6.0), jitter=0.002)
     b.move("sitting_wheelchair", pose(b.last, b.scale, **SIT_WHEELCHAIR), 1.5)
@@ -294,8 +379,19 @@ def _fall_out_of_wheelchair(b: Builder) -> None:
 
 
 def _stand_up_from_wheelchair(b: Builder) -> None:
-    lean = pose(b.last, b.scale, **{**SIT_WHEELCHAIR, "pitch": 0.7, "pelvis_h": 0.6,
-                 "sh_flex_r": 0.6, "sh_flex_l": 0.6, "elbow_r": 0.4, "elbow_l": 0.4})  # fmt: skip
+    lean = pose(
+        b.last,
+        b.scale,
+        **{
+            **SIT_WHEELCHAIR,
+            "pitch": 0.7,
+            "pelvis_h": 0.6,
+            "sh_flex_r": 0.6,
+            "sh_flex_l": 0.6,
+            "elbow_r": 0.4,
+            "elbow_l": 0.4,
+        },
+    )
     b.move("standing_up_from_wheelchair", lean, b.rng.uniform(0.6, 1.0))
     b.move("standing_up_from_wheelchair", pose(b.last, b.scale), b.rng.uniform(0.8, 1.3))
     b.hold("standing_up_from_wheelchair", b.rng.uniform(1.0, 3.0), jitter=0.02)
@@ -307,8 +403,11 @@ def _crushing_hazard(b: Builder) -> None:
     """An arm or a leg outside the wheelchair."""
     side = str(b.rng.choice(["r", "l"]))
     if b.rng.random() < 0.5:
-        out = {f"sh_abd_{side}": b.rng.uniform(1.2, 1.6), f"elbow_{side}": 0.2,
-               f"sh_flex_{side}": 0.2}  # fmt: skip
+        out = {
+            f"sh_abd_{side}": b.rng.uniform(1.2, 1.6),
+            f"elbow_{side}": 0.2,
+            f"sh_flex_{side}": 0.2,
+        }
     else:
         out = {f"hip_abd_{side}": b.rng.uniform(0.6, 0.9), f"knee_{side}": 0.5}
     home = b.last
@@ -319,11 +418,24 @@ def _crushing_hazard(b: Builder) -> None:
 
 def _bending(b: Builder) -> None:
     if b.locomotion is Locomotion.WHEELCHAIR:
-        target = pose(b.last, b.scale, **{**SIT_WHEELCHAIR, "pitch": 0.9, "sh_flex_r": 0.9,
-                       "elbow_r": 0.1, "roll": 0.3})  # fmt: skip
+        target = pose(
+            b.last,
+            b.scale,
+            **{**SIT_WHEELCHAIR, "pitch": 0.9, "sh_flex_r": 0.9, "elbow_r": 0.1, "roll": 0.3},
+        )
     else:
-        target = pose(b.last, b.scale, pelvis_h=0.9, pitch=1.2, hip_flex_r=0.1, hip_flex_l=0.1,
-                       knee_r=0.2, knee_l=0.2, sh_flex_r=1.2, sh_flex_l=1.1)  # fmt: skip
+        target = pose(
+            b.last,
+            b.scale,
+            pelvis_h=0.9,
+            pitch=1.2,
+            hip_flex_r=0.1,
+            hip_flex_l=0.1,
+            knee_r=0.2,
+            knee_l=0.2,
+            sh_flex_r=1.2,
+            sh_flex_l=1.1,
+        )
     home = b.last
     b.move("bending", target, b.rng.uniform(0.8, 1.2))
     b.hold("bending", b.rng.uniform(0.8, 1.5), jitter=0.02)
@@ -331,8 +443,18 @@ def _bending(b: Builder) -> None:
 
 
 def _kneeling(b: Builder) -> None:
-    target = pose(b.last, b.scale, pelvis_h=0.55, pitch=0.5, hip_flex_r=0.1, knee_r=1.7,
-                   hip_flex_l=1.4, knee_l=1.4, sh_flex_r=1.0, sh_flex_l=1.0)  # fmt: skip
+    target = pose(
+        b.last,
+        b.scale,
+        pelvis_h=0.55,
+        pitch=0.5,
+        hip_flex_r=0.1,
+        knee_r=1.7,
+        hip_flex_l=1.4,
+        knee_l=1.4,
+        sh_flex_r=1.0,
+        sh_flex_l=1.0,
+    )
     home = b.last
     b.move("kneeling", target, b.rng.uniform(1.0, 1.5))
     b.hold("kneeling", b.rng.uniform(2.0, 4.0), jitter=0.02)
@@ -364,35 +486,94 @@ EVENTS: dict[str, Callable[[Builder], None]] = {
     "crushing_hazard": _crushing_hazard,
 }
 EVENTS_BY_LOCOMOTION: dict[Locomotion, tuple[str, ...]] = {
-    Locomotion.WALKING: ("fall", "sitting_on_floor_after_fall", "stumbling", "standing",
-                         "turning", "sitting_down", "kneeling", "bending", "gesturing",
-                         "lying_down_deliberately", "too_far_away"),
-    Locomotion.ROLLATOR: ("fall", "sitting_on_floor_after_fall", "stumbling", "standing",
-                          "turning", "bending", "gesturing", "too_far_away"),
-    Locomotion.WHEELCHAIR: ("slumped_unconscious_wheelchair", "falling_out_of_wheelchair",
-                            "standing_up_from_wheelchair", "crushing_hazard", "gesturing",
-                            "bending", "too_far_away"),
-}  # fmt: skip
+    Locomotion.WALKING: (
+        "fall",
+        "sitting_on_floor_after_fall",
+        "stumbling",
+        "standing",
+        "turning",
+        "sitting_down",
+        "kneeling",
+        "bending",
+        "gesturing",
+        "lying_down_deliberately",
+        "too_far_away",
+    ),
+    Locomotion.ROLLATOR: (
+        "fall",
+        "sitting_on_floor_after_fall",
+        "stumbling",
+        "standing",
+        "turning",
+        "bending",
+        "gesturing",
+        "too_far_away",
+    ),
+    Locomotion.WHEELCHAIR: (
+        "slumped_unconscious_wheelchair",
+        "falling_out_of_wheelchair",
+        "standing_up_from_wheelchair",
+        "crushing_hazard",
+        "gesturing",
+        "bending",
+        "too_far_away",
+    ),
+}
 #: Events that make the ground truth Emergency at some point.
 EMERGENCY_EVENTS: dict[Locomotion, tuple[str, ...]] = {
     Locomotion.WALKING: ("fall", "sitting_on_floor_after_fall", "stumbling"),
     Locomotion.ROLLATOR: ("fall", "sitting_on_floor_after_fall", "stumbling"),
     Locomotion.WHEELCHAIR: ("slumped_unconscious_wheelchair", "falling_out_of_wheelchair"),
 }
-_FALL_LABELS = ("falling", "impact", "lying_on_floor", "sitting_on_floor_after_fall",
-                "trying_to_get_up")  # fmt: skip
+_FALL_LABELS = (
+    "falling",
+    "impact",
+    "lying_on_floor",
+    "sitting_on_floor_after_fall",
+    "trying_to_get_up",
+)
 #: The fine labels a transport of each locomotion can carry (all of them when every event of
 #: EVENTS_BY_LOCOMOTION is generated); together they cover the whole DEFAULT_TAXONOMY.
 LABELS_BY_LOCOMOTION: dict[Locomotion, frozenset[str]] = {
-    Locomotion.WALKING: frozenset(("walking", "standing", "turning", "sitting_down", "kneeling",
-                                   "bending", "gesturing", "lying_down_deliberately", "stumbling",
-                                   "too_far_away", *_FALL_LABELS)),
-    Locomotion.ROLLATOR: frozenset(("walking_rollator", "standing", "turning", "bending",
-                                    "gesturing", "stumbling_rollator", "too_far_away",
-                                    *_FALL_LABELS)),
-    Locomotion.WHEELCHAIR: frozenset(("sitting_wheelchair", "sitting_down", "bending",
-                                      "gesturing", "slumped_unconscious_wheelchair",
-                                      "falling_out_of_wheelchair", "standing_up_from_wheelchair",
-                                      "crushing_hazard", "too_far_away",
-                                      *(k for k in _FALL_LABELS if k != "falling"))),
-}  # fmt: skip
+    Locomotion.WALKING: frozenset(
+        (
+            "walking",
+            "standing",
+            "turning",
+            "sitting_down",
+            "kneeling",
+            "bending",
+            "gesturing",
+            "lying_down_deliberately",
+            "stumbling",
+            "too_far_away",
+            *_FALL_LABELS,
+        )
+    ),
+    Locomotion.ROLLATOR: frozenset(
+        (
+            "walking_rollator",
+            "standing",
+            "turning",
+            "bending",
+            "gesturing",
+            "stumbling_rollator",
+            "too_far_away",
+            *_FALL_LABELS,
+        )
+    ),
+    Locomotion.WHEELCHAIR: frozenset(
+        (
+            "sitting_wheelchair",
+            "sitting_down",
+            "bending",
+            "gesturing",
+            "slumped_unconscious_wheelchair",
+            "falling_out_of_wheelchair",
+            "standing_up_from_wheelchair",
+            "crushing_hazard",
+            "too_far_away",
+            *(k for k in _FALL_LABELS if k != "falling"),
+        )
+    ),
+}

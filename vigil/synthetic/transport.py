@@ -214,11 +214,14 @@ def generate_transport(
         keypoints, depth = rendered[idx]
         visible = (keypoints[:, :, 2] > 0).sum(-1) >= MIN_VISIBLE_KEYPOINTS
         floor = floor_measures_many(keypoints, depth, CAMERA_MOUNT)
-        people.append([
-            SkeletonFrame(keypoints[t], depth[t], timestamp=t / FPS, floor=floor[t])
-            if visible[t] else None
-            for t in range(n)
-        ])  # fmt: skip
+        people.append(
+            [
+                SkeletonFrame(keypoints[t], depth[t], timestamp=t / FPS, floor=floor[t])
+                if visible[t]
+                else None
+                for t in range(n)
+            ]
+        )
     patient_index = int(np.flatnonzero(order == 0)[0])
 
     chest_world = world[0][:, INDEX["neck"]] * 0.7 + world[0][:, INDEX["mid_hip"]] * 0.3

@@ -20,8 +20,11 @@ from worker.db_data import frame_data, labelled_videos
 
 def started_by(session: Session, context: JobContext) -> dict:
     user = session.get(User, context.created_by_id) if context.created_by_id else None
-    return {"user_id": user.id if user else None, "username": user.username if user else None,
-            "job_id": context.job_id}  # fmt: skip
+    return {
+        "user_id": user.id if user else None,
+        "username": user.username if user else None,
+        "job_id": context.job_id,
+    }
 
 
 def model_or_error(session: Session, model_id: int) -> ModelVersion:

@@ -22,7 +22,9 @@ def run(context: JobContext) -> dict:
         model = model_or_error(session, params.model_version_id)
         model.metrics = {**(model.metrics or {}), **metrics}
     gold = metrics["gold"]
-    return {"summary": f"{version}: {gold['falls_detected']}/{gold['falls_total']} falls, "
-            f"{gold['adl_false_alarms']}/{gold['adl_total']} false alarms, "
-            f"p95 {metrics['latency']['p95_ms']:.2f} ms/frame",
-            "model_version_id": params.model_version_id}  # fmt: skip
+    return {
+        "summary": f"{version}: {gold['falls_detected']}/{gold['falls_total']} falls, "
+        f"{gold['adl_false_alarms']}/{gold['adl_total']} false alarms, "
+        f"p95 {metrics['latency']['p95_ms']:.2f} ms/frame",
+        "model_version_id": params.model_version_id,
+    }

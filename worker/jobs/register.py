@@ -35,11 +35,20 @@ def run(context: JobContext) -> dict:
         with context.read() as session:
             metrics = gold_evaluation(session, classifier, directory, manifest.mode)
         with context.result() as session:
-            model = register(session, directory, context.settings.model_store_dir,
-                             lineage={"started_by": who, "source": str(source), "parent": None,
-                                      "hyperparameters": manifest.metrics.get("params")},
-                             metrics=metrics, job_id=context.job_id,
-                             created_by_id=context.created_by_id)  # fmt: skip
+            model = register(
+                session,
+                directory,
+                context.settings.model_store_dir,
+                lineage={
+                    "started_by": who,
+                    "source": str(source),
+                    "parent": None,
+                    "hyperparameters": manifest.metrics.get("params"),
+                },
+                metrics=metrics,
+                job_id=context.job_id,
+                created_by_id=context.created_by_id,
+            )
             model_id, version = model.id, model.version
     except BaseException:
         if copied:

@@ -12,5 +12,10 @@ from worker.context import JobContext
 def run(context: JobContext) -> dict:
     params = parse(RetentionParams, context.params)
     context.progress(0.0, "loading the policy's facts (alarms, labels, splits, lineage)")
-    return run_retention(context.factory, context.settings, dry_run=params.dry_run,
-                         progress=context.progress, job_id=context.job_id)  # fmt: skip
+    return run_retention(
+        context.factory,
+        context.settings,
+        dry_run=params.dry_run,
+        progress=context.progress,
+        job_id=context.job_id,
+    )

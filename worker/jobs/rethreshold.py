@@ -29,46 +29,67 @@ def run(context: JobContext) -> dict:
     with context.read() as session:
         parent = model_or_error(session, params.model_version_id)
         parent_version, mode, parent_dir = parent.version, parent.mode, model_dir(parent)
-        videos = labelled_videos(session, mode, None if params.video_ids else Split.TRAIN,
-                                 params.video_ids)  # fmt: skip
+        videos = labelled_videos(
+            session, mode, None if params.video_ids else Split.TRAIN, params.video_ids
+        )
         data = frame_data(session, videos, mode)
         who = started_by(session, context)
     classifier = reload(parent_dir)
     context.progress(0.3, f"choosing threshold and delay on {len(data.names)} recordings")
     threshold, delay_ms, sweep = choose_operating_point(classifier, data)
-    context.log(f"threshold {classifier.manifest.threshold:.3f} -> {threshold:.3f}, "
-                f"delay {classifier.manifest.delay_ms} -> {delay_ms} ms")  # fmt: skip
+    context.log(
+        f"threshold {classifier.manifest.threshold:.3f} -> {threshold:.3f}, "
+        f"delay {classifier.manifest.delay_ms} -> {delay_ms} ms"
+    )
     version = params.version or derived_version(parent_version, "rt", context.job_id)
     directory = store_path(context.settings.model_store_dir, version)
     if directory.exists():
         raise ValueError(f"invalid job parameter version: {version} exists in the model store")
     manifest, source = read_manifest(parent_dir)
     onnx_bytes = (source / manifest.file).read_bytes()
-    manifest = manifest.model_copy(update={
-        "version": version, "threshold": threshold, "delay_ms": delay_ms,
-        "created": datetime.now(UTC),
-        "metrics": {**manifest.metrics, "rethreshold_data_sha256": data.data_sha256},
-    })  # fmt: skip
+    manifest = manifest.model_copy(
+        update={
+            "version": version,
+            "threshold": threshold,
+            "delay_ms": delay_ms,
+            "created": datetime.now(UTC),
+            "metrics": {**manifest.metrics, "rethreshold_data_sha256": data.data_sha256},
+        }
+    )
     try:
         write_model(directory, onnx_bytes, manifest)
         classifier = reload(directory)
         context.progress(0.6, "evaluating on the gold set")
         with context.read() as session:
             metrics = gold_evaluation(session, classifier, directory, mode, sweep)
-        metrics["rethreshold"] = {"delay_sweep": sweep, "data_sha256": data.data_sha256,
-                                  "videos": data.names}  # fmt: skip
+        metrics["rethreshold"] = {
+            "delay_sweep": sweep,
+            "data_sha256": data.data_sha256,
+            "videos": data.names,
+        }
         with context.result() as session:
             model = register(
-                session, directory, context.settings.model_store_dir,
-                lineage={"started_by": who, "parent": parent_version, "spec": manifest.name,
-                         "hyperparameters": manifest.metrics.get("params"),
-                         "threshold_data_sha256": data.data_sha256,
-                         "training_videos": data.names},
-                metrics=metrics, job_id=context.job_id, created_by_id=context.created_by_id,
-            )  # fmt: skip
+                session,
+                directory,
+                context.settings.model_store_dir,
+                lineage={
+                    "started_by": who,
+                    "parent": parent_version,
+                    "spec": manifest.name,
+                    "hyperparameters": manifest.metrics.get("params"),
+                    "threshold_data_sha256": data.data_sha256,
+                    "training_videos": data.names,
+                },
+                metrics=metrics,
+                job_id=context.job_id,
+                created_by_id=context.created_by_id,
+            )
             model_id = model.id
     except BaseException:
         shutil.rmtree(directory, ignore_errors=True)
         raise
-    return {"summary": f"registered {version} (threshold {threshold:.3f}, delay {delay_ms} ms)",
-            "model_version_id": model_id, "version": version}  # fmt: skip
+    return {
+        "summary": f"registered {version} (threshold {threshold:.3f}, delay {delay_ms} ms)",
+        "model_version_id": model_id,
+        "version": version,
+    }

@@ -68,8 +68,9 @@ def run(context: JobContext) -> dict:
         with context.write() as session:
             restored = restore_archives(session, params.archive_ids)
     with context.read() as session:
-        videos = labelled_videos(session, params.mode, None if params.video_ids else Split.TRAIN,
-                                 params.video_ids)  # fmt: skip
+        videos = labelled_videos(
+            session, params.mode, None if params.video_ids else Split.TRAIN, params.video_ids
+        )
         if params.archive_ids:
             videos = with_archived(session, videos, restored, params.mode)
         data = frame_data(session, videos, params.mode)
@@ -80,8 +81,10 @@ def run(context: JobContext) -> dict:
             f"need at least {params.n_inner} recordings with and without a fall for "
             f"{params.n_inner}-fold selection; have {falls} and {len(data.names) - falls}"
         )
-    context.log(f"{len(data.names)} recordings ({falls} with a fall), {len(data.target)} frames, "
-                f"data {data.data_sha256[:12]}")  # fmt: skip
+    context.log(
+        f"{len(data.names)} recordings ({falls} with a fall), {len(data.target)} frames, "
+        f"data {data.data_sha256[:12]}"
+    )
     backend = GridBackend(context.settings.dask_scheduler, context.settings.grid_n_jobs)
     trainer = SklearnTrainer(spec)
     n_configs = len(spec.configurations())
@@ -89,8 +92,11 @@ def run(context: JobContext) -> dict:
     with backend.active():
         selected = select(trainer, data, np.arange(len(data.names)), params.n_inner, params.stride)
     context.progress(0.65, f"grid search: {n_configs}/{n_configs} configurations")
-    context.progress(0.7, f"selected {selected.params}; threshold {selected.threshold:.3f}, "
-                     f"delay {selected.delay_s * 1000:.0f} ms; exporting ONNX")  # fmt: skip
+    context.progress(
+        0.7,
+        f"selected {selected.params}; threshold {selected.threshold:.3f}, "
+        f"delay {selected.delay_s * 1000:.0f} ms; exporting ONNX",
+    )
     version = params.version or (
         f"{spec.name}-{params.mode.value}-{datetime.now(UTC):%Y%m%dT%H%M%S}-j{context.job_id}"
     )
@@ -99,8 +105,14 @@ def run(context: JobContext) -> dict:
         raise ValueError(f"invalid job parameter version: {version} exists in the model store")
     try:
         inner = evaluate(selected.oof, selected.threshold, selected.delay_s)
-        publish(trainer, selected, data, directory, version=version,
-                metrics={"dataset": "database", "videos": len(data.names)})  # fmt: skip
+        publish(
+            trainer,
+            selected,
+            data,
+            directory,
+            version=version,
+            metrics={"dataset": "database", "videos": len(data.names)},
+        )
         classifier = reload(directory)
         context.progress(0.8, "evaluating on the gold set")
         with context.read() as session:
@@ -117,19 +129,31 @@ def run(context: JobContext) -> dict:
         context.progress(0.95, "registering")
         with context.result() as session:
             model = register(
-                session, directory, context.settings.model_store_dir,
+                session,
+                directory,
+                context.settings.model_store_dir,
                 lineage={
-                    "started_by": who, "spec": spec.name, "family": spec.family,
-                    "hyperparameters": {k: (list(v) if isinstance(v, tuple) else v)
-                                        for k, v in selected.params.items()},
-                    "grid": {k: [list(x) if isinstance(x, tuple) else x for x in v]
-                             for k, v in spec.grid.items()},
-                    "training_videos": data.names, "n_inner": params.n_inner,
-                    "stride": params.stride, "grid_backend": backend.description,
+                    "started_by": who,
+                    "spec": spec.name,
+                    "family": spec.family,
+                    "hyperparameters": {
+                        k: (list(v) if isinstance(v, tuple) else v)
+                        for k, v in selected.params.items()
+                    },
+                    "grid": {
+                        k: [list(x) if isinstance(x, tuple) else x for x in v]
+                        for k, v in spec.grid.items()
+                    },
+                    "training_videos": data.names,
+                    "n_inner": params.n_inner,
+                    "stride": params.stride,
+                    "grid_backend": backend.description,
                     "parent": None,
                 },
-                metrics=metrics, job_id=context.job_id, created_by_id=context.created_by_id,
-            )  # fmt: skip
+                metrics=metrics,
+                job_id=context.job_id,
+                created_by_id=context.created_by_id,
+            )
             model_id = model.id
     except BaseException:
         shutil.rmtree(directory, ignore_errors=True)
@@ -137,6 +161,8 @@ def run(context: JobContext) -> dict:
     gold = metrics.get("gold") or {}
     summary = f"registered {version}"
     if gold:
-        summary += f": gold set {gold['falls_detected']}/{gold['falls_total']} falls, " \
-                   f"{gold['adl_false_alarms']}/{gold['adl_total']} false alarms"  # fmt: skip
+        summary += (
+            f": gold set {gold['falls_detected']}/{gold['falls_total']} falls, "
+            f"{gold['adl_false_alarms']}/{gold['adl_total']} false alarms"
+        )
     return {"summary": summary, "model_version_id": model_id, "version": version}

@@ -9,8 +9,17 @@ from worker.db_data import frame_data, labelled_videos
 from worker.evaluation import evaluate_model
 from worker.jobs.common import model_dir, model_or_error, reload
 
-KEYS = ("falls_detected", "falls_total", "adl_false_alarms", "adl_total", "frame_recall",
-        "frame_precision", "frame_f1", "median_time_to_alarm_s", "max_time_to_alarm_s")  # fmt: skip
+KEYS = (
+    "falls_detected",
+    "falls_total",
+    "adl_false_alarms",
+    "adl_total",
+    "frame_recall",
+    "frame_precision",
+    "frame_f1",
+    "median_time_to_alarm_s",
+    "max_time_to_alarm_s",
+)
 
 
 def _summary(result: dict) -> dict:
@@ -25,8 +34,9 @@ def run(context: JobContext) -> dict:
     with context.read() as session:
         model = model_or_error(session, params.model_version_id)
         directory, mode, version = model_dir(model), model.mode, model.version
-        videos = labelled_videos(session, mode, None if params.video_ids else params.split,
-                                 params.video_ids)  # fmt: skip
+        videos = labelled_videos(
+            session, mode, None if params.video_ids else params.split, params.video_ids
+        )
         data = frame_data(session, videos, mode)
     classifier = reload(directory)
     context.progress(0.3, f"replaying {len(data.names)} recordings")
@@ -35,15 +45,19 @@ def run(context: JobContext) -> dict:
     baseline, candidate = _summary(base), _summary(new)
     change = {
         k: (candidate[k] - baseline[k])
-        if isinstance(candidate[k], int | float) and isinstance(baseline[k], int | float) else None
+        if isinstance(candidate[k], int | float) and isinstance(baseline[k], int | float)
+        else None
         for k in (*KEYS, "alarms")
-    }  # fmt: skip
+    }
     events = [
-        {"sequence": a["sequence"], "kind": a["kind"],
-         "baseline": {k: a[k] for k in ("alarms", "detected", "time_to_alarm_s")},
-         "candidate": {k: b[k] for k in ("alarms", "detected", "time_to_alarm_s")}}
+        {
+            "sequence": a["sequence"],
+            "kind": a["kind"],
+            "baseline": {k: a[k] for k in ("alarms", "detected", "time_to_alarm_s")},
+            "candidate": {k: b[k] for k in ("alarms", "detected", "time_to_alarm_s")},
+        }
         for a, b in zip(base["events"], new["events"], strict=True)
-    ]  # fmt: skip
+    ]
     return {
         "summary": f"{version} at threshold {params.threshold:.3f}, delay {params.delay_ms} ms: "
         f"alarms {baseline['alarms']} -> {candidate['alarms']}, falls "

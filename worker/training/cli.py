@@ -122,10 +122,12 @@ def main(argv: list[str] | None = None) -> int:
     sub = parser.add_subparsers(dest="command", required=True)
     default = sub.add_parser("train-default", help="train the default walking model (fast)")
     default.add_argument("--out", type=Path, required=True, help="model directory to write")
-    default.add_argument("--with-generated", action="store_true",
-                         help="add GENERATED walking transports (make run)")  # fmt: skip
-    default.add_argument("--generated-repeats", type=int, default=None,
-                         help="transports per generated event")  # fmt: skip
+    default.add_argument(
+        "--with-generated", action="store_true", help="add GENERATED walking transports (make run)"
+    )
+    default.add_argument(
+        "--generated-repeats", type=int, default=None, help="transports per generated event"
+    )
     full = sub.add_parser("train", help="evaluate, retrain and export all models with reports")
     full.add_argument("--out", type=Path, required=True, help="output directory")
     full.add_argument(

@@ -69,16 +69,21 @@ def select(
     start = time.perf_counter()
     sequences = np.sort(np.asarray(sequences))
     if isinstance(trainer, SklearnTrainer):
-        detector = fit_on(trainer.detector(data.mode.value, n_inner, stride, n_jobs), data,
-                          sequences)  # fmt: skip
+        detector = fit_on(
+            trainer.detector(data.mode.value, n_inner, stride, n_jobs), data, sequences
+        )
         if progress is not None:
             progress.update(len(detector.grid_scores_))
         return Selected(
-            detector.best_params_, detector.threshold_, detector.delay_s_,
-            detector.grid_scores_, detector.delay_sweep_,
-            StreamScores(data, sequences, detector.oof_scores_), detector.model_,
+            detector.best_params_,
+            detector.threshold_,
+            detector.delay_s_,
+            detector.grid_scores_,
+            detector.delay_sweep_,
+            StreamScores(data, sequences, detector.oof_scores_),
+            detector.model_,
             time.perf_counter() - start,
-        )  # fmt: skip
+        )
     (params,) = trainer.configurations()
     folds = grouped_folds(data.is_positive_sequence[sequences], n_inner, seed)
     oof = _oof_scores(trainer, data, sequences, params, folds, stride)

@@ -138,17 +138,31 @@ class EmergencyDetector(ClassifierMixin, BaseEstimator):
 
     @classmethod
     def from_spec(cls, spec: ModelSpec, **params) -> EmergencyDetector:
-        return cls(spec.family, spec.grid, spec.fixed, spec.feature_set, spec.operating_point,
-                   **params)  # fmt: skip
+        return cls(
+            spec.family, spec.grid, spec.fixed, spec.feature_set, spec.operating_point, **params
+        )
 
     def fit(
-        self, X, y, groups=None, *, timestamps=None, usable=None, fit_target=None,
+        self,
+        X,
+        y,
+        groups=None,
+        *,
+        timestamps=None,
+        usable=None,
+        fit_target=None,
         positive_sequence=None,
-    ):  # fmt: skip
+    ):
         start = time.perf_counter()
         X, y = validate_data(self, X, y)
-        spec = ModelSpec("", self.family, self.grid or {}, self.feature_set or "full",
-                         fixed=self.fixed or {}, operating_point=self.operating_point)  # fmt: skip
+        spec = ModelSpec(
+            "",
+            self.family,
+            self.grid or {},
+            self.feature_set or "full",
+            fixed=self.fixed or {},
+            operating_point=self.operating_point,
+        )
         classes = MODE_CLASSES[TransportMode(self.mode)]
         e = classes.index(Decision.EMERGENCY)
         check_classification_targets(y)

@@ -38,7 +38,7 @@ def generate_for_mode(
                         seed=seed + len(transports),
                         duration_s=duration_s,
                         events=[event],
-                    )  # fmt: skip
+                    )
                 )
     return transports
 
@@ -76,11 +76,12 @@ def generated_recordings(
         timestamps = np.arange(transport.n_frames) / transport.fps
         observations = tuple(
             Observation(
-                float(ts), [SkeletonFrame(keypoints[t], depths[t], float(ts), floor[t])]
-                if usable[t] else [], t,
+                float(ts),
+                [SkeletonFrame(keypoints[t], depths[t], float(ts), floor[t])] if usable[t] else [],
+                t,
             )
             for t, ts in enumerate(timestamps)
-        )  # fmt: skip
+        )
         target = np.array([classes.index(d) for d in transport.decisions(mode)])
         name = f"gen-{transport.locomotion.value}-{'+'.join(transport.events)}-{transport.seed:03d}"
         recordings.append(Recording(name, observations, target, generated=True))

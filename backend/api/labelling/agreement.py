@@ -50,9 +50,8 @@ def video_agreement(
             raise LabellingError(f"{param}: {who} has no segments on video {video.name}")
         spans[param] = found
     stages = {
-        label.key for label in taxonomy.labels
-        if label.decision(video.mode) == Decision.EMERGENCY
-    }  # fmt: skip
+        label.key for label in taxonomy.labels if label.decision(video.mode) == Decision.EMERGENCY
+    }
     result = agreement(video.frame_count, video.fps, spans["a"], spans["b"], stages)
     return AgreementOut(
         video_id=video.id,

@@ -45,8 +45,9 @@ def export_video(
     filename = f"{video.name}.{EXPORT_SUFFIX[format]}"
     headers = {"Content-Disposition": attachment(filename)}
     if format == "csv":
-        return Response(export.export_csv(session, video, statuses), media_type="text/csv",
-                        headers=headers)  # fmt: skip
+        return Response(
+            export.export_csv(session, video, statuses), media_type="text/csv", headers=headers
+        )
     document = (export.export_json if format == "json" else export.export_coco)(
         session, video, statuses
     )

@@ -146,7 +146,7 @@ def segment_history(
             action=e.action,
             snapshot=e.snapshot,
             comment=e.comment,
-        )  # fmt: skip
+        )
         for e in events
     ]
 

@@ -32,8 +32,15 @@ def settings(settings):
 
 def add_user(session_factory, username: str = "nora", active: bool = True) -> None:
     with transaction(session_factory) as session:
-        session.add(User(username=username, password_hash=hash_password(PASSWORD),
-                         role=Role.NURSE, ward="ward-a", active=active))  # fmt: skip
+        session.add(
+            User(
+                username=username,
+                password_hash=hash_password(PASSWORD),
+                role=Role.NURSE,
+                ward="ward-a",
+                active=active,
+            )
+        )
 
 
 def test_sixty_wrong_passwords_lock_the_account_and_the_right_one_then_gets_429(
@@ -124,8 +131,14 @@ def test_a_four_lane_hash_is_upgraded_to_one_lane_at_sign_in(client, session_fac
     from sqlalchemy import select
 
     with transaction(session_factory) as session:
-        session.add(User(username="old", password_hash=PasswordHasher(parallelism=4).hash(PASSWORD),
-                         role=Role.NURSE, ward="ward-a"))  # fmt: skip
+        session.add(
+            User(
+                username="old",
+                password_hash=PasswordHasher(parallelism=4).hash(PASSWORD),
+                role=Role.NURSE,
+                ward="ward-a",
+            )
+        )
     assert client.post(LOGIN, json={"username": "old", "password": PASSWORD}).status_code == 200
     with session_factory() as session:
         stored = session.scalars(select(User).where(User.username == "old")).one().password_hash

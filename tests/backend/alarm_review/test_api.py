@@ -39,8 +39,9 @@ def test_resolved_false_alarm_flows_into_replay_history_fatigue_and_review(
     [alarm] = client.get("/api/alarms", headers=nurse.headers).json()
     assert alarm["kind"] == "emergency"
 
-    replay = client.get(f"/api/alarms/{alarm['id']}/replay?before_s=3&after_s=1",
-                        headers=nurse.headers).json()  # fmt: skip
+    replay = client.get(
+        f"/api/alarms/{alarm['id']}/replay?before_s=3&after_s=1", headers=nurse.headers
+    ).json()
     seqs = [f["seq"] for f in replay["frames"]]
     assert seqs == sorted(seqs) and alarm["first_seq"] in seqs
     assert seqs[0] <= alarm["first_seq"] - 25  # 3 s before at 10 fps, minus rounding
@@ -65,11 +66,14 @@ def test_resolved_false_alarm_flows_into_replay_history_fatigue_and_review(
         first = replay["frames"][seqs.index(alarm["first_seq"])]["index"]
         last_seq = resolved.json()["last_seq"]
         assert (segment.first_frame - first, segment.last_frame - segment.first_frame) == (
-            0, last_seq - alarm["first_seq"]
-        )  # fmt: skip
+            0,
+            last_seq - alarm["first_seq"],
+        )
         assert (segment.label_key, segment.status, segment.model_version) == (
-            "bending", "pending", "sim-1"
-        )  # fmt: skip
+            "bending",
+            "pending",
+            "sim-1",
+        )
 
     queue = client.get("/api/review-queue", headers=annotator.headers).json()
     assert [item["alarm_id"] for item in queue] == [alarm["id"]]
@@ -97,8 +101,10 @@ def test_review_endpoints_check_role_and_ward(client, make_account, robot):
     forbidden = client.get("/api/alarm-history?ward=ward-a", headers=nurse_b.headers)
     assert forbidden.status_code == 403 and "ward-a" in forbidden.json()["detail"]
     assert client.get("/api/alarms/1/replay", headers=nurse_b.headers).status_code == 404
-    bad = client.get("/api/alarm-fatigue?since=2026-01-02T00:00:00Z&until=2026-01-01T00:00:00Z",
-                     headers=nurse_b.headers)  # fmt: skip
+    bad = client.get(
+        "/api/alarm-fatigue?since=2026-01-02T00:00:00Z&until=2026-01-01T00:00:00Z",
+        headers=nurse_b.headers,
+    )
     assert bad.status_code == 422 and "until" in bad.json()["detail"]
     assert client.get("/api/alarm-history").status_code == 401
 
@@ -120,8 +126,9 @@ def test_replay_json_is_what_the_response_models_give(client, make_account, sess
         for row in session.scalars(select(Frame).where(Frame.index % 3 == 0)):
             row.depth = encode_depth(depth)
         alarm_id = alarm(session, video).id
-    response = client.get(f"/api/alarms/{alarm_id}/replay?before_s=2&after_s=1",
-                          headers=engineer.headers)  # fmt: skip
+    response = client.get(
+        f"/api/alarms/{alarm_id}/replay?before_s=2&after_s=1", headers=engineer.headers
+    )
     with session_factory() as session:
         row = session.get(Alarm, alarm_id)
         frames = session.scalars(
@@ -130,13 +137,24 @@ def test_replay_json_is_what_the_response_models_give(client, make_account, sess
             .order_by(Frame.ts)
         ).all()
         expected = AlarmReplayOut(
-            alarm=AlarmOut.model_validate(row), before_s=2, after_s=1, generated=False,
-            frames=[ReplayFrameOut(seq=f.seq, index=f.index, ts=f.ts,
-                                   keypoints=decode_keypoints(f.keypoints).tolist(),
-                                   depth=depth_to_json(f.depth), decision=f.decision,
-                                   scores=f.scores or {}, model_version=f.model_version)
-                    for f in frames],
-        )  # fmt: skip
+            alarm=AlarmOut.model_validate(row),
+            before_s=2,
+            after_s=1,
+            generated=False,
+            frames=[
+                ReplayFrameOut(
+                    seq=f.seq,
+                    index=f.index,
+                    ts=f.ts,
+                    keypoints=decode_keypoints(f.keypoints).tolist(),
+                    depth=depth_to_json(f.depth),
+                    decision=f.decision,
+                    scores=f.scores or {},
+                    model_version=f.model_version,
+                )
+                for f in frames
+            ],
+        )
     assert response.status_code == 200
     assert response.headers["content-type"] == "application/json"
     assert len(frames) == 47 and any(f.depth is None for f in frames)

@@ -26,15 +26,23 @@ def test_timeline_json_is_what_the_response_model_gives(client, make_account, se
             select(Frame).where(Frame.index.between(2, 8)).order_by(Frame.index)
         ).all()
         expected = [
-            FrameOut(index=x.index, ts=x.ts, seq=x.seq,
-                     keypoints=decode_keypoints(x.keypoints).tolist(),
-                     depth=depth_to_json(x.depth), floor=floor_to_json(x.floor),
-                     decision=x.decision, scores=x.scores, model_version=x.model_version,
-                     threshold=x.threshold, delay_ms=x.delay_ms,
-                     shadow_decision=x.shadow_decision,
-                     shadow_model_version=x.shadow_model_version)
+            FrameOut(
+                index=x.index,
+                ts=x.ts,
+                seq=x.seq,
+                keypoints=decode_keypoints(x.keypoints).tolist(),
+                depth=depth_to_json(x.depth),
+                floor=floor_to_json(x.floor),
+                decision=x.decision,
+                scores=x.scores,
+                model_version=x.model_version,
+                threshold=x.threshold,
+                delay_ms=x.delay_ms,
+                shadow_decision=x.shadow_decision,
+                shadow_model_version=x.shadow_model_version,
+            )
             for x in frames
-        ]  # fmt: skip
+        ]
     adapter = TypeAdapter(list[FrameOut])
     assert response.status_code == 200
     assert response.headers["content-type"] == "application/json"

@@ -152,15 +152,23 @@ def test_an_import_cannot_write_into_the_gold_set(
     document = _export(client, annotator, urfd_videos["fall-01"], "json").json()
     document["video"].update(split="test", source="urfd", generated=False)
     document["segments"] = [
-        {"first_frame": 0, "last_frame": 159, "label_key": "walking", "status": "accepted",
-         "reviewer": "ada", "review_comment": "looks right"}
-    ]  # fmt: skip
+        {
+            "first_frame": 0,
+            "last_frame": 159,
+            "label_key": "walking",
+            "status": "accepted",
+            "reviewer": "ada",
+            "review_comment": "looks right",
+        }
+    ]
     created = _import(client, annotator, "json", json.dumps(document), name="forged")
     assert created.status_code == 201, created.text
     forged = _video_named(client, annotator, "forged")
     assert (forged["split"], forged["source"], forged["status"]) == (
-        "unassigned", "import", "in_review"
-    )  # fmt: skip
+        "unassigned",
+        "import",
+        "in_review",
+    )
     gold = client.get(f"{API}/videos?split=test", headers=admin.headers).json()
     assert "forged" not in [v["name"] for v in gold]
     segments = client.get(f"{API}/videos/{forged['id']}/segments", headers=annotator.headers)
@@ -211,15 +219,17 @@ def test_a_command_line_import_edited_by_an_annotator_is_reviewed_by_someone_els
     from backend.labelling import exchange
 
     document = _export(client, annotator, urfd_videos["fall-01"], "json").json()
-    document["segments"] = [{"first_frame": 0, "last_frame": 9, "label_key": "walking",
-                             "status": "accepted"}]  # fmt: skip
+    document["segments"] = [
+        {"first_frame": 0, "last_frame": 9, "label_key": "walking", "status": "accepted"}
+    ]
     with transaction(session_factory) as session:
         exchange.import_json(session, document, "from-cli")
     video = _video_named(client, annotator, "from-cli")
     [segment] = client.get(f"{API}/videos/{video['id']}/segments", headers=annotator.headers).json()
     assert (segment["status"], segment["annotator"]) == ("pending", None)
-    edited = client.patch(f"{API}/segments/{segment['id']}", json={"label_key": "bending"},
-                          headers=annotator.headers)  # fmt: skip
+    edited = client.patch(
+        f"{API}/segments/{segment['id']}", json={"label_key": "bending"}, headers=annotator.headers
+    )
     assert edited.status_code == 200, edited.text
     review = f"{API}/segments/{segment['id']}/review"
     assert (
@@ -264,9 +274,12 @@ def test_replace_withdraws_the_imported_labels_under_review(client, urfd_videos,
     # The file moves the fall's onset by 5 frames: its labels replace the imported ones.
     header, *body = renamed.splitlines()
     first_falling = next(i for i, r in enumerate(body) if ",falling," in r)
-    shifted = [r.replace(",falling,", ",walking,").replace(",emergency", ",normal")
-               if first_falling <= i < first_falling + 5 else r
-               for i, r in enumerate(body)]  # fmt: skip
+    shifted = [
+        r.replace(",falling,", ",walking,").replace(",emergency", ",normal")
+        if first_falling <= i < first_falling + 5
+        else r
+        for i, r in enumerate(body)
+    ]
     text = "\n".join([header, *shifted]) + "\n"
     placed = _import(client, annotator, "csv", text, mode="replace").json()
     assert (placed["replaced"], placed["segments"]) == (3, 3)
@@ -283,8 +296,13 @@ def test_json_into_a_missing_or_other_video_is_refused(client, urfd_videos, anno
     assert missing.status_code == 422 and "needs an existing video" in missing.json()["detail"]
     other = _import(client, annotator, "json", json.dumps(document), name="adl-01", mode="merge")
     assert other.status_code == 422 and "not the same recording" in other.json()["detail"]
-    csv_new = _import(client, annotator, "csv", _csv(client, annotator, urfd_videos["fall-01"],
-                                                     "pending"), mode="new")  # fmt: skip
+    csv_new = _import(
+        client,
+        annotator,
+        "csv",
+        _csv(client, annotator, urfd_videos["fall-01"], "pending"),
+        mode="new",
+    )
     assert csv_new.status_code == 422
 
 

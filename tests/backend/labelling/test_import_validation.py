@@ -50,7 +50,7 @@ JSON_CASES = [
         {"fx": 0, "fy": 525, "cx": 1, "cy": 1},
         "video.intrinsics.fx",
         id="intrinsics-zero-focal",
-    ),  # fmt: skip
+    ),
     pytest.param("video.intrinsics", {"fx": 525}, "video.intrinsics.fy", id="intrinsics-part"),
     pytest.param("video.generated", "yes", "video.generated", id="generated-string"),
     pytest.param("video.mode", "flying", "video.mode", id="mode-unknown"),
@@ -67,13 +67,13 @@ JSON_CASES = [
         [{"first_frame": "0", "last_frame": 5, "label_key": "walking"}],
         "segments[0].first_frame",
         id="segment-frame-string",
-    ),  # fmt: skip
+    ),
     pytest.param(
         "segments",
         [{"first_frame": 0, "last_frame": 5, "label_key": ["walking"]}],
         "segments[0].label_key",
         id="segment-label-list",
-    ),  # fmt: skip
+    ),
 ]
 
 
@@ -101,9 +101,11 @@ def test_nan_and_infinity_are_not_json_numbers(client, annotator, exported, cons
 
 def test_name_parameter_with_control_characters_is_refused(client, annotator, exported):
     response = client.post(
-        f"{API}/import", params={"format": "json", "name": "a\nb"},
-        files={"file": ("x", json.dumps(exported).encode())}, headers=annotator.headers,
-    )  # fmt: skip
+        f"{API}/import",
+        params={"format": "json", "name": "a\nb"},
+        files={"file": ("x", json.dumps(exported).encode())},
+        headers=annotator.headers,
+    )
     assert response.status_code == 422
     assert response.json()["detail"].startswith("name: must not contain control characters")
 
@@ -140,9 +142,10 @@ def test_any_unicode_name_imports_and_exports_in_every_format(client, annotator,
     created = _import(client, annotator, "json", json.dumps(changed(exported, "video.name", name)))
     assert created.status_code == 201, created.text
     video = next(
-        v for v in client.get(f"{API}/videos", headers=annotator.headers).json()
+        v
+        for v in client.get(f"{API}/videos", headers=annotator.headers).json()
         if v["name"] == name
-    )  # fmt: skip
+    )
     for fmt, ext in (("csv", "csv"), ("json", "json"), ("coco", "coco.json")):
         response = _export(client, annotator, video["id"], fmt)
         disposition = response.headers["content-disposition"]

@@ -25,10 +25,14 @@ def tiny_model(tmp_path_factory):
         spec = ModelSpec(
             name="rf-tiny",
             family="rf",
-            grid={"n_estimators": [10], "max_depth": [6], "min_samples_leaf": [5],
-                  "max_features": [0.3]},
+            grid={
+                "n_estimators": [10],
+                "max_depth": [6],
+                "min_samples_leaf": [5],
+                "max_features": [0.3],
+            },
             description="small test model",
-        )  # fmt: skip
+        )
         trainer = SklearnTrainer(spec)
         selected = select(trainer, data, np.arange(len(names)), n_inner=2, stride=2)
         publish(trainer, selected, data, out, version="rf-tiny-test")

@@ -27,10 +27,13 @@ def _write_openpose(directory, frames=4):
         person[1] = (100 + n, 80, 0.8)  # neck
         weak = np.zeros((25, 3))
         weak[0] = (300, 300, 0.1)
-        document = {"version": 1.3, "people": [
-            {"pose_keypoints_2d": weak.ravel().tolist()},
-            {"pose_keypoints_2d": person.ravel().tolist()},
-        ]}  # fmt: skip
+        document = {
+            "version": 1.3,
+            "people": [
+                {"pose_keypoints_2d": weak.ravel().tolist()},
+                {"pose_keypoints_2d": person.ravel().tolist()},
+            ],
+        }
         (directory / f"clip_{n + 10:012d}_keypoints.json").write_text(json.dumps(document))
 
 
@@ -74,13 +77,19 @@ def test_openpose_errors_name_the_problem(tmp_path, session_factory):
 def test_cli_imports_urfd_idempotently_and_names_bad_input(database_url, tmp_path):
     env = {"VIGIL_DATABASE_URL": database_url, "PATH": "/usr/bin:/bin"}
     command = [sys.executable, "-m", "backend.labelling.cli"]
-    first = subprocess.run([*command, "import-urfd", "--only", "adl-02"], env=env,
-                           capture_output=True, text=True)  # fmt: skip
+    first = subprocess.run(
+        [*command, "import-urfd", "--only", "adl-02"], env=env, capture_output=True, text=True
+    )
     assert first.returncode == 0, first.stderr
     assert "1 videos imported" in first.stdout
-    again = subprocess.run([*command, "import-urfd", "--only", "adl-02"], env=env,
-                           capture_output=True, text=True)  # fmt: skip
+    again = subprocess.run(
+        [*command, "import-urfd", "--only", "adl-02"], env=env, capture_output=True, text=True
+    )
     assert "0 videos imported" in again.stdout and "1 already there" in again.stdout
-    missing = subprocess.run([*command, "import-export", str(tmp_path / "nope.json")], env=env,
-                             capture_output=True, text=True)  # fmt: skip
+    missing = subprocess.run(
+        [*command, "import-export", str(tmp_path / "nope.json")],
+        env=env,
+        capture_output=True,
+        text=True,
+    )
     assert missing.returncode == 2 and "file:" in missing.stderr

@@ -140,8 +140,11 @@ def test_agreement_of_two_annotators_on_one_video(client, urfd_videos, annotator
 def test_agreement_of_an_annotator_with_the_imported_labels(client, urfd_videos, annotator):
     video = urfd_videos["fall-01"]
     listed = client.get(f"{API}/videos/{video}/segments", headers=annotator.headers).json()
-    imported = [(s["first_frame"], s["last_frame"], s["label_key"]) for s in listed
-                if s["source"] == "import"]  # fmt: skip
+    imported = [
+        (s["first_frame"], s["last_frame"], s["label_key"])
+        for s in listed
+        if s["source"] == "import"
+    ]
     assert [label for *_, label in sorted(imported)] == ["walking", "falling", "lying_on_floor"]
     for first, last, label in imported:
         response = client.post(
@@ -153,9 +156,10 @@ def test_agreement_of_an_annotator_with_the_imported_labels(client, urfd_videos,
         )
         assert response.status_code == 201, response.text
     result = client.get(
-        f"{API}/videos/{video}/agreement", params={"a": "(imported)", "b": "anna"},
+        f"{API}/videos/{video}/agreement",
+        params={"a": "(imported)", "b": "anna"},
         headers=annotator.headers,
-    )  # fmt: skip
+    )
     assert result.status_code == 200, result.text
     timing = {s["label_key"]: s for s in result.json()["stages"]}
     assert timing["falling"]["onset_diff_ms"] == pytest.approx(2 * 1000 / 30, abs=1)

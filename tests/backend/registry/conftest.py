@@ -78,8 +78,19 @@ def fleet(session_factory) -> list[str]:
     in its last hello that it feeds keypoints, depth and floor measures (the test models use
     the full feature set, which needs floor measures)."""
     with transaction(session_factory) as session:
-        for robot_id, ward in (("robot-a", "ward-a"), ("robot-b", "ward-a"),
-                               ("robot-c", "ward-a"), ("robot-d", "ward-b")):  # fmt: skip
-            session.add(Robot(id=robot_id, name=robot_id, ward=ward, inputs=FEEDS_ALL,
-                              token_hash=hash_robot_token(ROBOT_TOKEN)))  # fmt: skip
+        for robot_id, ward in (
+            ("robot-a", "ward-a"),
+            ("robot-b", "ward-a"),
+            ("robot-c", "ward-a"),
+            ("robot-d", "ward-b"),
+        ):
+            session.add(
+                Robot(
+                    id=robot_id,
+                    name=robot_id,
+                    ward=ward,
+                    inputs=FEEDS_ALL,
+                    token_hash=hash_robot_token(ROBOT_TOKEN),
+                )
+            )
     return ["robot-a", "robot-b", "robot-c", "robot-d"]

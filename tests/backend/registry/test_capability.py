@@ -34,9 +34,15 @@ def assigned(session_factory) -> dict[str, int | None]:
 
 
 def test_a_floor_model_is_refused_for_a_robot_that_cannot_feed_it_and_a_keypoints_model_is_not(
-    client, make_account, fleet, urfd_db, register, trained_model_dir, keypoints_model_dir,
+    client,
+    make_account,
+    fleet,
+    urfd_db,
+    register,
+    trained_model_dir,
+    keypoints_model_dir,
     session_factory,
-):  # fmt: skip
+):
     engineer = make_account(Role.ENGINEER)
     set_inputs(session_factory, robot_c=None, robot_d=["keypoints", "depth"])  # c: older agent
     floor = register(trained_model_dir)  # feature set "full": keypoints and floor measures
@@ -44,8 +50,9 @@ def test_a_floor_model_is_refused_for_a_robot_that_cannot_feed_it_and_a_keypoint
     models = {m["id"]: m for m in client.get("/api/models", headers=engineer.headers).json()}
     assert models[floor]["inputs"] == ["keypoints", "floor"]
     assert (models[keypoints]["inputs"], models[keypoints]["keypoints_only"]) == (
-        ["keypoints"], True
-    )  # fmt: skip
+        ["keypoints"],
+        True,
+    )
 
     refused = promote(client, engineer, floor, scope="robot", target="robot-c")
     assert refused.status_code == 409
@@ -60,11 +67,21 @@ def test_a_floor_model_is_refused_for_a_robot_that_cannot_feed_it_and_a_keypoint
     assert "robot robot-c cannot feed" in ward.json()["detail"]
     fleet_wide = promote(client, engineer, floor, scope="fleet")
     assert fleet_wide.status_code == 409 and "2 of 4 robots" in fleet_wide.json()["detail"]
-    shadow = client.post(f"/api/models/{floor}/shadow", headers=engineer.headers,
-                         json={"scope": "robot", "target": "robot-d"})  # fmt: skip
+    shadow = client.post(
+        f"/api/models/{floor}/shadow",
+        headers=engineer.headers,
+        json={"scope": "robot", "target": "robot-d"},
+    )
     assert shadow.status_code == 409 and "robot-d" in shadow.json()["detail"]
-    canary = promote(client, engineer, floor, scope="ward", target="ward-a",
-                     canary_robot_id="robot-c", only_capable=True)  # fmt: skip
+    canary = promote(
+        client,
+        engineer,
+        floor,
+        scope="ward",
+        target="ward-a",
+        canary_robot_id="robot-c",
+        only_capable=True,
+    )
     assert canary.status_code == 409 and "canary_robot_id" in canary.json()["detail"]
     with session_factory() as session:
         assert session.scalars(select(Deployment)).first() is None
@@ -72,16 +89,20 @@ def test_a_floor_model_is_refused_for_a_robot_that_cannot_feed_it_and_a_keypoint
 
     # Which robots qualify, for the promotion page.
     view = client.get("/api/fleet", params={"model_id": floor}, headers=engineer.headers).json()
-    rows = {r["id"]: (r["inputs"], r["inputs_reported"], r["qualifies"], r["missing_inputs"])
-            for r in view}  # fmt: skip
+    rows = {
+        r["id"]: (r["inputs"], r["inputs_reported"], r["qualifies"], r["missing_inputs"])
+        for r in view
+    }
     assert rows == {
         "robot-a": (FEEDS_ALL, True, True, []),
         "robot-b": (FEEDS_ALL, True, True, []),
         "robot-c": (["keypoints"], False, False, ["floor"]),
         "robot-d": (["keypoints", "depth"], True, False, ["floor"]),
     }
-    assert client.get("/api/fleet", params={"model_id": 999_999},
-                      headers=engineer.headers).status_code == 404  # fmt: skip
+    assert (
+        client.get("/api/fleet", params={"model_id": 999_999}, headers=engineer.headers).status_code
+        == 404
+    )
 
     # The keypoints-only model goes anywhere.
     ok = promote(client, engineer, keypoints, scope="robot", target="robot-c")
@@ -105,8 +126,11 @@ def test_a_floor_model_is_refused_for_a_robot_that_cannot_feed_it_and_a_keypoint
     # only_capable applies at the advance too: robot-b is skipped, not refused.
     assert set(advance.json()["rollout"]["skipped"]) == {"robot-b", "robot-c"}
     assert assigned(session_factory) == {
-        "robot-a": floor, "robot-b": None, "robot-c": keypoints, "robot-d": None
-    }  # fmt: skip
+        "robot-a": floor,
+        "robot-b": None,
+        "robot-c": keypoints,
+        "robot-d": None,
+    }
 
 
 def test_an_advance_to_a_robot_that_can_no_longer_feed_the_model_is_refused(
@@ -129,9 +153,16 @@ def test_an_advance_to_a_robot_that_can_no_longer_feed_the_model_is_refused(
 
 
 def test_robots_keep_the_keypoints_only_fallback_which_cannot_be_rolled_away(
-    client, make_account, fleet, urfd_db, register, trained_model_dir, keypoints_model_dir,
-    tmp_path, session_factory,
-):  # fmt: skip
+    client,
+    make_account,
+    fleet,
+    urfd_db,
+    register,
+    trained_model_dir,
+    keypoints_model_dir,
+    tmp_path,
+    session_factory,
+):
     engineer = make_account(Role.ENGINEER)
     floor = register(trained_model_dir)
     kp1 = register(keypoints_model_dir)
@@ -152,20 +183,26 @@ def test_robots_keep_the_keypoints_only_fallback_which_cannot_be_rolled_away(
 
     # After welcome: the assigned model, then the fallback beside it.
     with client.websocket_connect("/ws/robot") as ws:
-        ws.send_text(Hello(robot_id="robot-a", token=ROBOT_TOKEN, inputs=FEEDS_ALL,
-                           running_model="rf-test-1").model_dump_json())  # fmt: skip
+        ws.send_text(
+            Hello(
+                robot_id="robot-a", token=ROBOT_TOKEN, inputs=FEEDS_ALL, running_model="rf-test-1"
+            ).model_dump_json()
+        )
         assert json.loads(ws.receive_text())["type"] == "welcome"
         fallback = json.loads(ws.receive_text())  # it runs rf-test-1 already: only the fallback
         assert (fallback["type"], fallback["version"], fallback["fallback"]) == (
-            "assign_model", "rf-kp-test-1", True
-        )  # fmt: skip
+            "assign_model",
+            "rf-kp-test-1",
+            True,
+        )
         assert fallback["manifest"]["inputs"] == ["keypoints"] and fallback["url"].endswith(
             "/api/robot/models/rf-kp-test-1/file"
         )
 
         # The last keypoints-only walking model in production cannot be rolled back.
-        refused = client.post(f"/api/deployments/{first['id']}/rollback",
-                              headers=engineer.headers, json={})  # fmt: skip
+        refused = client.post(
+            f"/api/deployments/{first['id']}/rollback", headers=engineer.headers, json={}
+        )
         assert refused.status_code == 409
         assert (
             "rf-kp-test-1 is the last promoted keypoints-only walking model"
@@ -183,20 +220,28 @@ def test_robots_keep_the_keypoints_only_fallback_which_cannot_be_rolled_away(
         )  # sent once
 
     # Now the first keypoints-only model may go.
-    rolled = client.post(f"/api/deployments/{first['id']}/rollback", headers=engineer.headers,
-                         json={})  # fmt: skip
+    rolled = client.post(
+        f"/api/deployments/{first['id']}/rollback", headers=engineer.headers, json={}
+    )
     assert rolled.status_code == 200, rolled.text
-    models = {m["id"]: m["status"] for m in client.get("/api/models", headers=engineer.headers)
-              .json()}  # fmt: skip
+    models = {
+        m["id"]: m["status"] for m in client.get("/api/models", headers=engineer.headers).json()
+    }
     assert (models[kp1], models[kp2]) == ("retired", "production")
     fleet_view = {r["id"]: r for r in client.get("/api/fleet", headers=engineer.headers).json()}
     assert fleet_view["robot-a"]["fallback_version"] == "rf-kp-test-2"
 
 
 def test_rollback_gives_a_robot_that_had_no_model_its_fallback_not_nothing(
-    client, make_account, fleet, urfd_db, register, trained_model_dir, keypoints_model_dir,
+    client,
+    make_account,
+    fleet,
+    urfd_db,
+    register,
+    trained_model_dir,
+    keypoints_model_dir,
     session_factory,
-):  # fmt: skip
+):
     engineer = make_account(Role.ENGINEER)
     keypoints = register(keypoints_model_dir)
     floor = register(trained_model_dir)
@@ -206,8 +251,11 @@ def test_rollback_gives_a_robot_that_had_no_model_its_fallback_not_nothing(
     with transaction(session_factory) as session:  # robot-d runs the floor model
         robot = session.get(Robot, "robot-d")
         robot.running_model_version = session.get(models.ModelVersion, floor).version
-    rolled = client.post(f"/api/deployments/{deployment['id']}/rollback", headers=engineer.headers,
-                         json={"reason": "wrong model"})  # fmt: skip
+    rolled = client.post(
+        f"/api/deployments/{deployment['id']}/rollback",
+        headers=engineer.headers,
+        json={"reason": "wrong model"},
+    )
     assert rolled.status_code == 200, rolled.text
     # robot-d had no model before: it gets the keypoints-only fallback, not "nothing" (which
     # would have left it running the rolled-back model).
@@ -225,8 +273,14 @@ def test_a_robot_with_no_target_is_in_sync_only_when_it_runs_nothing():
 
 
 def test_reconcile_believes_the_robots_hello_over_a_stored_running_model_that_lags(
-    client, make_account, fleet, urfd_db, register, trained_model_dir, session_factory,
-):  # fmt: skip
+    client,
+    make_account,
+    fleet,
+    urfd_db,
+    register,
+    trained_model_dir,
+    session_factory,
+):
     """The frame writer stores what a robot runs after its welcome; the reconcile loop may run
     in between and must not resend a model the robot said it already runs."""
     engineer = make_account(Role.ENGINEER)
@@ -234,8 +288,11 @@ def test_reconcile_believes_the_robots_hello_over_a_stored_running_model_that_la
     assert promote(client, engineer, floor, scope="robot", target="robot-a").status_code == 201
     pusher = client.app.state.services.assignments
     with client.websocket_connect("/ws/robot") as ws:
-        ws.send_text(Hello(robot_id="robot-a", token=ROBOT_TOKEN, inputs=FEEDS_ALL,
-                           running_model="rf-test-1").model_dump_json())  # fmt: skip
+        ws.send_text(
+            Hello(
+                robot_id="robot-a", token=ROBOT_TOKEN, inputs=FEEDS_ALL, running_model="rf-test-1"
+            ).model_dump_json()
+        )
         assert json.loads(ws.receive_text())["type"] == "welcome"
         # What the writer has not stored yet (or a replica stored before): nothing runs.
         with transaction(session_factory) as session:

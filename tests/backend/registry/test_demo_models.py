@@ -15,9 +15,16 @@ from worker.bootstrap import add_floor_measures, promote_demo_models, register_m
 
 
 def test_every_robot_gets_a_model_it_can_feed_and_walking_keeps_its_fallback(
-    client, make_account, fleet, urfd_db, factory, settings, trained_model_dir,
-    keypoints_model_dir, tmp_path,
-):  # fmt: skip
+    client,
+    make_account,
+    fleet,
+    urfd_db,
+    factory,
+    settings,
+    trained_model_dir,
+    keypoints_model_dir,
+    tmp_path,
+):
     make_account(Role.ENGINEER, username="engineer")  # the demo's signer
     store = tmp_path / "store"
     with transaction(factory) as session:
@@ -50,12 +57,18 @@ def test_every_robot_gets_a_model_it_can_feed_and_walking_keeps_its_fallback(
             session.get(Robot, robot_id).inputs = FEEDS_ALL
         floor, keypoints = (session.get(ModelVersion, m.id) for m in (floor, keypoints))
         second = promote_demo_models(session, floor, keypoints, settings)
-    assert second == ["promoted rf-test-1 to robot-a (active)",
-                      "promoted rf-test-1 to robot-b (active)"]  # fmt: skip
+    assert second == [
+        "promoted rf-test-1 to robot-a (active)",
+        "promoted rf-test-1 to robot-b (active)",
+    ]
     with factory() as session:
         assigned = {r.id: r.assigned_model_id for r in session.scalars(select(Robot))}
-        assert assigned == {"robot-a": floor.id, "robot-b": floor.id, "robot-c": keypoints.id,
-                            "robot-d": keypoints.id}  # fmt: skip
+        assert assigned == {
+            "robot-a": floor.id,
+            "robot-b": floor.id,
+            "robot-c": keypoints.id,
+            "robot-d": keypoints.id,
+        }
         assert session.get(ModelVersion, keypoints.id).status == "production"
         deployments = session.scalars(select(Deployment)).all()
         assert {d.scope for d in deployments} == {"robot"} and len(deployments) == 6

@@ -19,8 +19,9 @@ def test_the_gate_blocks_a_model_that_misses_a_fall(
 ):
     engineer = make_account(Role.ENGINEER)
     # The same graph with a 10 s delay: no Emergency run in the gold recordings lasts that long.
-    blind = register(derive_model(trained_model_dir, tmp_path / "blind", "blind-1",
-                                  delay_ms=10_000))  # fmt: skip
+    blind = register(
+        derive_model(trained_model_dir, tmp_path / "blind", "blind-1", delay_ms=10_000)
+    )
     gate = client.get(f"/api/models/{blind}/gate", headers=engineer.headers).json()
     assert gate["passed"] is False
     fall_check = next(c for c in gate["checks"] if c["name"] == "misses no fall of the gold set")
@@ -28,8 +29,9 @@ def test_the_gate_blocks_a_model_that_misses_a_fall(
     assert "fall-07" in fall_check["detail"]
     assert any("training recordings unknown" in w for w in gate["warnings"])
 
-    response = client.post(f"/api/models/{blind}/promote", headers=engineer.headers,
-                           json={"scope": "fleet"})  # fmt: skip
+    response = client.post(
+        f"/api/models/{blind}/promote", headers=engineer.headers, json={"scope": "fleet"}
+    )
     assert response.status_code == 409
     assert "gate failed: misses no fall of the gold set" in response.json()["detail"]
     with session_factory() as session:
@@ -48,16 +50,24 @@ def test_staged_rollout_canary_then_ward_then_rollback_restores_each_robot(
     v1 = register(trained_model_dir)
     v2 = register(second_version(trained_model_dir, tmp_path / "v2", 0.55))
 
-    assert client.post(f"/api/models/{v1}/promote", headers=nurse.headers,
-                       json={"scope": "fleet"}).status_code == 403  # fmt: skip
-    bad_scope = client.post(f"/api/models/{v1}/promote", headers=engineer.headers,
-                            json={"scope": "ward", "target": "ward-z"})  # fmt: skip
+    assert (
+        client.post(
+            f"/api/models/{v1}/promote", headers=nurse.headers, json={"scope": "fleet"}
+        ).status_code
+        == 403
+    )
+    bad_scope = client.post(
+        f"/api/models/{v1}/promote",
+        headers=engineer.headers,
+        json={"scope": "ward", "target": "ward-z"},
+    )
     assert bad_scope.status_code == 422 and "no robot in ward ward-z" in bad_scope.json()["detail"]
 
     deployment = client.post(
-        f"/api/models/{v1}/promote", headers=engineer.headers,
+        f"/api/models/{v1}/promote",
+        headers=engineer.headers,
         json={"scope": "ward", "target": "ward-a", "comment": "first model"},
-    ).json()  # fmt: skip
+    ).json()
     assert deployment["status"] == "canary" and deployment["rollout"]["canary"] == "robot-a"
     assert deployment["gate_report"]["passed"] is True
     fleet_view = {r["id"]: r for r in client.get("/api/fleet", headers=engineer.headers).json()}
@@ -72,21 +82,28 @@ def test_staged_rollout_canary_then_ward_then_rollback_restores_each_robot(
     assert advance.status_code == 409 and "runs no model" in advance.json()["detail"]
     with transaction(session_factory) as session:  # the canary reports the new version
         session.get(Robot, "robot-a").running_model_version = "rf-test-1"
-    advanced = client.post(f"/api/deployments/{deployment['id']}/advance",
-                           headers=engineer.headers).json()  # fmt: skip
+    advanced = client.post(
+        f"/api/deployments/{deployment['id']}/advance", headers=engineer.headers
+    ).json()
     assert advanced["status"] == "active"
     with session_factory() as session:
         assigned = {r.id: r.assigned_model_id for r in session.scalars(select(Robot))}
     assert assigned == {"robot-a": v1, "robot-b": v1, "robot-c": v1, "robot-d": None}
 
     # v2 to the whole fleet, canary robot-b; then one click rolls it back.
-    second = client.post(f"/api/models/{v2}/promote", headers=engineer.headers,
-                         json={"scope": "fleet", "canary_robot_id": "robot-b"}).json()  # fmt: skip
+    second = client.post(
+        f"/api/models/{v2}/promote",
+        headers=engineer.headers,
+        json={"scope": "fleet", "canary_robot_id": "robot-b"},
+    ).json()
     assert second["status"] == "canary" and second["previous_model_version_id"] == v1
     with session_factory() as session:
         assert session.get(Robot, "robot-b").assigned_model_id == v2
-    rolled = client.post(f"/api/deployments/{second['id']}/rollback", headers=engineer.headers,
-                         json={"reason": "canary looks wrong"}).json()  # fmt: skip
+    rolled = client.post(
+        f"/api/deployments/{second['id']}/rollback",
+        headers=engineer.headers,
+        json={"reason": "canary looks wrong"},
+    ).json()
     assert rolled["status"] == "rolled_back" and "canary looks wrong" in rolled["rollback_reason"]
     with session_factory() as session:
         assigned = {r.id: r.assigned_model_id for r in session.scalars(select(Robot))}
@@ -94,8 +111,9 @@ def test_staged_rollout_canary_then_ward_then_rollback_restores_each_robot(
     models = {m["id"]: m for m in client.get("/api/models", headers=engineer.headers).json()}
     assert models[v1]["status"] == "production" and models[v2]["status"] == "retired"
     assert (models[v1]["robots_assigned"], models[v1]["canary_robot"]) == (3, None)
-    again = client.post(f"/api/deployments/{second['id']}/rollback", headers=engineer.headers,
-                        json={})  # fmt: skip
+    again = client.post(
+        f"/api/deployments/{second['id']}/rollback", headers=engineer.headers, json={}
+    )
     assert again.status_code == 409
 
     comparison = client.get(f"/api/models/compare?a={v1}&b={v2}", headers=engineer.headers).json()
@@ -114,45 +132,71 @@ def test_second_approver_is_required_when_configured(
     first = make_account(Role.ENGINEER, username="eng-1")
     second = make_account(Role.ENGINEER, username="eng-2")
     v1 = register(trained_model_dir)
-    pending = client.post(f"/api/models/{v1}/promote", headers=first.headers,
-                          json={"scope": "robot", "target": "robot-c"}).json()  # fmt: skip
+    pending = client.post(
+        f"/api/models/{v1}/promote",
+        headers=first.headers,
+        json={"scope": "robot", "target": "robot-c"},
+    ).json()
     assert pending["status"] == "pending_approval"
     with session_factory() as session:
         assert session.get(Robot, "robot-c").assigned_model_id is None
     self_approval = client.post(f"/api/deployments/{pending['id']}/approve", headers=first.headers)
     assert self_approval.status_code == 409
-    approved = client.post(f"/api/deployments/{pending['id']}/approve",
-                           headers=second.headers).json()  # fmt: skip
+    approved = client.post(
+        f"/api/deployments/{pending['id']}/approve", headers=second.headers
+    ).json()
     assert approved["status"] == "active" and approved["second_approver_id"] is not None
     with session_factory() as session:
         assert session.get(Robot, "robot-c").assigned_model_id == v1
 
 
 def test_automatic_rollback_when_nurses_reject_too_many_alarms(
-    client, make_account, fleet, urfd_db, register, trained_model_dir, tmp_path,
-    session_factory, factory, worker_settings,
-):  # fmt: skip
+    client,
+    make_account,
+    fleet,
+    urfd_db,
+    register,
+    trained_model_dir,
+    tmp_path,
+    session_factory,
+    factory,
+    worker_settings,
+):
     engineer = make_account(Role.ENGINEER)
     v1 = register(trained_model_dir)
     v2 = register(second_version(trained_model_dir, tmp_path / "v2", 0.5))
-    client.post(f"/api/models/{v1}/promote", headers=engineer.headers,
-                json={"scope": "robot", "target": "robot-d"})  # fmt: skip
-    new = client.post(f"/api/models/{v2}/promote", headers=engineer.headers,
-                      json={"scope": "robot", "target": "robot-d"}).json()  # fmt: skip
+    client.post(
+        f"/api/models/{v1}/promote",
+        headers=engineer.headers,
+        json={"scope": "robot", "target": "robot-d"},
+    )
+    new = client.post(
+        f"/api/models/{v2}/promote",
+        headers=engineer.headers,
+        json={"scope": "robot", "target": "robot-d"},
+    ).json()
     assert new["status"] == "active"
 
     def alarms(verdicts, version="rf-test-2"):
         with transaction(session_factory) as session:
             for i, verdict in enumerate(verdicts):
-                session.add(Alarm(
-                    kind=AlarmKind.EMERGENCY, priority=AlarmPriority.HIGH,
-                    state=AlarmState.RESOLVED, robot_id="robot-d", transport_key=f"t{i}{version}",
-                    ward="ward-b", verdict=verdict, model_version=version,
-                    raised_at=utcnow() + timedelta(seconds=1),
-                ))  # fmt: skip
+                session.add(
+                    Alarm(
+                        kind=AlarmKind.EMERGENCY,
+                        priority=AlarmPriority.HIGH,
+                        state=AlarmState.RESOLVED,
+                        robot_id="robot-d",
+                        transport_key=f"t{i}{version}",
+                        ward="ward-b",
+                        verdict=verdict,
+                        model_version=version,
+                        raised_at=utcnow() + timedelta(seconds=1),
+                    )
+                )
 
-    settings = worker_settings.model_copy(update={"false_alarm_budget": 0.5,
-                                                  "false_alarm_min_verdicts": 4})  # fmt: skip
+    settings = worker_settings.model_copy(
+        update={"false_alarm_budget": 0.5, "false_alarm_min_verdicts": 4}
+    )
     alarms(["false_alarm", "false_alarm", "true_emergency"])  # 3 verdicts: too few to act
     automatic_rollback(factory, settings)
     with session_factory() as session:
@@ -185,8 +229,11 @@ def test_model_download_needs_the_robot_token_and_an_assignment(
     assert client.get(url, headers=engineer.headers | {"X-Robot-Id": "robot-a"}).status_code == 401
     not_assigned = client.get(url, headers=robot)
     assert not_assigned.status_code == 403 and "not assigned" in not_assigned.json()["detail"]
-    client.post(f"/api/models/{v1}/promote", headers=engineer.headers,
-                json={"scope": "robot", "target": "robot-a"})  # fmt: skip
+    client.post(
+        f"/api/models/{v1}/promote",
+        headers=engineer.headers,
+        json={"scope": "robot", "target": "robot-a"},
+    )
     response = client.get(url, headers=robot)
     assert response.status_code == 200
     import hashlib
@@ -204,13 +251,19 @@ def test_jobs_api_checks_parameters_and_roles_and_cancels(client, make_account):
     body = {"kind": "whatif", "params": {"model_version_id": 1, "threshold": 2, "delay_ms": 0}}
     bad = client.post("/api/jobs", headers=engineer.headers, json=body)
     assert bad.status_code == 422 and "invalid job parameter threshold" in bad.json()["detail"]
-    unknown = client.post("/api/jobs", headers=engineer.headers,
-                          json={"kind": "retrain", "params": {"epochs": 3}})  # fmt: skip
+    unknown = client.post(
+        "/api/jobs", headers=engineer.headers, json={"kind": "retrain", "params": {"epochs": 3}}
+    )
     assert unknown.status_code == 422 and "epochs" in unknown.json()["detail"]
-    assert client.post("/api/jobs", headers=annotator.headers,
-                       json={"kind": "retrain", "params": {}}).status_code == 403  # fmt: skip
-    job = client.post("/api/jobs", headers=engineer.headers,
-                      json={"kind": "retrain", "params": {"spec": "rf"}}).json()  # fmt: skip
+    assert (
+        client.post(
+            "/api/jobs", headers=annotator.headers, json={"kind": "retrain", "params": {}}
+        ).status_code
+        == 403
+    )
+    job = client.post(
+        "/api/jobs", headers=engineer.headers, json={"kind": "retrain", "params": {"spec": "rf"}}
+    ).json()
     assert job["status"] == "queued" and job["created_by_id"] is not None
     listed = client.get("/api/jobs", headers=engineer.headers).json()
     assert [j["id"] for j in listed] == [job["id"]]

@@ -56,8 +56,9 @@ def test_worker_refuses_a_users_register_job_outside_the_store(
         session.flush()
         user_id = user.id
     with transaction(factory) as session:
-        job_id = queue.enqueue(session, JobKind.REGISTER, {"path": str(trained_model_dir)},
-                               user_id).id  # fmt: skip
+        job_id = queue.enqueue(
+            session, JobKind.REGISTER, {"path": str(trained_model_dir)}, user_id
+        ).id
     assert Worker(worker_settings, factory, sweeps=[]).run_once() == job_id
     with factory() as session:
         job = session.get(Job, job_id)
@@ -66,8 +67,7 @@ def test_worker_refuses_a_users_register_job_outside_the_store(
     inside = worker_settings.model_store_dir / "incoming" / "rf-test"
     shutil.copytree(trained_model_dir, inside)
     with transaction(factory) as session:
-        job_id = queue.enqueue(session, JobKind.REGISTER, {"path": "incoming/rf-test"},
-                               user_id).id  # fmt: skip
+        job_id = queue.enqueue(session, JobKind.REGISTER, {"path": "incoming/rf-test"}, user_id).id
     Worker(worker_settings, factory, sweeps=[]).run_once()
     with factory() as session:
         job = session.get(Job, job_id)

@@ -76,16 +76,25 @@ def _wait_frames(session_factory, robot_id: str, version: str, timeout: float = 
 
 
 def test_robot_agent_process_switches_to_the_promoted_version_and_back_on_rollback(
-    live_server, make_account, fleet, urfd_db, register, keypoints_model_dir, tmp_path,
+    live_server,
+    make_account,
+    fleet,
+    urfd_db,
+    register,
+    keypoints_model_dir,
+    tmp_path,
     session_factory,
-):  # fmt: skip
+):
     """The real `vigil-robot simulate` agent (GENERATED transports, classified on the robot by
     the model it runs) against the real backend. Keypoints-only models: the robot may feed them
     whatever inputs its hello names."""
     engineer = make_account(Role.ENGINEER)
     v1 = register(keypoints_model_dir)
-    v2 = register(derive_model(keypoints_model_dir, tmp_path / "v2", "rf-kp-test-2",
-                               threshold=0.5, delay_ms=400))  # fmt: skip
+    v2 = register(
+        derive_model(
+            keypoints_model_dir, tmp_path / "v2", "rf-kp-test-2", threshold=0.5, delay_ms=400
+        )
+    )
     api = httpx.Client(base_url=f"http://{live_server}", headers=engineer.headers, timeout=10)
     first = api.post(f"/api/models/{v1}/promote", json={"scope": "robot", "target": "robot-a"})
     assert first.status_code == 201, first.text
@@ -93,23 +102,49 @@ def test_robot_agent_process_switches_to_the_promoted_version_and_back_on_rollba
     tokens.write_text(json.dumps({"robot-a": ROBOT_TOKEN}))
     models = tmp_path / "robot-models"  # the robot's store of assigned models: <robot>/<version>
     agent = subprocess.Popen(
-        [sys.executable, "-m", "robot_agent.cli", "simulate", "--backend",
-         f"ws://{live_server}/ws/robot", "--robots", "1", "--tokens-file", str(tokens),
-         "--model-dir", str(keypoints_model_dir), "--models-dir", str(models),
-         "--outbox-dir", str(tmp_path / "outbox"), "--transports", "1", "--duration-s", "600"],
-        cwd=REPO, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
-    )  # fmt: skip
+        [
+            sys.executable,
+            "-m",
+            "robot_agent.cli",
+            "simulate",
+            "--backend",
+            f"ws://{live_server}/ws/robot",
+            "--robots",
+            "1",
+            "--tokens-file",
+            str(tokens),
+            "--model-dir",
+            str(keypoints_model_dir),
+            "--models-dir",
+            str(models),
+            "--outbox-dir",
+            str(tmp_path / "outbox"),
+            "--transports",
+            "1",
+            "--duration-s",
+            "600",
+        ],
+        cwd=REPO,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     try:
         _wait_running(session_factory, "robot-a", "rf-kp-test-1")  # it starts with v1
         _wait_frames(session_factory, "robot-a", "rf-kp-test-1")  # and classifies frames with it
         # Promoted while connected: pushed at once, downloaded with the robot token, verified.
-        second = api.post(f"/api/models/{v2}/promote",
-                          json={"scope": "robot", "target": "robot-a"}).json()  # fmt: skip
+        second = api.post(
+            f"/api/models/{v2}/promote", json={"scope": "robot", "target": "robot-a"}
+        ).json()
         _wait_running(session_factory, "robot-a", "rf-kp-test-2")
         assert (models / "robot-a" / "rf-kp-test-2" / "model.onnx").is_file()
         row = {r["id"]: r for r in api.get("/api/fleet").json()}["robot-a"]
-        assert (row["connected"], row["target_version"], row["running_version"], row["in_sync"]) \
-            == (True, "rf-kp-test-2", "rf-kp-test-2", True)  # fmt: skip
+        assert (
+            row["connected"],
+            row["target_version"],
+            row["running_version"],
+            row["in_sync"],
+        ) == (True, "rf-kp-test-2", "rf-kp-test-2", True)
         # One click back.
         assert api.post(f"/api/deployments/{second['id']}/rollback", json={}).status_code == 200
         _wait_running(session_factory, "robot-a", "rf-kp-test-1")
@@ -135,12 +170,15 @@ def test_robot_agent_process_switches_to_the_promoted_version_and_back_on_rollba
 
 def _frame(seq: int, decision: str, shadow: str) -> FrameRecord:
     return FrameRecord(
-        seq=seq, ts=1000.0 + seq / 30, transport_id="t-1",
+        seq=seq,
+        ts=1000.0 + seq / 30,
+        transport_id="t-1",
         keypoints=[[100.0 + i, 200.0 + i, 0.9] for i in range(25)],
-        decision=decision, scores={decision: 0.9}, model_version="prod-1",
-        shadow=ShadowDecision(decision=shadow, scores={shadow: 0.95},
-                              model_version="cand-1"),
-    )  # fmt: skip
+        decision=decision,
+        scores={decision: 0.9},
+        model_version="prod-1",
+        shadow=ShadowDecision(decision=shadow, scores={shadow: 0.95}, model_version="cand-1"),
+    )
 
 
 def test_shadow_decisions_never_alarm_and_disagreements_go_to_review(
@@ -175,8 +213,11 @@ def test_a_shadow_assignment_reaches_the_robot_on_connect(
 ):
     engineer = make_account(Role.ENGINEER)
     v1 = register(trained_model_dir)
-    response = client.post(f"/api/models/{v1}/shadow", headers=engineer.headers,
-                           json={"scope": "robot", "target": "robot-b"})  # fmt: skip
+    response = client.post(
+        f"/api/models/{v1}/shadow",
+        headers=engineer.headers,
+        json={"scope": "robot", "target": "robot-b"},
+    )
     assert response.status_code == 201 and response.json()["shadow"] is True
     with session_factory() as session:
         robot = session.get(Robot, "robot-b")
@@ -211,37 +252,72 @@ def test_withdrawing_a_shadow_deployment_tells_the_connected_robot_to_stop_it(
         assert api.post(f"/api/deployments/{shadow['id']}/rollback", json={}).status_code == 200
         stop = json.loads(ws.recv(timeout=10))
     assert (stop["type"], stop["version"], stop["shadow"], stop["stop_shadow"]) == (
-        "assign_model", "rf-test-1", False, True
-    )  # fmt: skip
+        "assign_model",
+        "rf-test-1",
+        False,
+        True,
+    )
 
 
 def test_robot_agent_runs_a_shadow_model_that_never_alarms(
-    live_server, make_account, fleet, urfd_db, register, trained_model_dir, tmp_path,
-    session_factory, factory, worker_settings,
-):  # fmt: skip
+    live_server,
+    make_account,
+    fleet,
+    urfd_db,
+    register,
+    trained_model_dir,
+    tmp_path,
+    session_factory,
+    factory,
+    worker_settings,
+):
     """Production: a model that cannot alarm within the short transport (10 s delay). Shadow: the
     same graph at threshold 0, which calls every frame Emergency. Only the shadow disagrees."""
     engineer = make_account(Role.ENGINEER)
     quiet = derive_model(trained_model_dir, tmp_path / "quiet", "quiet-1", delay_ms=10_000)
-    eager = derive_model(trained_model_dir, tmp_path / "eager", "eager-1", threshold=0.0,
-                         delay_ms=0)  # fmt: skip
+    eager = derive_model(
+        trained_model_dir, tmp_path / "eager", "eager-1", threshold=0.0, delay_ms=0
+    )
     production, candidate = register(quiet), register(eager)
     with transaction(session_factory) as session:  # what the robot already runs
         session.get(Robot, "robot-a").assigned_model_id = production
     api = httpx.Client(base_url=f"http://{live_server}", headers=engineer.headers, timeout=10)
-    shadow = api.post(f"/api/models/{candidate}/shadow",
-                      json={"scope": "robot", "target": "robot-a"})  # fmt: skip
+    shadow = api.post(
+        f"/api/models/{candidate}/shadow", json={"scope": "robot", "target": "robot-a"}
+    )
     assert shadow.status_code == 201, shadow.text
     tokens = tmp_path / "tokens.json"
     tokens.write_text(json.dumps({"robot-a": ROBOT_TOKEN}))
     agent = subprocess.run(
-        [sys.executable, "-m", "robot_agent.cli", "simulate", "--backend",
-         f"ws://{live_server}/ws/robot", "--robots", "1", "--tokens-file", str(tokens),
-         "--model-dir", str(quiet), "--models-dir", str(tmp_path / "models"),
-         "--outbox-dir", str(tmp_path / "outbox"), "--transports", "1", "--duration-s", "6",
-         "--speed", "2"],
-        cwd=REPO, capture_output=True, text=True, timeout=120,
-    )  # fmt: skip
+        [
+            sys.executable,
+            "-m",
+            "robot_agent.cli",
+            "simulate",
+            "--backend",
+            f"ws://{live_server}/ws/robot",
+            "--robots",
+            "1",
+            "--tokens-file",
+            str(tokens),
+            "--model-dir",
+            str(quiet),
+            "--models-dir",
+            str(tmp_path / "models"),
+            "--outbox-dir",
+            str(tmp_path / "outbox"),
+            "--transports",
+            "1",
+            "--duration-s",
+            "6",
+            "--speed",
+            "2",
+        ],
+        cwd=REPO,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert agent.returncode == 0, agent.stderr
     with session_factory() as session:
         frames = session.scalars(

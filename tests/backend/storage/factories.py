@@ -32,10 +32,16 @@ CUTOFF_DAY = (NOW - 30 * DAY_S) // DAY_S * DAY_S
 
 
 def policy_settings(**changes) -> SimpleNamespace:
-    values = dict(retention_days=30, retention_alarm_before_s=60, retention_alarm_after_s=30,
-                  retention_downsample_fps=0, retention_downsample_days=60,
-                  retention_chunk_rows=50, retention_chunk_pause_ms=0,
-                  partitions_ahead_days=2)  # fmt: skip
+    values = dict(
+        retention_days=30,
+        retention_alarm_before_s=60,
+        retention_alarm_after_s=30,
+        retention_downsample_fps=0,
+        retention_downsample_days=60,
+        retention_chunk_rows=50,
+        retention_chunk_pause_ms=0,
+        partitions_ahead_days=2,
+    )
     values.update(changes)
     return SimpleNamespace(**values)
 
@@ -58,20 +64,40 @@ def robot_video(
 ) -> Video:
     if robot_id is not None:
         robot(session, robot_id)
-    video = Video(name=name, source="robot" if robot_id else "urfd", mode="walking", fps=fps,
-                  robot_id=robot_id, split=split, frame_count=len(times))  # fmt: skip
+    video = Video(
+        name=name,
+        source="robot" if robot_id else "urfd",
+        mode="walking",
+        fps=fps,
+        robot_id=robot_id,
+        split=split,
+        frame_count=len(times),
+    )
     session.add(video)
     session.flush()
     rng = np.random.default_rng(abs(hash(name)) % 2**32)
     rows = []
     for i, ts in enumerate(times):
         rows.append(
-            (video.id, i, ts, robot_id, None if robot_id is None else first_seq + i,
-             encode_keypoints(rng.normal(size=(25, 3)).astype(np.float32)),
-             encode_depth(rng.uniform(0.5, 4, 25).astype(np.float32)) if i % 3 else None,
-             encode_floor(rng.normal(size=3).astype(np.float32)), "normal",
-             '{"normal": 0.9, "emergency": 0.1}', "m-1", 0.5, 300, None, None, None)
-        )  # fmt: skip
+            (
+                video.id,
+                i,
+                ts,
+                robot_id,
+                None if robot_id is None else first_seq + i,
+                encode_keypoints(rng.normal(size=(25, 3)).astype(np.float32)),
+                encode_depth(rng.uniform(0.5, 4, 25).astype(np.float32)) if i % 3 else None,
+                encode_floor(rng.normal(size=3).astype(np.float32)),
+                "normal",
+                '{"normal": 0.9, "emergency": 0.1}',
+                "m-1",
+                0.5,
+                300,
+                None,
+                None,
+                None,
+            )
+        )
     insert_frame_rows(session, rows)
     if times:
         video.cover(min(times), max(times))  # as every writer of frames does
@@ -79,25 +105,46 @@ def robot_video(
 
 
 def alarm(session: Session, robot_id: str, first_ts: float, last_ts: float) -> Alarm:
-    row = Alarm(kind=AlarmKind.EMERGENCY, priority=PRIORITY_OF_KIND[AlarmKind.EMERGENCY],
-                robot_id=robot_id, ward="ward-a", first_frame_ts=first_ts, last_frame_ts=last_ts,
-                state="resolved")  # fmt: skip
+    row = Alarm(
+        kind=AlarmKind.EMERGENCY,
+        priority=PRIORITY_OF_KIND[AlarmKind.EMERGENCY],
+        robot_id=robot_id,
+        ward="ward-a",
+        first_frame_ts=first_ts,
+        last_frame_ts=last_ts,
+        state="resolved",
+    )
     session.add(row)
     session.flush()
     return row
 
 
 def label(session: Session, video: Video, first: int, last: int, key: str = "walking") -> None:
-    session.add(AnnotationSegment(video_id=video.id, first_frame=first, last_frame=last,
-                                  label_key=key, taxonomy_version=1,
-                                  status=SegmentStatus.ACCEPTED))  # fmt: skip
+    session.add(
+        AnnotationSegment(
+            video_id=video.id,
+            first_frame=first,
+            last_frame=last,
+            label_key=key,
+            taxonomy_version=1,
+            status=SegmentStatus.ACCEPTED,
+        )
+    )
     session.flush()
 
 
 def model_trained_on(session: Session, names: list[str]) -> None:
-    session.add(ModelVersion(version="m-lineage", mode="walking", kind="rf", file_path="x",
-                             sha256="0" * 64, manifest={},
-                             lineage={"training_videos": names}))  # fmt: skip
+    session.add(
+        ModelVersion(
+            version="m-lineage",
+            mode="walking",
+            kind="rf",
+            file_path="x",
+            sha256="0" * 64,
+            manifest={},
+            lineage={"training_videos": names},
+        )
+    )
     session.flush()
 
 
@@ -107,12 +154,28 @@ def frame_rows(session: Session) -> dict[int, tuple]:
         r.id: (r.video_id, r.robot_id, r.ts, r.index)
         for r in session.execute(
             select(Frame.id, Frame.video_id, Frame.robot_id, Frame.ts, Frame.index)
-        )  # fmt: skip
+        )
     }
 
 
 def live_row(video_id: int, robot_id: str, seq: int, ts: float) -> tuple:
     """One frame row as the ingest writes it (backend.ingest.bulk.FRAME_COLUMNS)."""
     keypoints = encode_keypoints(np.full((25, 3), seq % 97, np.float32))
-    return (video_id, seq, ts, robot_id, seq, keypoints, None, None, "normal",
-            '{"normal": 1.0}', "m-1", 0.5, 300, None, None, None)  # fmt: skip
+    return (
+        video_id,
+        seq,
+        ts,
+        robot_id,
+        seq,
+        keypoints,
+        None,
+        None,
+        "normal",
+        '{"normal": 1.0}',
+        "m-1",
+        0.5,
+        300,
+        None,
+        None,
+        None,
+    )

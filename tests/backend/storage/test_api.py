@@ -34,8 +34,12 @@ def test_storage_page_api_and_metrics(client, make_account, session_factory, set
 
     job = client.post("/api/storage/retention", json={"dry_run": True}, headers=admin.headers)
     assert job.status_code == 201 and job.json()["kind"] == "retention"
-    worker = Worker(WorkerSettings(database_url=settings.database_url), factory=session_factory,
-                    handlers={"retention": retention.run}, sweeps=[])  # fmt: skip
+    worker = Worker(
+        WorkerSettings(database_url=settings.database_url),
+        factory=session_factory,
+        handlers={"retention": retention.run},
+        sweeps=[],
+    )
     assert worker.run_once() == job.json()["id"]
     done = client.get(f"/api/jobs/{job.json()['id']}", headers=admin.headers).json()
     assert done["status"] == "succeeded" and done["progress"] == 1.0

@@ -20,8 +20,9 @@ COLUMNS = [c.key for c in Frame.__table__.columns if c.key not in ("id", "video_
 
 
 def stored(session, video_id: int) -> list[tuple]:
-    frames = session.scalars(select(Frame).where(Frame.video_id == video_id)
-                             .order_by(Frame.index)).all()  # fmt: skip
+    frames = session.scalars(
+        select(Frame).where(Frame.video_id == video_id).order_by(Frame.index)
+    ).all()
     return [tuple(getattr(fr, c) for c in COLUMNS) for fr in frames]
 
 
@@ -31,8 +32,9 @@ def test_parquet_round_trip_is_bit_identical(database_url, session_factory, tmp_
             session, "r1-transport", "r1", [f.NOW - 90 + i / 7 for i in range(40)]
         )
         f.label(session, video, 5, 14, "falling")
-        frame = session.scalars(select(Frame).where(Frame.video_id == video.id,
-                                                    Frame.index == 3)).one()  # fmt: skip
+        frame = session.scalars(
+            select(Frame).where(Frame.video_id == video.id, Frame.index == 3)
+        ).one()
         frame.scores = {"emergency": 0.1 + 0.2, "normal": 1 / 3}  # floats that print long
         frame.shadow_decision, frame.shadow_scores = "emergency", {"emergency": 0.7}
         frame.threshold = 0.123456789012345
@@ -70,8 +72,9 @@ def test_parquet_round_trip_is_bit_identical(database_url, session_factory, tmp_
     assert again.sha256 == made.sha256
 
 
-def test_import_refuses_a_file_that_does_not_match_its_sha256(database_url, session_factory,
-                                                              tmp_path):  # fmt: skip
+def test_import_refuses_a_file_that_does_not_match_its_sha256(
+    database_url, session_factory, tmp_path
+):
     with transaction(session_factory) as session:
         video = f.robot_video(session, "r2-transport", "r2", [f.NOW + i for i in range(3)])
         made = archive.export_video(session, video, tmp_path)

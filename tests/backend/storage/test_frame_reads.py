@@ -82,8 +82,9 @@ def test_every_writer_widens_the_range(session_factory):
 def test_json_frames_are_the_values_of_each_frame_decoded(session_factory):
     with transaction(session_factory) as session:
         video = f.robot_video(session, "r1-t", "r1", [f.NOW + i / 10 for i in range(7)])
-        frame = session.scalars(select(Frame).where(Frame.video_id == video.id,
-                                                    Frame.index == 2)).one()  # fmt: skip
+        frame = session.scalars(
+            select(Frame).where(Frame.video_id == video.id, Frame.index == 2)
+        ).one()
         frame.depth = np.full(25, np.nan, np.float32).tobytes()  # every depth unknown
         frame.floor = None
         session.flush()

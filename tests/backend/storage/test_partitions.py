@@ -48,7 +48,7 @@ def test_partitions_created_ahead_midnight_default_and_retention_swap(pg_factory
                 (old - 3) * DAY_S + 5,  # no partition for that day yet
                 1.0e9,
             ],
-        )  # fmt: skip  a robot clock stepped back to 2001
+        )  # a robot clock stepped back to 2001
         f.alarm(session, "r1", midnight + 1.0, midnight + 1.0)  # keeps midnight-59 .. +31
         f.robot_video(session, "r1-now", "r1", [f.NOW - 10, f.NOW], first_seq=100)
         f.robot_video(session, "urfd/fall-01", None, [0.0, 1 / 30])
@@ -112,12 +112,22 @@ def test_retention_trims_attached_partitions_without_blocking_an_insert(pg_facto
 
     def hook(connection, name: str) -> None:
         pid = connection.execute(text("SELECT pg_backend_pid()")).scalar_one()
-        seen["parent_locks"] = set(connection.execute(text(
-            "SELECT mode FROM pg_locks WHERE pid = :pid AND relation = 'frames'::regclass"),
-            {"pid": pid}).scalars())  # fmt: skip
-        seen["partition_locks"] = set(connection.execute(text(
-            f"SELECT mode FROM pg_locks WHERE pid = :pid AND relation = '{name}'::regclass"),
-            {"pid": pid}).scalars())  # fmt: skip
+        seen["parent_locks"] = set(
+            connection.execute(
+                text(
+                    "SELECT mode FROM pg_locks WHERE pid = :pid AND relation = 'frames'::regclass"
+                ),
+                {"pid": pid},
+            ).scalars()
+        )
+        seen["partition_locks"] = set(
+            connection.execute(
+                text(
+                    f"SELECT mode FROM pg_locks WHERE pid = :pid AND relation = '{name}'::regclass"
+                ),
+                {"pid": pid},
+            ).scalars()
+        )
         seen["attached"] = name in set(partitions.day_partitions(connection).values())
         with psycopg.connect(url, autocommit=True) as other:
             other.execute("SET lock_timeout = '2s'")

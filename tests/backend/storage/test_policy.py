@@ -33,9 +33,12 @@ def crafted(session):
     f.model_trained_on(session, ["r2-lineage"])
     # Midnight: the last tenth of a second of the day before the cutoff's day goes, the first
     # frame of the cutoff's day (exactly midnight) and the rest of that day stay.
-    midnight = f.robot_video(session, "r3-midnight", "r3",
-                             [f.CUTOFF_DAY - 0.1, f.CUTOFF_DAY, f.CUTOFF_DAY + 0.1,
-                              f.CUTOFF_DAY + 3600])  # fmt: skip
+    midnight = f.robot_video(
+        session,
+        "r3-midnight",
+        "r3",
+        [f.CUTOFF_DAY - 0.1, f.CUTOFF_DAY, f.CUTOFF_DAY + 0.1, f.CUTOFF_DAY + 3600],
+    )
     recent = f.robot_video(session, "r3-recent", "r3", seconds(f.NOW - 3600, 20), first_seq=100)
     imported = f.robot_video(session, "urfd/adl-01", None, seconds(0.0, 30, 1 / 30))
     return plain, labelled, split, lineage, midnight, recent, imported
@@ -83,7 +86,9 @@ def test_dry_run_predicts_the_run_and_every_kept_frame_stays(database_url, sessi
         runs = session.scalars(select(RetentionRun).order_by(RetentionRun.id)).all()
     assert set(after) == expected_kept  # row by row
     assert [(r.dry_run, r.status, r.dropped_frames) for r in runs] == [
-        (True, "done", dropped), (False, "done", dropped)]  # fmt: skip
+        (True, "done", dropped),
+        (False, "done", dropped),
+    ]
     assert (
         runs[1].dropped_bytes > 0 and sum(d["dropped"] for d in runs[1].by_day.values()) == dropped
     )
@@ -115,21 +120,47 @@ def test_vectorised_reasons_equal_row_by_row_on_crafted_facts():
     """`PolicyFacts.reasons` (numpy, what the runs use) gives exactly `reason` for every frame:
     alarm windows (edges, merged, another robot's), labelled / split / lineage videos, imported
     frames, the cutoff's midnight, and the downsampled copy's step and horizon."""
-    rule = RetentionPolicy(days=30, alarm_before_s=60, alarm_after_s=30, downsample_fps=1.0,
-                           downsample_days=5)  # fmt: skip
+    rule = RetentionPolicy(
+        days=30, alarm_before_s=60, alarm_after_s=30, downsample_fps=1.0, downsample_days=5
+    )
     now = f.NOW
     windows = policy.alarm_intervals(
-        [("r1", OLD_DAY + 100, OLD_DAY + 110, 0.0), ("r1", OLD_DAY + 150, None, OLD_DAY + 150),
-         ("r1", None, None, OLD_DAY + 5000), ("r2", f.CUTOFF_DAY - 10, f.CUTOFF_DAY - 5, 0.0)],
+        [
+            ("r1", OLD_DAY + 100, OLD_DAY + 110, 0.0),
+            ("r1", OLD_DAY + 150, None, OLD_DAY + 150),
+            ("r1", None, None, OLD_DAY + 5000),
+            ("r2", f.CUTOFF_DAY - 10, f.CUTOFF_DAY - 5, 0.0),
+        ],
         rule,
-    )  # fmt: skip
-    facts = policy.PolicyFacts(rule, now, {7: policy.LABELLED, 8: policy.SPLIT, 9: policy.LINEAGE},
-                               windows, {1: 10, 2: 3, 7: 10})  # fmt: skip
+    )
+    facts = policy.PolicyFacts(
+        rule,
+        now,
+        {7: policy.LABELLED, 8: policy.SPLIT, 9: policy.LINEAGE},
+        windows,
+        {1: 10, 2: 3, 7: 10},
+    )
     cutoff = facts.cutoff
-    edges = [OLD_DAY + 40 - 1e-9, OLD_DAY + 40, OLD_DAY + 140, OLD_DAY + 180, OLD_DAY + 180.001,
-             OLD_DAY + 4940, OLD_DAY + 5030, OLD_DAY + 5030.5, cutoff - 0.1, cutoff - 1e-6,
-             cutoff, cutoff + 0.1, cutoff - 70, cutoff - 75, cutoff - 35,
-             rule.downsample_until(now) - 0.1, rule.downsample_until(now), now]  # fmt: skip
+    edges = [
+        OLD_DAY + 40 - 1e-9,
+        OLD_DAY + 40,
+        OLD_DAY + 140,
+        OLD_DAY + 180,
+        OLD_DAY + 180.001,
+        OLD_DAY + 4940,
+        OLD_DAY + 5030,
+        OLD_DAY + 5030.5,
+        cutoff - 0.1,
+        cutoff - 1e-6,
+        cutoff,
+        cutoff + 0.1,
+        cutoff - 70,
+        cutoff - 75,
+        cutoff - 35,
+        rule.downsample_until(now) - 0.1,
+        rule.downsample_until(now),
+        now,
+    ]
     rng = np.random.default_rng(3)
     times = edges + list(rng.uniform(OLD_DAY - 7 * DAY_S, now, 3000))
     times += list(OLD_DAY + rng.uniform(0, 6000, 2000))  # dense around r1's alarms

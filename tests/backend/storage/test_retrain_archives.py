@@ -25,8 +25,14 @@ def test_restored_archive_frames_outlive_the_step(database_url, session_factory,
         session.execute(delete(Frame).where(Frame.video_id == video_id))
         session.execute(delete(AnnotationSegment).where(AnnotationSegment.video_id == video_id))
 
-    context = JobContext(job_id=1, params={}, created_by_id=None, factory=session_factory,
-                         settings=WorkerSettings(), worker_id="test")  # fmt: skip
+    context = JobContext(
+        job_id=1,
+        params={},
+        created_by_id=None,
+        factory=session_factory,
+        settings=WorkerSettings(),
+        worker_id="test",
+    )
     with context.write() as session:
         assert restore_archives(session, [archive_id]) == [video_id]
     # A new session sees them: before the fix the import ran in a read session and vanished.

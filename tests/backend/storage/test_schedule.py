@@ -16,8 +16,9 @@ from worker.settings import WorkerSettings
 
 def retention_jobs(factory) -> list[Job]:
     with transaction(factory) as session:
-        return session.scalars(select(Job).where(Job.kind == JobKind.RETENTION)
-                               .order_by(Job.id)).all()  # fmt: skip
+        return session.scalars(
+            select(Job).where(Job.kind == JobKind.RETENTION).order_by(Job.id)
+        ).all()
 
 
 def test_retention_is_scheduled_once_per_interval(database_url, session_factory):
@@ -30,8 +31,9 @@ def test_retention_is_scheduled_once_per_interval(database_url, session_factory)
         job = session.get(Job, jobs[0].id)
         job.status = JobStatus.SUCCEEDED
         job.created_at = datetime.now(UTC) - timedelta(hours=23)
-        session.add(Job(kind=JobKind.RETENTION, status=JobStatus.SUCCEEDED,
-                        params={"dry_run": True}))  # fmt: skip
+        session.add(
+            Job(kind=JobKind.RETENTION, status=JobStatus.SUCCEEDED, params={"dry_run": True})
+        )
     schedule_retention(session_factory, settings)
     assert len(retention_jobs(session_factory)) == 2  # not due yet (the dry run is not a run)
     with transaction(session_factory) as session:

@@ -90,8 +90,9 @@ def test_chunked_retention_racing_an_ingest_loses_nothing(tmp_path, monkeypatch)
     writer.start()
     try:
         # The first chunk is far too large for a 1 ms hold: the next ones shrink.
-        settings = f.policy_settings(retention_chunk_rows=1000, retention_chunk_pause_ms=1,
-                                     retention_chunk_hold_ms=1)  # fmt: skip
+        settings = f.policy_settings(
+            retention_chunk_rows=1000, retention_chunk_pause_ms=1, retention_chunk_hold_ms=1
+        )
         result = run_retention(factory, settings, now=f.NOW)
     finally:
         stop.set()

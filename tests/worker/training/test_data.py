@@ -34,11 +34,17 @@ class FeatureRecorder:
 
     def __init__(self) -> None:
         self.manifest = ModelManifest(
-            version="feature-recorder", mode=TransportMode.WALKING,
-            classes=[Decision.NORMAL, Decision.EMERGENCY], feature_version=FEATURE_VERSION,
-            feature_set="full", taxonomy_version=1, threshold=0.5, delay_ms=0,
-            training_data_sha256="0" * 64, sha256="0" * 64,
-        )  # fmt: skip
+            version="feature-recorder",
+            mode=TransportMode.WALKING,
+            classes=[Decision.NORMAL, Decision.EMERGENCY],
+            feature_version=FEATURE_VERSION,
+            feature_set="full",
+            taxonomy_version=1,
+            threshold=0.5,
+            delay_ms=0,
+            training_data_sha256="0" * 64,
+            sha256="0" * 64,
+        )
         self.sha256 = "0" * 64
         self.rows: list[np.ndarray] = []
 
