@@ -5,16 +5,15 @@ from fastapi import APIRouter, HTTPException, status
 
 from backend.deps import CurrentUser, SessionDep, SettingsDep
 from backend.jobs import params as job_params
-from backend.jobs import queue
+from backend.jobs import queries, queue
+from backend.jobs.schemas import JobDetail, JobIn, JobOut
 from backend.models.jobs import Job, JobStatus
-from backend.registry import queries
-from backend.registry.schemas import JobDetail, JobIn, JobOut
 
 router = APIRouter(prefix="/api", tags=["jobs"])
 
 
 def _job(session, job_id: int) -> Job:
-    job = session.get(Job, job_id)
+    job = queries.job_by_id(session, job_id)
     if job is None:
         raise HTTPException(status.HTTP_404_NOT_FOUND, f"job {job_id} not found")
     return job

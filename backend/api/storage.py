@@ -4,7 +4,7 @@ archives (Parquet) and importing an archive again; queuing a retention run (dry 
 from fastapi import APIRouter, HTTPException, status
 
 from backend.deps import CurrentUser, DbId, SessionDep, SettingsDep
-from backend.registry.schemas import JobOut
+from backend.jobs.schemas import JobOut
 from backend.services import ServicesDep
 from backend.storage import archive, queries, service
 from backend.storage.schemas import ArchiveIn, ArchiveOut, RetentionIn, StorageSummary

@@ -8,7 +8,6 @@ from sqlalchemy import ColumnElement, func, select
 from sqlalchemy.orm import Session
 
 from backend.models.alarms import Alarm, AlarmKind, AlarmState
-from backend.models.jobs import Job, JobStatus
 from backend.models.registry import Deployment, DeploymentStatus, ModelVersion
 from backend.models.robots import Robot
 from backend.registry import capability
@@ -191,13 +190,6 @@ def in_sync(target: ModelVersion | None, robot: Robot) -> bool:
         robot.running_model_version == target.version
         and robot.running_model_sha256 == target.sha256
     )
-
-
-def list_jobs(session: Session, status: JobStatus | None = None, limit: int = 100) -> list[Job]:
-    query = select(Job).order_by(Job.id.desc()).limit(min(limit, 500))
-    if status is not None:
-        query = query.where(Job.status == status)
-    return list(session.scalars(query))
 
 
 COMPARED = (

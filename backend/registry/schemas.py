@@ -2,7 +2,6 @@ from datetime import datetime
 
 from pydantic import BaseModel, ConfigDict, Field
 
-from backend.models.jobs import JobKind, JobStatus
 from backend.models.registry import DeploymentScope, DeploymentStatus, ModelStatus
 from vigil.classes import BehaviourState, TransportMode
 from vigil.inputs import InputName
@@ -133,32 +132,3 @@ class FleetRobot(BaseModel):
     missing_inputs: list[InputName] = Field(
         description="with ?model_id=: what it lacks for that model (else empty)"
     )
-
-
-class JobIn(BaseModel):
-    kind: JobKind
-    params: dict = Field(default_factory=dict)
-
-
-class JobOut(BaseModel):
-    model_config = ConfigDict(from_attributes=True)
-
-    id: int
-    kind: JobKind
-    status: JobStatus
-    params: dict
-    progress: float
-    message: str
-    result: dict | None
-    cancel_requested: bool
-    worker_id: str | None
-    attempts: int
-    created_by_id: int | None
-    created_at: datetime
-    started_at: datetime | None
-    finished_at: datetime | None
-    heartbeat_at: datetime | None
-
-
-class JobDetail(JobOut):
-    log: str
