@@ -247,14 +247,14 @@ class RobotLink:
             for message in messages:
                 if message.seq is None:  # a transport message: flush the frames before it
                     if frames:
-                        await socket.send(_batch(frames))
+                        await socket.send(protocol.frame_batch_json(frames))
                         frames = []
                     await socket.send(message.text)
                 else:
                     frames.append(message.text)
                 cursor = message.row_id
             if frames:
-                await socket.send(_batch(frames))
+                await socket.send(protocol.frame_batch_json(frames))
             self.sent_row, self.sent_at = cursor, time.monotonic()
 
     async def _receive_loop(self, socket: ClientConnection) -> None:
@@ -296,7 +296,3 @@ class RobotLink:
             self._heartbeat_now.clear()
             with contextlib.suppress(TimeoutError):
                 await asyncio.wait_for(self._heartbeat_now.wait(), self.heartbeat_s)
-
-
-def _batch(frames: list[str]) -> str:
-    return '{"type":"frames","frames":[' + ",".join(frames) + "]}"

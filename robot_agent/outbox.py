@@ -30,6 +30,8 @@ from dataclasses import dataclass
 from enum import IntEnum
 from pathlib import Path
 
+from vigil.protocol import frame_json
+
 log = logging.getLogger(__name__)
 
 SCHEMA = """
@@ -38,7 +40,7 @@ CREATE TABLE IF NOT EXISTS outbox (
     seq INTEGER UNIQUE,            -- frames only
     after_seq INTEGER NOT NULL,    -- control messages: the last frame seq queued before them
     priority INTEGER NOT NULL,     -- Priority: which rows the disk policy may drop first
-    body TEXT NOT NULL,            -- JSON; a frame's body is its FrameRecord without "seq"
+    body TEXT NOT NULL,            -- JSON; a frame's: vigil.protocol.frame_body_json
     created REAL NOT NULL
 );
 CREATE INDEX IF NOT EXISTS outbox_priority ON outbox (priority, id);
@@ -59,7 +61,7 @@ class Priority(IntEnum):
 class PendingMessage:
     row_id: int
     seq: int | None  # None for transport messages
-    text: str  # a frame as a FrameRecord JSON object; a transport message as a whole message
+    text: str  # a frame as FrameRecord JSON (protocol.frame_json); a transport message whole
 
 
 @dataclass(frozen=True, slots=True)
@@ -160,7 +162,7 @@ class Outbox:
 
     # --- writing ---------------------------------------------------------------------------
     def add_frame(self, body: str, priority: Priority) -> int:
-        """Queue a frame (FrameRecord JSON without "seq"); returns its sequence number."""
+        """Queue a frame (protocol.frame_body_json: no "seq"); returns its sequence number."""
         seq = self._next_seq
         self._db.execute("BEGIN")
         try:
@@ -308,7 +310,7 @@ class Outbox:
             "SELECT id, seq, body FROM outbox WHERE id > ? ORDER BY id LIMIT ?", (after_row, limit)
         ).fetchall()
         return [
-            PendingMessage(row_id, seq, body if seq is None else f'{{"seq":{seq},{body[1:]}')
+            PendingMessage(row_id, seq, body if seq is None else frame_json(seq, body))
             for row_id, seq, body in rows
         ]
 

@@ -10,7 +10,6 @@ the frames, so the nurse board shows it.
 
 from __future__ import annotations
 
-import json
 import logging
 import math
 import time
@@ -26,7 +25,13 @@ from vigil.depth import sample_depth
 from vigil.detector import DepthSampler, DetectionStatusChange, Detector, PatientFrames
 from vigil.floor import CameraMount
 from vigil.observation import Observation
-from vigil.protocol import DetectionStatus, FrameRecord, TransportEnd, TransportStart
+from vigil.protocol import (
+    DetectionStatus,
+    FrameRecord,
+    TransportEnd,
+    TransportStart,
+    frame_body_json,
+)
 from vigil.runtime import Classification, FrameClassifier
 from vigil.skeleton import SkeletonFrame
 from vigil.taxonomy import DEFAULT_TAXONOMY
@@ -441,5 +446,5 @@ class Pipeline:
                 "model_version": shadow.model_version,
             }
         # Validate here, not at the backend: a frame the backend refused would block the outbox.
-        FrameRecord.model_validate({"seq": 0, **fields})
-        return json.dumps(fields, allow_nan=False, separators=(",", ":"))
+        # seq 0 stands in: the body leaves it out and the outbox numbers the frame.
+        return frame_body_json(FrameRecord.model_validate({"seq": 0, **fields}))

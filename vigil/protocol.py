@@ -12,6 +12,7 @@ strictly: a number sent as a string ("seq": "12") is refused, not converted.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import Annotated, Literal
 
 from pydantic import (
@@ -339,9 +340,47 @@ def alarm_resolved(
 
 def ack_json(seq: int) -> str:
     """`Ack(seq=seq)` as JSON, for the hot path (one per committed batch of every robot):
-    the same text `Ack.model_dump_json()` gives (tests/vigil/test_protocol.py compares them),
-    without building and validating a model each time."""
+    the same text `Ack.model_dump_json()` gives (tests/vigil/test_protocol_builders.py compares
+    them), without building and validating a model each time."""
     return f'{{"type":"ack","seq":{int(seq)}}}'
+
+
+# --- the robot's frames on the wire -------------------------------------------------------------
+# A frame is serialised once, when it is classified, without its sequence number: the robot's
+# outbox stores that body and numbers it (frame_json) when it is sent, again after a
+# reconnect or a renumbering, and frames travel in batches (frame_batch_json). The three texts
+# are the models' own JSON (tests/vigil/test_protocol_builders.py compares them), without
+# building a FrameBatch of FrameRecords for every batch sent.
+
+_WITHOUT_SEQ = frozenset({"seq"})
+_FRAMES_OPEN = '{"type":"frames","frames":['
+
+
+def frame_body_json(frame: FrameRecord) -> str:
+    """`frame` as JSON without its "seq" (the outbox gives the number) and without the fields
+    that are None (their default): `frame.model_dump_json(exclude={"seq"}, exclude_none=True)`.
+    Always an object with at least "ts" and "keypoints"."""
+    return frame.model_dump_json(exclude=_WITHOUT_SEQ, exclude_none=True)
+
+
+def frame_json(seq: int, body: str) -> str:
+    """The frame `body` (frame_body_json: a JSON object without "seq") numbered `seq`: the
+    FrameRecord's JSON, "seq" first, as `FrameRecord.model_dump_json(exclude_none=True)`
+    writes it. The body is not parsed again (the hot path); it must be a non-empty object."""
+    if not body.startswith('{"'):
+        raise ValueError(f"a frame body is a non-empty JSON object, got {body[:40]!r}")
+    return f'{{"seq":{int(seq)},{body[1:]}'
+
+
+def frame_batch_json(frames: Sequence[str]) -> str:
+    """A `frames` message of frames already as FrameRecord JSON (frame_json), in order: the
+    same text as `FrameBatch(frames=...).model_dump_json(exclude_none=True)`. 1 to
+    MAX_FRAMES_PER_BATCH frames, as the backend accepts."""
+    if not 1 <= len(frames) <= MAX_FRAMES_PER_BATCH:
+        raise ValueError(
+            f"a frame batch holds 1 to {MAX_FRAMES_PER_BATCH} frames, got {len(frames)}"
+        )
+    return _FRAMES_OPEN + ",".join(frames) + "]}"
 
 
 ServerMessage = Annotated[

@@ -14,7 +14,14 @@ from robot_agent.sources.simulator import SimulatorSource
 from vigil.classes import TransportMode
 from vigil.floor import CameraMount
 from vigil.observation import Observation
-from vigil.protocol import FrameRecord
+from vigil.protocol import (
+    FrameBatch,
+    FrameRecord,
+    frame_batch_json,
+    frame_body_json,
+    frame_json,
+    parse_robot_message,
+)
 from vigil.runtime import FrameClassifier
 from vigil.skeleton import N_KEYPOINTS, SkeletonFrame
 
@@ -39,7 +46,12 @@ def model_dir(tmp_path):
 
 
 def frames_of(outbox: Outbox) -> list[dict]:
-    return [json.loads(m.text) for m in outbox.pending(limit=100_000) if m.seq is not None]
+    """The queued frames as the backend reads them (strictly, as FrameRecords), every field."""
+    return [
+        FrameRecord.model_validate_json(m.text, strict=True).model_dump(mode="json")
+        for m in outbox.pending(limit=100_000)
+        if m.seq is not None
+    ]
 
 
 def test_every_frame_carries_the_models_decision_version_threshold_and_delay(tmp_path, model_dir):
@@ -84,7 +96,7 @@ def test_without_a_model_generated_frames_carry_the_ground_truth_marked_as_such(
         pipeline.process(observation)
     frames = frames_of(outbox)
     assert {f["model_version"] for f in frames} == {GROUND_TRUTH_VERSION}
-    assert all(f.get("threshold") is None and f.get("delay_ms") is None for f in frames)
+    assert all(f["threshold"] is None and f["delay_ms"] is None for f in frames)
     assert "emergency" in {f["decision"] for f in frames}
 
 
@@ -100,7 +112,7 @@ def test_depth_is_sampled_from_the_depth_image_at_the_patients_keypoints(tmp_pat
     (frame,) = frames_of(outbox)
     assert frame["depth"][0] == pytest.approx(2.5)
     assert frame["depth"][5] is None
-    assert frame["decision"] is None and "model_version" not in frame
+    assert frame["decision"] is None and frame["model_version"] is None and frame["scores"] == {}
 
 
 def test_with_a_camera_mount_frames_carry_floor_measures_from_the_sampled_depth(tmp_path):
@@ -171,14 +183,45 @@ def test_a_shadow_model_decides_beside_the_model_and_travels_with_the_frame(tmp_
     for observation in observations[50:]:
         pipeline.process(observation)
     frames = frames_of(outbox)
-    assert all("shadow" not in f for f in frames[:50])
+    assert all(f["shadow"] is None for f in frames[:50])
     shadows = [f["shadow"] for f in frames[50:]]
     assert {s["model_version"] for s in shadows} == {"upright-candidate"}
     assert {f["model_version"] for f in frames} == {"upright-1"}  # the model still decides
     assert "emergency" in {s["decision"] for s in shadows}
     pipeline.set_shadow(None)
     pipeline.process(observations[-1])
-    assert "shadow" not in frames_of(outbox)[-1]
+    assert frames_of(outbox)[-1]["shadow"] is None
+
+
+def test_queued_frames_are_the_protocols_frames_and_go_out_as_its_batch(tmp_path, model_dir):
+    """The pipeline's frame bodies are vigil.protocol's (frame_body_json, None fields left out),
+    with and without a transport, model or shadow; numbered and batched by the protocol's
+    builders they are what the backend parses, strictly, into the same FrameRecords."""
+    outbox = Outbox(tmp_path / "o.sqlite")
+    pipeline = Pipeline(outbox, TransportMode.WALKING)
+    observations = list(FallSource())
+    pipeline.process(observations[0])  # no transport, no model: no decision
+    pipeline.swap_model(FrameClassifier.from_dir(model_dir))
+    pipeline.start_transport("t-ü-1", ts=1_700_000_000.0)
+    for observation in observations[1:40]:
+        pipeline.process(observation)
+    pipeline.set_shadow(FrameClassifier.from_dir(model_dir))
+    for observation in observations[40:80]:
+        pipeline.process(observation)
+    pending = [m for m in outbox.pending(limit=100_000) if m.seq is not None]
+    assert len(pending) == 80
+    records = [FrameRecord.model_validate_json(m.text, strict=True) for m in pending]
+    for message, record in zip(pending, records, strict=True):
+        assert message.text == frame_json(message.seq, frame_body_json(record))
+        assert record.seq == message.seq
+    bare = json.loads(pending[0].text)  # no transport, no decision: None fields left out
+    assert None not in bare.values() and not {"transport_id", "decision", "shadow"} & set(bare)
+    assert records[0].transport_id is None and records[0].decision is None
+    assert {r.transport_id for r in records[1:]} == {"t-ü-1"}
+    assert all(r.shadow is None for r in records[:40])
+    assert all(r.shadow is not None for r in records[40:])
+    batch = frame_batch_json([m.text for m in pending])
+    assert parse_robot_message(batch) == FrameBatch(frames=records)
 
 
 def _statuses(outbox: Outbox) -> list[dict]:
