@@ -167,6 +167,7 @@ async def start_services(settings: Settings) -> Services:
         effects,
         flush_ms=settings.ingest_flush_ms,
         flush_frames=settings.ingest_flush_frames,
+        max_flush_frames=settings.ingest_max_flush_frames,
         unstored_alarm_ms=settings.unstored_alarm_ms,
         storage_stall_s=settings.storage_stall_seconds,
         stall_actions=StallActions(

@@ -91,6 +91,12 @@ class Settings(StorageSettings):
         default=20, description="longest a received frame waits before its batch is committed"
     )
     ingest_flush_frames: int = Field(default=500, description="frames that force an early commit")
+    ingest_max_flush_frames: int = Field(
+        default=2000,
+        ge=1,
+        description="most frames (or frameless messages) one commit takes; the rest go in the "
+        "next, so a commit stays short however far behind the writer is",
+    )
     escalation_seconds: float = Field(
         default=60, description="an open Emergency not acknowledged in this time escalates"
     )

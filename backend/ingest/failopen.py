@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import itertools
 import logging
+from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
@@ -99,6 +100,9 @@ class FailOpen:
         self.unstored_alarm_s = unstored_alarm_s
         self.stall_s = stall_s
         self.unstored: dict[str, Unstored] = {}
+        # Not yet pushed, in arrival order: each tick looks only at those due, not at every
+        # unstored Emergency (thousands while a thousand robots' frames wait).
+        self._unpushed: deque[tuple[str, Unstored]] = deque()
         self.stalled: dict[str, dict] = {}  # robot id -> its pushed storage_stalled alarm
         self.write_started: float | None = None  # perf_counter when the running commit began
         self._transports: dict[str, tuple[str | None, str | None]] = {}  # id -> patient, location
@@ -134,6 +138,7 @@ class FailOpen:
                     delay_ms=frame.delay_ms,
                 )
                 entry = self.unstored[key] = Unstored(alarm, job.received)
+                self._unpushed.append((key, entry))
             alarm = entry.alarm
             alarm["decision_count"] += 1
             alarm["first_seq"] = min(alarm["first_seq"], frame.seq)
@@ -198,8 +203,10 @@ class FailOpen:
         (`waiting()`: robot id -> ward, called only while a write is blocked) whose frames wait
         on a blocked write."""
         out = []
-        for entry in self.unstored.values():
-            if not entry.pushed and now - entry.since >= self.unstored_alarm_s:
+        unpushed = self._unpushed
+        while unpushed and now - unpushed[0][1].since >= self.unstored_alarm_s:
+            key, entry = unpushed.popleft()
+            if self.unstored.get(key) is entry and not entry.pushed:
                 entry.pushed = True
                 alarm = entry.alarm
                 log.error(

@@ -115,6 +115,7 @@ class FrameWriter:
         effects: Effects,
         flush_ms: float = 50,
         flush_frames: int = 500,
+        max_flush_frames: int = 2_000,
         max_pending_frames: int = 20_000,
         unstored_alarm_ms: float = 300,
         storage_stall_s: float = 2.0,
@@ -125,6 +126,7 @@ class FrameWriter:
         self._effects = effects  # where alarms go: committed ones and those failing open
         self._flush_s = flush_ms / 1000
         self._flush_frames = flush_frames
+        self._max_flush_frames = max(max_flush_frames, 1)
         self._pending: list[Job] = []
         self._pending_frames = 0
         self._oldest: float | None = None
@@ -139,6 +141,8 @@ class FrameWriter:
         self._cache_born = 0.0
         self.fail_open = FailOpen(unstored_alarm_ms / 1000, storage_stall_s)
         self._inflight: list[Job] = []
+        self._scanned_write: list[Job] | None = None  # the blocked write _waiting_wards saw
+        self._scanned_pending = 0
         self._watch: asyncio.Task | None = None
         # Nurses' actions on alarms not yet stored, applied in the commit that stores them.
         self.stall_actions = stall_actions
@@ -178,7 +182,7 @@ class FrameWriter:
         self._task.cancel()
         with contextlib.suppress(asyncio.CancelledError):
             await self._task
-        if self._pending:
+        while self._pending:
             await self._flush()
 
     async def _run(self) -> None:
@@ -199,6 +203,8 @@ class FrameWriter:
                     await self._flush()
                 except Exception:  # never let the writer die: log, the robots will resend
                     log.exception("frame writer flush failed")
+                if self._pending:  # what one commit did not take goes in the next, at once
+                    self._arrived.set()
 
     # -- fail open ---------------------------------------------------------------------------
     WATCH_INTERVAL_S = 0.05
@@ -237,8 +243,15 @@ class FrameWriter:
     def _waiting_wards(self) -> dict[str, str | None]:
         """Robot id -> ward of every robot whose messages wait on storage (asked only while a
         write is blocked: with a thousand robots, scanning every queued message twenty times
-        a second took a seventh of the backend's CPU)."""
-        jobs = (*self._inflight, *self._pending)
+        a second took a seventh of the backend's CPU). While one write stays blocked the queue
+        only grows, and the robots returned before have their alarm: only the messages queued
+        since the last call are looked at."""
+        if self._scanned_write is not self._inflight:
+            self._scanned_write = self._inflight
+            jobs = [*self._inflight, *self._pending]
+        else:
+            jobs = self._pending[self._scanned_pending :]
+        self._scanned_pending = len(self._pending)
         return {job.link.robot_id: getattr(job.link, "ward", None) for job in jobs}
 
     def _poke_for_actions(self) -> None:
@@ -279,11 +292,29 @@ class FrameWriter:
         cache = self._cache
         return cache.transports.get(transport_id) if cache is not None else None
 
+    def _take(self) -> list[Job]:
+        """The oldest queued messages, up to max_flush_frames frames (a message without
+        frames, such as a hello, counts as one; at least one message).
+
+        A commit stays short however far behind the writer is (a thousand robots reconnecting
+        at once queue a hello, a transport start and frames each): a commit blocked past
+        storage_stall_seconds then means storage trouble, not one giant batch, and robots are
+        acknowledged as each part commits."""
+        taken = frames = cost = 0
+        for job in self._pending:
+            cost += max(job.frame_count, 1)
+            if taken and cost > self._max_flush_frames:
+                break
+            taken += 1
+            frames += job.frame_count
+        jobs, self._pending = self._pending[:taken], self._pending[taken:]
+        self._pending_frames -= frames
+        self._urgent = any(job.urgent for job in self._pending)
+        self._oldest = self._pending[0].received if self._pending else None
+        return jobs
+
     async def _flush(self) -> None:
-        jobs, self._pending = self._pending, []
-        self._pending_frames = 0
-        self._urgent = False
-        self._oldest = None
+        jobs = self._take()
         self._actions_due = False
         self._room.set()
         started = time.perf_counter()

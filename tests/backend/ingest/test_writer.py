@@ -1,0 +1,110 @@
+"""The frame writer commits a long queue in bounded parts (backend.ingest.writer)."""
+
+from __future__ import annotations
+
+import asyncio
+
+from backend.ingest.received import from_batch
+from backend.ingest.writer import FrameWriter
+from backend.metrics import Metrics
+from tests.backend.conftest import ROBOT_TOKEN
+from tests.backend.ingest.test_failopen import Link, emergency
+from tests.backend.test_first_alarm import frame
+from tests.backend.test_robot_transport_ownership import (
+    FakeLink,
+    ack,
+    connect,
+    send,
+    start,
+    stored,
+)
+from vigil.protocol import FrameBatch
+
+
+class NoEffects:
+    async def publish_alarm(self, alarm: dict) -> None:
+        pass
+
+    async def push_assignments(self, robot_ids: list[str]) -> None:
+        pass
+
+
+def test_a_long_queue_is_committed_in_parts_in_order_each_acknowledged(
+    client, robot, session_factory
+):
+    """Seven one-frame messages behind a writer that takes at most three frames a commit: the
+    first commit stores and acknowledges the oldest three only, the Emergency further back
+    still makes the rest urgent, and stopping commits the rest in two more parts, in order."""
+    with client.websocket_connect("/ws/robot") as ws:
+        connect(ws, robot, ROBOT_TOKEN)
+        start(ws, "t-q")
+        send(ws, [frame(0, transport="t-q")])
+        assert ack(ws) == 0
+
+    async def run() -> tuple[list[int], list[int], bool, list[int], list[int]]:
+        writer = FrameWriter(
+            session_factory, Metrics(), NoEffects(), flush_ms=60_000, max_flush_frames=3
+        )
+        link = FakeLink(robot)
+        for seq in range(1, 8):
+            decision = "emergency" if seq == 6 else "normal"
+            batch = from_batch(FrameBatch(frames=[frame(seq, decision, transport="t-q")]))
+            await writer.submit(link, batch, 0.0)
+        await writer._flush()
+        first_acks, first_stored = list(link.acks), stored(session_factory, robot)
+        still_urgent = writer._urgent
+        writer._task = asyncio.create_task(asyncio.sleep(0))  # as if started: stop() drains
+        await writer.stop()
+        return (
+            first_acks,
+            first_stored,
+            still_urgent,
+            list(link.acks),
+            stored(session_factory, robot),
+        )
+
+    first_acks, first_stored, still_urgent, acks, rows = asyncio.run(run())
+    assert first_acks == [3] and first_stored == [0, 1, 2, 3]
+    assert still_urgent  # the Emergency (seq 6) is still queued: the next commit waits for nothing
+    assert acks == [3, 6, 7]
+    assert rows == list(range(8))
+
+
+def test_a_message_larger_than_the_bound_is_still_committed_whole(client, robot, session_factory):
+    with client.websocket_connect("/ws/robot") as ws:
+        connect(ws, robot, ROBOT_TOKEN)
+        start(ws, "t-big")
+        send(ws, [frame(0, transport="t-big")])
+        assert ack(ws) == 0
+
+    async def run() -> list[int]:
+        writer = FrameWriter(session_factory, Metrics(), NoEffects(), max_flush_frames=2)
+        link = FakeLink(robot)
+        frames = [frame(seq, transport="t-big") for seq in range(1, 6)]
+        await writer.submit(link, from_batch(FrameBatch(frames=frames)), 0.0)
+        await writer._flush()
+        return list(link.acks)
+
+    assert asyncio.run(run()) == [5]
+    assert stored(session_factory, robot) == list(range(6))
+
+
+def test_robots_queued_during_a_blocked_write_each_get_one_storage_stalled_alarm(session_factory):
+    """While one write stays blocked, the watch raises storage_stalled for the robots whose
+    frames wait, and later for each robot that queues behind it, each once."""
+
+    async def run() -> list[list[str]]:
+        writer = FrameWriter(session_factory, Metrics(), NoEffects(), storage_stall_s=2.0)
+        writer._inflight = [emergency("r1", 1, 0.0)]
+        writer.fail_open.on_write_start(0.0)
+        seen = [writer.fail_open.due(2.5, writer._waiting_wards)]
+        await writer.submit(Link("r2"), emergency("r2", 1, 2.55).message, 2.55)
+        await writer.submit(Link("r1"), emergency("r1", 2, 2.56).message, 2.56)
+        seen.append(writer.fail_open.due(2.6, writer._waiting_wards))
+        seen.append(writer.fail_open.due(2.7, writer._waiting_wards))
+        return [
+            sorted(a["robot_id"] for a in pushed if a["kind"] == "storage_stalled")
+            for pushed in seen
+        ]
+
+    assert asyncio.run(run()) == [["r1"], ["r2"], []]
