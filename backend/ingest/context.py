@@ -7,7 +7,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from datetime import datetime
 
-from sqlalchemy import select
+from sqlalchemy import bindparam, select, update
 from sqlalchemy.orm import Session
 
 from backend.ingest.bulk import insert_frame_rows
@@ -24,6 +24,13 @@ ALARM_KIND_OF_DECISION = {Decision.EMERGENCY: AlarmKind.EMERGENCY, Decision.PAUS
 #: once. Pushing every fold sent a fallen patient's alarm to every board, through Redis, ten
 #: times a second per robot.
 UPDATE_PUSH_S = 1.0
+
+_robots = Robot.__table__
+_AGENT_UPDATE = (
+    update(_robots)
+    .where(_robots.c.id == bindparam("robot"))
+    .values(agent_version=bindparam("agent_version"), inputs=bindparam("inputs"))
+)
 
 
 def video_name(robot_id: str, transport_id: str | None) -> str:
@@ -45,6 +52,8 @@ class RobotState:
     running_model_changed: bool = False
     # A behaviour the robot reported in this flush: (state, since, reason), written back once.
     behaviour: tuple[str, datetime, str] | None = None
+    # What its hello in this flush said: (agent version, inputs), written back once.
+    agent: tuple[str | None, list[str] | None] | None = None
 
 
 @dataclass(slots=True)
@@ -203,6 +212,13 @@ class IngestContext:
             ("id", "behaviour_state", "behaviour_since", "behaviour_reason"),
             [(r.id, *r.behaviour) for r in robots if r.behaviour],
         )
+        hellos = [
+            {"robot": r.id, "agent_version": r.agent[0], "inputs": r.agent[1]}
+            for r in robots
+            if r.agent is not None
+        ]
+        if hellos:  # a JSON column: one executemany (a reconnect storm is one statement)
+            session.execute(_AGENT_UPDATE, hellos)
         videos = [
             v
             for v in self.videos.values()
@@ -237,6 +253,7 @@ class IngestContext:
             robot.last_seen_at = None
             robot.running_model_changed = False
             robot.behaviour = None
+            robot.agent = None
         for transport in transports:
             transport.last_frame_at = None
             transport.last_patient_at = None

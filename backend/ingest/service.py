@@ -9,7 +9,7 @@ from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
 
-from sqlalchemy import select, update
+from sqlalchemy import select
 from sqlalchemy.orm import Session
 
 from backend.alarms import service as alarms
@@ -50,20 +50,17 @@ def authenticate(session: Session, hello: Hello) -> Robot:
     return robot
 
 
-def apply_hello(session: Session, robot: RobotState, hello: Hello) -> None:
-    """What a robot says at every connect, stored by the frame writer after the welcome (the
-    running model and last seen through the writer's robot state, written back with it)."""
+def apply_hello(robot: RobotState, hello: Hello) -> None:
+    """What a robot says at every connect, stored by the frame writer after the welcome: all
+    of it through the writer's robot state, written back with the flush (one statement per
+    column group however many robots reconnect at once)."""
     robot.running_model_version = hello.running_model
     robot.running_model_sha256 = hello.running_sha256
     robot.running_model_changed = True
     robot.last_seen_at = utcnow()
     # Said at every connect; an agent that says nothing feeds keypoints only (None).
     inputs = list(hello.inputs) if hello.inputs is not None else None
-    session.execute(
-        update(Robot)
-        .where(Robot.id == robot.id)
-        .values(agent_version=hello.agent_version, inputs=inputs)
-    )
+    robot.agent = (hello.agent_version, inputs)
 
 
 def token_still_valid(session: Session, hello: Hello) -> bool:

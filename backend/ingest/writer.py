@@ -479,7 +479,7 @@ class FrameWriter:
             elif isinstance(message, TransportEnd):
                 service.end_transport(session, robot, message)
             elif isinstance(message, Hello):
-                service.apply_hello(session, robot, message)
+                service.apply_hello(robot, message)
             elif isinstance(message, Heartbeat):
                 robot.last_seen_at = service.utcnow()
                 if message.running_model is not None:

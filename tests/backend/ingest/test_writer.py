@@ -4,9 +4,14 @@ from __future__ import annotations
 
 import asyncio
 
+from sqlalchemy import select
+
+from backend.db import transaction
 from backend.ingest.received import from_batch
 from backend.ingest.writer import FrameWriter
 from backend.metrics import Metrics
+from backend.models import Robot
+from backend.security import hash_robot_token
 from tests.backend.conftest import ROBOT_TOKEN
 from tests.backend.ingest.test_failopen import Link, emergency
 from tests.backend.test_first_alarm import frame
@@ -18,7 +23,7 @@ from tests.backend.test_robot_transport_ownership import (
     start,
     stored,
 )
-from vigil.protocol import FrameBatch
+from vigil.protocol import FrameBatch, Hello
 
 
 class NoEffects:
@@ -108,3 +113,36 @@ def test_robots_queued_during_a_blocked_write_each_get_one_storage_stalled_alarm
         ]
 
     assert asyncio.run(run()) == [["r1"], ["r2"], []]
+
+
+def test_hellos_of_many_robots_in_one_commit_store_each_agent_and_inputs(session_factory):
+    """A reconnect storm's hellos are written back together: each robot keeps its own agent
+    version and inputs, none said stays None (keypoints only)."""
+    robot_ids = [f"storm-{i}" for i in range(5)]
+    with transaction(session_factory) as session:
+        for robot_id in robot_ids:
+            session.add(Robot(id=robot_id, ward="ward-a", token_hash=hash_robot_token("t")))
+
+    async def run() -> None:
+        writer = FrameWriter(session_factory, Metrics(), NoEffects())
+        for i, robot_id in enumerate(robot_ids):
+            inputs = ["keypoints", "depth"][: i % 3] or None
+            hello = Hello(robot_id=robot_id, token="t", agent_version=f"1.{i}", inputs=inputs)
+            await writer.submit(FakeLink(robot_id), hello, 0.0)
+        await writer._flush()
+
+    asyncio.run(run())
+    with session_factory() as session:
+        rows = session.execute(
+            select(Robot.id, Robot.agent_version, Robot.inputs, Robot.last_seen_at)
+            .where(Robot.id.in_(robot_ids))
+            .order_by(Robot.id)
+        ).all()
+    assert [(r.id, r.agent_version, r.inputs) for r in rows] == [
+        ("storm-0", "1.0", None),
+        ("storm-1", "1.1", ["keypoints"]),
+        ("storm-2", "1.2", ["keypoints", "depth"]),
+        ("storm-3", "1.3", None),
+        ("storm-4", "1.4", ["keypoints"]),
+    ]
+    assert all(r.last_seen_at is not None for r in rows)
