@@ -152,8 +152,8 @@ def _split_check(model: ModelVersion, gold: dict) -> dict:
         "detail": (
             f"{len(overlap)} of {n} gold recordings were also training data: {', '.join(overlap)}"
             if overlap
-            else f"judged on {n} gold recordings it was not trained on "
-            f"({split['training_recordings']} training recordings)"
+            else f"none of the {n} gold recordings is among its "
+            f"{split['training_recordings']} training recordings"
         ),
     }
 

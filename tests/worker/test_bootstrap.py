@@ -77,8 +77,5 @@ def test_the_demo_model_is_trained_on_the_training_split_and_judged_on_the_gold_
         gate = gate_report(model, false_alarm_budget=1.0, latency_ms=1000)
     split = next(c for c in gate["checks"] if c["name"].startswith("judged on gold"))
     assert split["passed"], split
-    assert (
-        split["detail"]
-        == "judged on 14 gold recordings it was not trained on (56 training recordings)"
-    )
+    assert split["detail"] == "none of the 14 gold recordings is among its 56 training recordings"
     assert gate["split"] == {"gold_recordings": 14, "training_recordings": 56, "overlap": []}

@@ -31,7 +31,7 @@ def test_the_gate_blocks_a_model_that_misses_a_fall(
     assert "fall-07" in fall_check["detail"]
     split = next(c for c in gate["checks"] if c["name"] == SPLIT_CHECK)
     assert split["passed"] and split["detail"] == (
-        "judged on 4 gold recordings it was not trained on (12 training recordings)"
+        "none of the 4 gold recordings is among its 12 training recordings"
     )
 
     response = client.post(
