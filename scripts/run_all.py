@@ -122,8 +122,10 @@ def stop(children: list[subprocess.Popen]) -> None:
 
 
 def model_is_current(directory: Path = MODEL_DIR, demo: bool = False) -> bool:
-    """A model exists there and was trained with this code's features (and, for `demo`, on URFD
-    plus the GENERATED walking transports: `train-default --with-generated`)."""
+    """A model exists there and was trained with this code's features on URFD's training split
+    only (its manifest names its training recordings, none of them gold), and, for `demo`, plus
+    the GENERATED walking transports: `train-default --with-generated`."""
+    from vigil.datasets import urfd
     from vigil.features import FEATURE_VERSION
     from vigil.model_file import read_manifest
 
@@ -133,6 +135,9 @@ def model_is_current(directory: Path = MODEL_DIR, demo: bool = False) -> bool:
         return False
     if demo and manifest.metrics.get("dataset") != "urfd+generated":
         return False
+    trained_on = manifest.training_recordings
+    if not trained_on or set(trained_on) & set(urfd.split()[1]):
+        return False  # trained before the split was kept, or on the gold set: train again
     return manifest.feature_version == FEATURE_VERSION
 
 

@@ -90,10 +90,10 @@ OLD_WORKER_MAP = {
 def _old_worker_import(session, names: list[str]) -> dict[str, int]:
     """What worker.db_data.import_urfd wrote before 0009 (the second URFD import of `make
     run`): videos named urfd/<sequence> with the worker's own fine-label map, no depth."""
-    from backend.labelling.runs import label_runs
     from backend.models.annotations import AnnotationSegment, SegmentSource, SegmentStatus
     from backend.models.videos import Frame, Video
     from vigil.datasets import urfd
+    from vigil.segments import label_runs
     from vigil.skeleton import encode_floor, encode_keypoints
 
     ids = {}
@@ -151,10 +151,10 @@ def test_0009_merges_the_double_urfd_import_without_losing_what_people_made(
 
     from backend.db import make_session_factory, transaction
     from backend.labelling.importers.urfd import import_urfd
-    from backend.labelling.runs import label_runs
     from backend.models import Alarm, AnnotationSegment, Frame, Job, Robot, User, Video
     from backend.models.users import Role
     from vigil.datasets import urfd
+    from vigil.segments import label_runs
 
     both, only_copy = ["fall-01", "fall-05", "adl-01"], "adl-11"
     url = empty_database_url

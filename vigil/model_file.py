@@ -51,6 +51,11 @@ class ModelManifest(BaseModel):
     metrics: dict[str, Any] = Field(default_factory=dict)
     training_data_sha256: str
     generated_data: bool = Field(default=False, description="trained on generated, not real data")
+    training_recordings: list[str] | None = Field(
+        default=None,
+        description="names of the recordings the model was fitted on (None: not recorded, e.g. a "
+        "model made elsewhere); the promotion gate refuses a gold set that overlaps them",
+    )
     file: str = MODEL_NAME
     sha256: str = Field(pattern=r"^[0-9a-f]{64}$")
     format: Literal["onnx"] = "onnx"

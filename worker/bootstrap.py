@@ -21,12 +21,12 @@ from vigil.datasets import urfd
 from worker.training.specs import DEFAULT, KEYPOINTS_DEFAULT
 
 # Every fifth fall and ADL recording is held out as the gold set (6 falls, 8 daily activities):
-# the importer's split (vigil.datasets.urfd.is_gold).
-GOLD = [name for name in urfd.NAMES if urfd.is_gold(name)]
+# the importer's split (vigil.datasets.urfd.is_gold), which the demo's models train on too.
+GOLD = urfd.split()[1]
 
 
 def urfd_split() -> tuple[list[str], list[str]]:
-    return [n for n in urfd.NAMES if n not in GOLD], list(GOLD)
+    return urfd.split()
 
 
 def bootstrap(session: Session, default_model_dir: Path | None, urfd_dir=None) -> list[str]:
@@ -102,29 +102,13 @@ DEMO_ENGINEER = "engineer"
 
 
 def train_keypoints(out: Path, urfd_dir: Path | None = None, with_generated: bool = False) -> None:
-    """Train KEYPOINTS_SPEC on URFD as train-default trains the default model (real data; with
-    `with_generated` plus GENERATED walking transports, as train-default --with-generated)."""
-    import time
+    """Train KEYPOINTS_SPEC on URFD's training split as train-default trains the default model
+    (real data; with `with_generated` plus GENERATED walking transports, as train-default
+    --with-generated)."""
+    from worker.training.cli import train_demo_model
 
-    import numpy as np
-    from threadpoolctl import threadpool_limits
-
-    from worker.training.cli import training_data
-    from worker.training.cross_validation import select as select_model
-    from worker.training.publish import publish
-    from worker.training.trainers import SklearnTrainer
-
-    start = time.perf_counter()
-    data, metrics = training_data(urfd_dir, with_generated)
-    trainer = SklearnTrainer(KEYPOINTS_SPEC)
-    with threadpool_limits(limits=1):
-        selected = select_model(trainer, data, np.arange(len(data.names)), n_inner=5, stride=3)
-    manifest = publish(trainer, selected, data, out, metrics=metrics)
-    print(
-        f"wrote {out} ({manifest.name}, inputs {manifest.inputs}, threshold "
-        f"{manifest.threshold:.3f}, delay {manifest.delay_ms} ms) in "
-        f"{time.perf_counter() - start:.1f} s"
-    )
+    manifest = train_demo_model(KEYPOINTS_SPEC, out, urfd_dir, with_generated, stride=3)
+    print(f"  inputs {manifest.inputs}")
 
 
 def register_model_dir(session: Session, model_dir: Path, store_dir: Path) -> ModelVersion:

@@ -15,13 +15,13 @@ import numpy as np
 from sqlalchemy import select
 from sqlalchemy.orm import Session
 
-from backend.labelling.runs import frame_segments
 from backend.labelling.taxonomy import load_taxonomy, taxonomy_versions
 from backend.models.annotations import AnnotationSegment, SegmentStatus
 from backend.models.videos import Frame, Split, Video
 from backend.storage.frame_reads import of_video
 from vigil.classes import MODE_CLASSES, Decision, TransportMode
 from vigil.observation import Observation
+from vigil.segments import frame_segments
 from vigil.skeleton import N_FLOOR, N_KEYPOINTS, SkeletonFrame, decode_many
 from vigil.taxonomy import DEFAULT_TAXONOMY
 from worker.training.data import FrameData, Recording, build_rows
@@ -82,7 +82,7 @@ def db_recordings(
     """The database source: each video's stored frames as the robot's camera would give them
     (one person where a pose was found, with the depth and floor measures stored beside it),
     targets from the accepted segments by the one rule for overlaps
-    (`backend.labelling.runs.frame_segments`, which the exports use too); and a hash that covers
+    (`vigil.segments.frame_segments`, which the exports use too); and a hash that covers
     every frame and label used, so equal hashes mean equal training data."""
     if not videos:
         raise ValueError("no labelled recordings to build a data set from")

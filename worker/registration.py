@@ -76,7 +76,9 @@ def register(
     job_id: int | None = None,
     created_by_id: int | None = None,
 ) -> ModelVersion:
-    """Verify the model (sha256 of its manifest), copy it to the store and add a candidate."""
+    """Verify the model (sha256 of its manifest), copy it to the store and add a candidate. Its
+    lineage's `training_videos` are its manifest's training recordings unless `lineage` names
+    them."""
     classifier = load_classifier(model_dir)  # raises ModelIntegrityError on a bad file
     manifest = classifier.manifest
     refuse_registered(session, manifest.version)
@@ -96,6 +98,9 @@ def register(
             "data_sha256": manifest.training_data_sha256,
             "generated_data": manifest.generated_data,
             "code_version": code_version(),
+            # What it was trained on, from its manifest (a job may name more): the promotion
+            # gate refuses a gold set that overlaps it, and a model without it.
+            "training_videos": manifest.training_recordings,
             **lineage,
         },
         job_id=job_id,

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from backend.labelling.runs import frame_labels, label_runs
+from vigil.segments import frame_labels, label_runs
 
 
 def cohen_kappa(a: np.ndarray, b: np.ndarray) -> float | None:

@@ -27,7 +27,6 @@ from backend.labelling import validation
 from backend.labelling.errors import Conflict, LabellingError
 from backend.labelling.export import CSV_COLUMNS, JSON_FORMAT
 from backend.labelling.queries import video_segments
-from backend.labelling.runs import label_runs
 from backend.labelling.segments import SegmentDraft, create_segment, delete_segment
 from backend.labelling.status import EDITABLE
 from backend.labelling.store import add_video, video_by_name
@@ -43,6 +42,7 @@ from backend.models.annotations import AnnotationSegment, SegmentSource, Segment
 from backend.models.users import User
 from backend.models.videos import Split, Video
 from vigil.formats.coco import coco17_to_body25
+from vigil.segments import label_runs
 from vigil.skeleton import N_FLOOR, N_KEYPOINTS
 
 #: `Video.source` of every video created by an import (the file's own claim is not kept).

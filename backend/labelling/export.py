@@ -2,7 +2,7 @@
 
 Segments exported are those with the requested statuses (accepted by default: training data).
 Where exported segments overlap, the one updated last wins the frame (CSV and COCO): the one
-rule of `backend.labelling.runs.frame_segments`, which training uses too.
+rule of `vigil.segments.frame_segments`, which training uses too.
 """
 
 from __future__ import annotations
@@ -15,11 +15,11 @@ import numpy as np
 from sqlalchemy.orm import Session
 
 from backend.labelling.queries import frame_timestamps, usernames, video_frames, video_segments
-from backend.labelling.runs import overlap_order, segment_labels
 from backend.labelling.taxonomy import load_taxonomy
 from backend.models.annotations import AnnotationSegment, SegmentStatus
 from backend.models.videos import Video
 from vigil.formats.coco import COCO17
+from vigil.segments import overlap_order, segment_labels
 from vigil.skeleton import INDEX
 
 JSON_FORMAT = "vigil-labels"

@@ -1,12 +1,12 @@
-"""The promotion gate: a candidate may reach robots only if, on the gold set (recordings with
-split 'test'), it misses no fall, stays within the false-alarm budget, and meets the per-frame
-latency bound. The report records every figure the decision was made on."""
+"""The promotion gate: a candidate may reach robots only if it was judged on a gold set
+(recordings with split 'test') none of whose recordings it was trained on, misses no fall there,
+stays within the false-alarm budget, and meets the per-frame latency bound. The report records
+every figure the decision was made on."""
 
 from __future__ import annotations
 
 from backend.models._types import utcnow
 from backend.models.registry import ModelVersion
-from vigil.datasets import urfd
 
 
 def gate_report(model: ModelVersion, false_alarm_budget: float, latency_ms: float) -> dict:
@@ -24,6 +24,7 @@ def gate_report(model: ModelVersion, false_alarm_budget: float, latency_ms: floa
             }
         )
     else:
+        checks.append(_split_check(model, gold))
         falls, detected = gold.get("falls_total", 0), gold.get("falls_detected", 0)
         missed = [e["sequence"] for e in gold.get("events", []) if e.get("detected") is False]
         checks.append(
@@ -78,6 +79,7 @@ def gate_report(model: ModelVersion, false_alarm_budget: float, latency_ms: floa
         "passed": all(c["passed"] for c in checks),
         "checks": checks,
         "warnings": _warnings(model, gold),
+        "split": split_figures(model, gold),
         "gold": {
             k: gold.get(k)
             for k in (
@@ -100,22 +102,65 @@ def gate_report(model: ModelVersion, false_alarm_budget: float, latency_ms: floa
     }
 
 
+def training_recordings(model: ModelVersion) -> list[str] | None:
+    """The recordings the model was trained on, as registered (its lineage, from its manifest or
+    the job that trained it); None when nothing records them."""
+    names = (model.lineage or {}).get("training_videos")
+    if not names:
+        names = (model.manifest or {}).get("training_recordings")
+    return list(names) if names else None
+
+
+def split_figures(model: ModelVersion, gold: dict | None) -> dict | None:
+    """How the gold set the figures come from relates to the model's training recordings: how
+    many recordings each holds and which gold recordings it was trained on (None: unknown)."""
+    if not gold:
+        return None
+    trained_on = training_recordings(model)
+    judged_on = list(gold.get("sequences") or [])
+    return {
+        "gold_recordings": len(judged_on),
+        "training_recordings": None if trained_on is None else len(trained_on),
+        "overlap": None if trained_on is None else sorted(set(trained_on) & set(judged_on)),
+    }
+
+
+def _split_check(model: ModelVersion, gold: dict) -> dict:
+    """The gold-set figures must come from recordings the model was not trained on. A model with
+    no record of its training recordings (made elsewhere and registered from a directory)
+    cannot show that, so it is refused too: its figures may be its training figures."""
+    split = split_figures(model, gold) or {}
+    name = "judged on gold recordings it was not trained on"
+    n = split["gold_recordings"]
+    if split["overlap"] is None:
+        return {
+            "name": name,
+            "passed": False,
+            "value": None,
+            "limit": 0,
+            "detail": "training recordings unknown: nothing records what the model was trained "
+            "on, so its gold-set figures may come from its training data; train it with "
+            "Vigil's training (train-default, a retrain job) or record them in its manifest "
+            "(training_recordings)",
+        }
+    overlap = split["overlap"]
+    return {
+        "name": name,
+        "passed": not overlap,
+        "value": len(overlap),
+        "limit": 0,
+        "detail": (
+            f"{len(overlap)} of {n} gold recordings were also training data: {', '.join(overlap)}"
+            if overlap
+            else f"none of the {n} gold recordings is among its "
+            f"{split['training_recordings']} training recordings"
+        ),
+    }
+
+
 def _warnings(model: ModelVersion, gold: dict | None) -> list[str]:
     """What makes the figures less trustworthy (shown with the decision, not blocking it)."""
     warnings = []
-    if not gold:
-        return warnings
-    trained_on = set((model.lineage or {}).get("training_videos") or [])
-    overlap = sorted(trained_on & set(gold.get("sequences") or []))
-    if overlap:
-        warnings.append(f"gold recordings were also training data: {', '.join(overlap)}")
-    elif not trained_on:
-        urfd_gold = any(name in urfd.NAMES for name in gold.get("sequences") or [])
-        warnings.append(
-            "training recordings unknown (model registered from a directory): the gold set may "
-            "overlap its training data"
-            + ("; e.g. train-default trains on every URFD recording" if urfd_gold else "")
-        )
-    if gold.get("generated_data"):
+    if gold and gold.get("generated_data"):
         warnings.append("the gold set includes GENERATED recordings")
     return warnings

@@ -191,7 +191,7 @@ def promote(
     with `only_capable` a ward or fleet scope is narrowed to the robots that can.
     """
     if not shadow and not gate.get("passed"):
-        failed = [c["name"] for c in gate.get("checks", []) if not c["passed"]]
+        failed = [f"{c['name']} ({c['detail']})" for c in gate.get("checks", []) if not c["passed"]]
         raise RolloutError(f"gate failed: {'; '.join(failed)}")
     in_scope = robots_in_scope(session, scope, target)
     if canary_robot_id is not None and canary_robot_id not in {r.id for r in in_scope}:

@@ -27,6 +27,7 @@ from backend.models.robots import Transport
 from backend.models.storage import FrameArchive
 from backend.models.videos import Frame, Split, Video
 from backend.storage import queries
+from vigil.segments import overlap_order, segment_labels
 
 FORMAT = "vigil-frames-archive/1"
 SCHEMA = pa.schema(
@@ -105,18 +106,19 @@ def _slug(name: str) -> str:
 
 
 def _labels(segments: list[AnnotationSegment], indices: list[int]) -> list[str | None]:
-    by_index: dict[int, str] = {}
-    for segment in segments:  # in first_frame order: a later segment wins an overlap
-        for i in range(segment.first_frame, segment.last_frame + 1):
-            by_index[i] = segment.label_key
-    return [by_index.get(i) for i in indices]
+    """Each frame's label by the one rule for overlapping segments (`vigil.segments`, which the
+    CSV and COCO exports and the training rows use): the segment updated last wins."""
+    per_frame = segment_labels(max(indices, default=-1) + 1, segments)
+    return [per_frame[i] if i >= 0 else None for i in indices]
 
 
 def export_video(
     session: Session, video: Video, directory: Path, created_by_id: int | None = None
 ) -> FrameArchive:
     frames = queries.video_frames(session, video.id)
-    segments = queries.video_segments(session, video.id)
+    # In the overlap rule's order, so the segments imported again (in this order) win the same
+    # frames.
+    segments = sorted(queries.video_segments(session, video.id), key=overlap_order)
     columns: dict[str, list] = {name: [] for name in FRAME_FIELDS}
     for frame in frames:
         for name in FRAME_FIELDS:

@@ -13,10 +13,10 @@ from sqlalchemy import select
 
 from backend.db import transaction
 from backend.labelling.importers.urfd import import_urfd
-from backend.labelling.runs import label_runs
 from backend.models import AnnotationSegment, Role, User, Video
 from tests.support.passwords import password_hash
 from vigil.datasets import urfd
+from vigil.segments import label_runs
 
 from .live_server import PASSWORD, SCREENSHOTS, sign_in
 

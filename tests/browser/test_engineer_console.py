@@ -42,6 +42,13 @@ def system(tmp_path, frontend_dist, trained_model_dir):  # noqa: F811
         queue.enqueue(session, JobKind.REGISTER, {"path": str(trained_model_dir)})
         blind = derive_model(trained_model_dir, tmp_path / "blind", "blind-1", delay_ms=10_000)
         queue.enqueue(session, JobKind.REGISTER, {"path": str(blind)})
+        overlap = derive_model(
+            trained_model_dir,
+            tmp_path / "overlap",
+            "overlap-1",
+            training_recordings=[*TRAIN, "fall-08"],
+        )
+        queue.enqueue(session, JobKind.REGISTER, {"path": str(overlap)})
     settings = WorkerSettings(
         database_url=server.database_url,
         model_store_dir=store,
@@ -51,7 +58,7 @@ def system(tmp_path, frontend_dist, trained_model_dir):  # noqa: F811
         worker_sweep_s=5,
     )
     worker = Worker(settings, factory)
-    assert worker.run_once() and worker.run_once()  # both registered before the page opens
+    assert all(worker.run_once() for _ in range(3))  # registered before the page opens
     thread = threading.Thread(target=worker.run_forever, daemon=True)
     thread.start()
     server.start()
@@ -77,9 +84,24 @@ def test_engineer_registry_gate_promote_what_if_and_rollback(system, page):
     expect(gate).to_contain_text("0 of 2 falls detected")
     expect(page.get_by_role("button", name="Sign off and promote")).to_be_disabled()
 
+    # Trained on a gold recording: its gold-set figures are training figures, and the page
+    # names the recording.
+    page.get_by_role("link", name="Model registry").click()
+    page.get_by_role("link", name="overlap-1").click()
+    expect(page.get_by_label("Gold set and training")).to_have_text(
+        "Judged on 4 gold recordings, 1 of which it was trained on (fall-08): training figures, "
+        "so the gate refuses it."
+    )
+    expect(page.get_by_label("Gate")).to_contain_text(
+        "1 of 4 gold recordings were also training data: fall-08"
+    )
+
     page.get_by_role("link", name="Model registry").click()
     page.get_by_role("link", name="rf-test-1").click()
     expect(page.get_by_role("table", name="Table 3")).to_be_visible()
+    expect(page.get_by_label("Gold set and training")).to_have_text(
+        "Judged on 4 gold recordings it was not trained on (trained on 12 other recordings)."
+    )
     expect(page.get_by_role("img", name="plot roc_pr")).to_be_visible()
     expect(page.get_by_label("Gate")).to_contain_text("passed")
     SCREENSHOTS.mkdir(parents=True, exist_ok=True)

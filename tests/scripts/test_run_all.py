@@ -68,11 +68,14 @@ def test_the_demo_models_must_be_trained_with_the_generated_walking_transports(t
     var/models) is trained again, with --with-generated; one trained so is kept."""
     from tests.robot_agent.tiny_model import upright_model_bytes
     from vigil.classes import Decision, TransportMode
+    from vigil.datasets import urfd
     from vigil.features import FEATURE_VERSION
     from vigil.model_file import ModelManifest, write_model
     from vigil.taxonomy import DEFAULT_TAXONOMY
 
-    def write(directory, dataset: str):
+    train, gold = urfd.split()
+
+    def write(directory, dataset: str, trained_on: list[str] | None = train):
         manifest = ModelManifest(
             version=f"m-{dataset}",
             name="m",
@@ -86,6 +89,7 @@ def test_the_demo_models_must_be_trained_with_the_generated_walking_transports(t
             metrics={"dataset": dataset},
             training_data_sha256="0" * 64,
             generated_data=dataset != "urfd",
+            training_recordings=trained_on,
             sha256="0" * 64,
         )
         write_model(directory, upright_model_bytes(), manifest)
@@ -96,6 +100,11 @@ def test_the_demo_models_must_be_trained_with_the_generated_walking_transports(t
     assert run_all.model_is_current(urfd_only) and not run_all.model_is_current(urfd_only, True)
     assert run_all.model_is_current(demo, demo=True)
     assert not run_all.model_is_current(tmp_path / "missing", demo=True)
+    # A model trained on the gold set too, or with no record of what it was trained on (made
+    # before the split was kept), is trained again.
+    on_everything = write(tmp_path / "all", "urfd+generated", [*train, gold[0]])
+    assert not run_all.model_is_current(on_everything, demo=True)
+    assert not run_all.model_is_current(write(tmp_path / "old", "urfd+generated", None), True)
 
 
 def test_fleet_banner_prints_the_rates_in_force(monkeypatch):

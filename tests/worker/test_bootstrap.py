@@ -47,3 +47,35 @@ def test_make_run_seeding_holds_each_urfd_recording_once(factory):
         assert sum(s == Split.TEST for s in splits.values()) == 14
         labels = set(session.scalars(select(AnnotationSegment.label_key).distinct()))
         assert labels == {label for m in urfd.FINE_LABELS.values() for label in m.values()}
+
+
+def test_the_demo_model_is_trained_on_the_training_split_and_judged_on_the_gold_set(
+    factory, tmp_path
+):
+    """`make run`'s keypoints-only model (trained as the floor model is, `train_demo_model`):
+    none of its training recordings is gold, its rows are the training split's frames, and
+    the gate judges it on the 14 gold recordings it never saw."""
+    from backend.registry.gate import gate_report
+    from vigil.datasets import urfd
+    from vigil.model_file import read_manifest
+    from worker.bootstrap import register_model_dir, train_keypoints
+
+    train, gold = urfd_split()
+    out = tmp_path / "keypoints-walking"
+    train_keypoints(out)
+    manifest, _ = read_manifest(out)
+    assert manifest.training_recordings == train
+    assert not set(manifest.training_recordings) & set(gold)
+    assert manifest.metrics["training_rows"] == sum(len(s.target) for s in urfd.load(None, train))
+    assert manifest.metrics["urfd_gold_recordings_left_out"] == gold
+
+    with transaction(factory) as session:
+        bootstrap(session, None)
+        model = register_model_dir(session, out, tmp_path / "store")
+        assert model.lineage["training_videos"] == train
+        assert sorted(model.metrics["gold"]["sequences"]) == sorted(gold)
+        gate = gate_report(model, false_alarm_budget=1.0, latency_ms=1000)
+    split = next(c for c in gate["checks"] if c["name"].startswith("judged on gold"))
+    assert split["passed"], split
+    assert split["detail"] == "none of the 14 gold recordings is among its 56 training recordings"
+    assert gate["split"] == {"gold_recordings": 14, "training_recordings": 56, "overlap": []}

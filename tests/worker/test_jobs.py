@@ -66,8 +66,13 @@ def test_retrain_on_urfd_registers_a_model_with_lineage_metrics_and_plots(
         assert load_classifier(directory).manifest.sha256 == model.sha256
         json.dumps(model.metrics)  # stored metrics are plain JSON
         gate = gate_report(model, false_alarm_budget=0.5, latency_ms=1000)
-        assert gate["warnings"] == []  # training and gold recordings are known to be disjoint
-        assert [c["passed"] for c in gate["checks"]][0] == (gold["falls_detected"] == 2)
+        assert gate["warnings"] == []
+        checks = {c["name"]: c for c in gate["checks"]}
+        split = checks["judged on gold recordings it was not trained on"]
+        assert split["passed"] and split["detail"] == (
+            "none of the 4 gold recordings is among its 12 training recordings"
+        )
+        assert checks["misses no fall of the gold set"]["passed"] == (gold["falls_detected"] == 2)
 
 
 def test_retrain_without_enough_labelled_recordings_fails_with_a_clear_message(
@@ -95,6 +100,12 @@ def test_rethreshold_evaluate_and_what_if(factory, worker_settings, urfd_db, tra
         parent = session.get(ModelVersion, parent_id)
         assert child.lineage["parent"] == parent.version
         assert child.sha256 == parent.sha256  # same graph, new operating point
+        # The register job records what the model was trained on (its manifest's recordings);
+        # the child's graph is the parent's and its operating point chosen on the training split.
+        assert parent.lineage["training_videos"] == list(TRAIN)
+        assert child.lineage["training_videos"] == list(TRAIN)
+        assert child.manifest["training_recordings"] == list(TRAIN)
+        assert child.lineage["threshold_videos"] == list(TRAIN)
         assert child.metrics["gold"]["falls_total"] == 2
         assert len(child.metrics["rethreshold"]["delay_sweep"]["delay_s"]) == 151
 

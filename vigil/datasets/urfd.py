@@ -84,6 +84,12 @@ def is_gold(name: str) -> bool:
     return int(name.split("-")[1]) % TEST_EVERY == 0
 
 
+def split() -> tuple[list[str], list[str]]:
+    """URFD's training recordings and its gold set (`is_gold`: 56 and 14), in NAMES order: the
+    demo's models are trained on the first and judged on the second."""
+    return [n for n in NAMES if not is_gold(n)], [n for n in NAMES if is_gold(n)]
+
+
 def default_dir() -> Path:
     env = os.environ.get("VIGIL_URFD_DIR")
     if env:

@@ -29,6 +29,7 @@ def run(context: JobContext) -> dict:
     with context.read() as session:
         parent = model_or_error(session, params.model_version_id)
         parent_version, mode, parent_dir = parent.version, parent.mode, model_dir(parent)
+        parent_training = (parent.lineage or {}).get("training_videos")
         videos = labelled_videos(
             session, mode, None if params.video_ids else Split.TRAIN, params.video_ids
         )
@@ -47,6 +48,14 @@ def run(context: JobContext) -> dict:
         raise ValueError(f"invalid job parameter version: {version} exists in the model store")
     manifest, source = read_manifest(parent_dir)
     onnx_bytes = (source / manifest.file).read_bytes()
+    # The graph was fitted on the parent's recordings and the operating point chosen on these:
+    # both are training data (unknown if the parent's are).
+    parent_videos = parent_training or manifest.training_recordings
+    trained_on = (
+        [*parent_videos, *(n for n in data.names if n not in parent_videos)]
+        if parent_videos
+        else None
+    )
     manifest = manifest.model_copy(
         update={
             "version": version,
@@ -54,6 +63,7 @@ def run(context: JobContext) -> dict:
             "delay_ms": delay_ms,
             "created": datetime.now(UTC),
             "metrics": {**manifest.metrics, "rethreshold_data_sha256": data.data_sha256},
+            "training_recordings": trained_on,
         }
     )
     try:
@@ -78,7 +88,8 @@ def run(context: JobContext) -> dict:
                     "spec": manifest.name,
                     "hyperparameters": manifest.metrics.get("params"),
                     "threshold_data_sha256": data.data_sha256,
-                    "training_videos": data.names,
+                    "training_videos": trained_on,
+                    "threshold_videos": data.names,
                 },
                 metrics=metrics,
                 job_id=context.job_id,

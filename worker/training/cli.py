@@ -1,6 +1,7 @@
 """vigil-train: train, evaluate and export detection models.
 
-  python -m worker.training.cli train-default --out DIR   # the default walking model, < 1 min
+  python -m worker.training.cli train-default --out DIR   # the default walking model, < 1 min,
+      # on URFD's training split (its gold set left out for the promotion gate)
       [--with-generated]   # URFD plus GENERATED walking transports (make run's demo robots)
   python -m worker.training.cli train --out DIR [--models svm-paper,svm,mlp,rf,gbt,tcn]
       [--mode walking|wheelchair|combined]   # wheelchair/combined train on GENERATED data
@@ -18,8 +19,11 @@ from pathlib import Path
 import numpy as np
 from threadpoolctl import threadpool_limits
 
+from vigil.datasets import urfd
+from vigil.model_file import ModelManifest
 from worker.training.cross_validation import select
 from worker.training.data import from_urfd
+from worker.training.estimators import ModelSpec
 from worker.training.publish import publish
 from worker.training.specs import DEFAULT, SPECS
 from worker.training.trainers import SklearnTrainer
@@ -36,10 +40,18 @@ GENERATED_SEED = 5000  # apart from bench/demo_lookalikes.py's seeds and the fle
 
 
 def training_data(urfd_dir: Path | None, with_generated: bool, repeats: int | None = None):
-    """URFD (real), or URFD plus GENERATED walking transports (depth removed, so the model needs
-    what a URFD model needs); (data, the manifest's metrics)."""
-    data = from_urfd(urfd_dir)
-    metrics = {"dataset": "urfd", "note": "threshold and delay chosen on 5-fold OOF scores"}
+    """URFD's training split (real; its gold set, `vigil.datasets.urfd.split`, stays out for the
+    gate to judge on), or that plus GENERATED walking transports (depth removed, so the model
+    needs what a URFD model needs); (data, the manifest's metrics). The rows come from the one
+    builder (`build_rows`, URFD file source), as the retrain job's from the database."""
+    train, gold = urfd.split()
+    data = from_urfd(urfd_dir, names=train)
+    metrics = {
+        "dataset": "urfd",
+        "note": "threshold and delay chosen on 5-fold OOF scores",
+        "urfd_training_recordings": len(train),
+        "urfd_gold_recordings_left_out": gold,
+    }
     if with_generated:
         from vigil.classes import TransportMode
         from worker.training.data import concatenate
@@ -50,6 +62,7 @@ def training_data(urfd_dir: Path | None, with_generated: bool, repeats: int | No
         )
         data = concatenate(data, generated)
         metrics = {
+            **metrics,
             "dataset": "urfd+generated",
             "generated_sequences": len(generated.names),
             "note": "URFD (real) plus GENERATED walking/rollator transports (vigil.synthetic, "
@@ -59,19 +72,35 @@ def training_data(urfd_dir: Path | None, with_generated: bool, repeats: int | No
     return data, metrics
 
 
-def train_default(
-    out: Path, urfd_dir: Path | None, with_generated: bool = False, repeats: int | None = None
-) -> None:
+def train_demo_model(
+    spec: ModelSpec,
+    out: Path,
+    urfd_dir: Path | None,
+    with_generated: bool = False,
+    repeats: int | None = None,
+    stride: int = 2,
+) -> ModelManifest:
+    """Train `spec` as `make run` trains its demo models (`training_data`: URFD's training
+    split, optionally with GENERATED transports), 5 folds, and write the model to `out`; its
+    manifest names the recordings it was trained on."""
     start = time.perf_counter()
     data, metrics = training_data(urfd_dir, with_generated, repeats)
-    trainer = SklearnTrainer(DEFAULT_SPEC)
+    trainer = SklearnTrainer(spec)
     with threadpool_limits(limits=1):
-        selected = select(trainer, data, np.arange(len(data.names)), n_inner=5, stride=2)
+        selected = select(trainer, data, np.arange(len(data.names)), n_inner=5, stride=stride)
     manifest = publish(trainer, selected, data, out, metrics=metrics)
     print(
         f"wrote {out} ({manifest.name}, threshold {manifest.threshold:.3f}, "
-        f"delay {manifest.delay_ms} ms) in {time.perf_counter() - start:.1f} s"
+        f"delay {manifest.delay_ms} ms; {len(data.names)} training recordings, URFD gold set "
+        f"left out) in {time.perf_counter() - start:.1f} s"
     )
+    return manifest
+
+
+def train_default(
+    out: Path, urfd_dir: Path | None, with_generated: bool = False, repeats: int | None = None
+) -> None:
+    train_demo_model(DEFAULT_SPEC, out, urfd_dir, with_generated, repeats, stride=2)
 
 
 def make_trainers(names: list[str]):

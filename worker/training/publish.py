@@ -38,9 +38,14 @@ def publish(
         taxonomy_version=DEFAULT_TAXONOMY.version,
         threshold=selected.threshold,
         delay_ms=int(round(selected.delay_s * 1000)),
-        metrics={"params": {k: _plain(v) for k, v in selected.params.items()}, **(metrics or {})},
+        metrics={
+            "params": {k: _plain(v) for k, v in selected.params.items()},
+            "training_rows": int(len(data.target)),
+            **(metrics or {}),
+        },
         training_data_sha256=data.data_sha256,
         generated_data=data.generated,
+        training_recordings=list(data.names),
         sha256="0" * 64,
     )
     sample, expected = trainer.reference(selected.fitted, data, 256)

@@ -32,7 +32,6 @@ from sqlalchemy import select
 from sqlalchemy.orm import Session
 
 from backend.labelling.depth import read_depth_png
-from backend.labelling.runs import label_runs
 from backend.labelling.segments import SegmentDraft, create_segment
 from backend.labelling.store import add_video, video_by_name
 from backend.models.annotations import SegmentSource
@@ -40,6 +39,7 @@ from backend.models.videos import Split, Video
 from vigil.classes import TransportMode
 from vigil.datasets import urfd
 from vigil.depth import sample_depth
+from vigil.segments import label_runs
 
 #: The URFD clip: 640x240, depth picture left, RGB (320x240) right.
 RGB_CROP = {"x": 320, "y": 0, "width": 320, "height": 240}

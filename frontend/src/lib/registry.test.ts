@@ -1,5 +1,5 @@
 import { describe, expect, it } from "vitest";
-import { jobResultLink, listView, metricName, statusText } from "./registry";
+import { goldSplitText, jobResultLink, listView, metricName, statusText } from "./registry";
 
 describe("model status in true words", () => {
   it("says on how many robots a production model runs", () => {
@@ -54,5 +54,28 @@ describe("job result link", () => {
     expect(jobResultLink("whatif", { model_version_id: 2 })).toEqual({ modelId: 2, text: "ran on model #2" });
     expect(jobResultLink("evaluate", { model_version_id: 2 })!.text).not.toContain("new version");
     expect(jobResultLink("retention", { summary: "x" })).toBeNull();
+  });
+});
+
+describe("where the gold-set figures come from", () => {
+  it("says the gold recordings were not training data", () => {
+    expect(goldSplitText({ gold_recordings: 14, training_recordings: 56, overlap: [] })).toEqual({
+      text: "Judged on 14 gold recordings it was not trained on (trained on 56 other recordings).",
+      clean: true,
+    });
+  });
+
+  it("names the gold recordings it was trained on", () => {
+    const said = goldSplitText({ gold_recordings: 4, training_recordings: 14, overlap: ["adl-07", "fall-08"] });
+    expect(said.clean).toBe(false);
+    expect(said.text).toBe(
+      "Judged on 4 gold recordings, 2 of which it was trained on (adl-07, fall-08): training figures, so the gate refuses it.",
+    );
+  });
+
+  it("says when nothing records what it was trained on", () => {
+    const said = goldSplitText({ gold_recordings: 1, training_recordings: null, overlap: null });
+    expect(said.clean).toBe(false);
+    expect(said.text).toContain("Judged on 1 gold recording, but its training recordings are unknown");
   });
 });

@@ -43,6 +43,39 @@ export const METRIC_NAMES: Record<string, string> = {
 
 export const metricName = (key: string): string => METRIC_NAMES[key] ?? key.replaceAll("_", " ");
 
+/** The gate report's `split`: how the gold set a model was judged on relates to the recordings
+ * it was trained on (`overlap` and `training_recordings` null: nothing records them). */
+export interface GoldSplit {
+  gold_recordings: number;
+  training_recordings: number | null;
+  overlap: string[] | null;
+}
+
+const recordings = (n: number): string => `${n} gold recording${n === 1 ? "" : "s"}`;
+
+/** Where a model's gold-set figures come from, in words: from recordings it was not trained on,
+ * or the reason the gate refuses them (the gold recordings it was trained on, by name; or no
+ * record of its training recordings). */
+export function goldSplitText(split: GoldSplit): { text: string; clean: boolean } {
+  const n = split.gold_recordings;
+  if (split.overlap === null) {
+    return {
+      text: `Judged on ${recordings(n)}, but its training recordings are unknown: these may be training figures, so the gate refuses it.`,
+      clean: false,
+    };
+  }
+  if (split.overlap.length > 0) {
+    return {
+      text: `Judged on ${recordings(n)}, ${split.overlap.length} of which it was trained on (${split.overlap.join(", ")}): training figures, so the gate refuses it.`,
+      clean: false,
+    };
+  }
+  return {
+    text: `Judged on ${recordings(n)} it was not trained on (trained on ${split.training_recordings} other recordings).`,
+    clean: true,
+  };
+}
+
 export type SortDirection = "asc" | "desc";
 
 /** Rows matching a free-text query (every word somewhere in the row's text), sorted by one

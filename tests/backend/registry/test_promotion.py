@@ -11,7 +11,9 @@ from backend.models import Alarm, AlarmKind, AlarmPriority, AlarmState, Deployme
 from backend.models._types import utcnow
 from backend.registry.sweeps import automatic_rollback
 from tests.backend.conftest import ROBOT_TOKEN
-from tests.registry_fixtures import derive_model, second_version
+from tests.registry_fixtures import TRAIN, derive_model, second_version
+
+SPLIT_CHECK = "judged on gold recordings it was not trained on"
 
 
 def test_the_gate_blocks_a_model_that_misses_a_fall(
@@ -27,7 +29,10 @@ def test_the_gate_blocks_a_model_that_misses_a_fall(
     fall_check = next(c for c in gate["checks"] if c["name"] == "misses no fall of the gold set")
     assert fall_check["passed"] is False and fall_check["detail"].startswith("0 of 2 falls")
     assert "fall-07" in fall_check["detail"]
-    assert any("training recordings unknown" in w for w in gate["warnings"])
+    split = next(c for c in gate["checks"] if c["name"] == SPLIT_CHECK)
+    assert split["passed"] and split["detail"] == (
+        "none of the 4 gold recordings is among its 12 training recordings"
+    )
 
     response = client.post(
         f"/api/models/{blind}/promote", headers=engineer.headers, json={"scope": "fleet"}
@@ -40,6 +45,49 @@ def test_the_gate_blocks_a_model_that_misses_a_fall(
 
     good = register(trained_model_dir)
     assert client.get(f"/api/models/{good}/gate", headers=engineer.headers).json()["passed"]
+
+
+def test_the_gate_refuses_a_model_trained_on_its_gold_recordings_naming_them(
+    client, make_account, fleet, urfd_db, register, trained_model_dir, tmp_path, session_factory
+):
+    """Gold-set figures of a model trained on gold recordings are training figures: the gate
+    refuses it and names the recordings; a model that records no training recordings cannot
+    show it never saw the gold set and is refused for that."""
+    engineer = make_account(Role.ENGINEER)
+    overlapping = register(
+        derive_model(
+            trained_model_dir,
+            tmp_path / "overlap",
+            "overlap-1",
+            training_recordings=[*TRAIN, "fall-08", "adl-07"],
+        )
+    )
+    unknown = register(
+        derive_model(trained_model_dir, tmp_path / "unknown", "unknown-1", training_recordings=None)
+    )
+    gate = client.get(f"/api/models/{overlapping}/gate", headers=engineer.headers).json()
+    split = next(c for c in gate["checks"] if c["name"] == SPLIT_CHECK)
+    assert gate["passed"] is False and split["passed"] is False and split["value"] == 2
+    assert split["detail"] == "2 of 4 gold recordings were also training data: adl-07, fall-08"
+    assert gate["split"] == {
+        "gold_recordings": 4,
+        "training_recordings": 14,
+        "overlap": ["adl-07", "fall-08"],
+    }
+    response = client.post(
+        f"/api/models/{overlapping}/promote", headers=engineer.headers, json={"scope": "fleet"}
+    )
+    assert response.status_code == 409
+    assert f"gate failed: {SPLIT_CHECK}" in response.json()["detail"]
+    assert "adl-07, fall-08" in response.json()["detail"]
+
+    gate = client.get(f"/api/models/{unknown}/gate", headers=engineer.headers).json()
+    split = next(c for c in gate["checks"] if c["name"] == SPLIT_CHECK)
+    assert gate["passed"] is False and split["passed"] is False
+    assert split["detail"].startswith("training recordings unknown")
+    assert gate["split"]["overlap"] is None and gate["split"]["training_recordings"] is None
+    with session_factory() as session:
+        assert session.scalar(select(func.count()).select_from(Deployment)) == 0
 
 
 def test_staged_rollout_canary_then_ward_then_rollback_restores_each_robot(

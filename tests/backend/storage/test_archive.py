@@ -81,3 +81,46 @@ def test_import_refuses_a_file_that_does_not_match_its_sha256(
         made.sha256 = "0" * 64
         with pytest.raises(archive.ArchiveError, match="sha256"):
             archive.import_archive(session, made)
+
+
+def test_archive_labels_overlapping_segments_as_the_export_does(session_factory, tmp_path):
+    """One rule turns segments into per-frame labels (`vigil.segments`): where accepted segments
+    overlap, the archive's label column equals the CSV export's labels row by row (the segment
+    updated last wins, here the one that starts first), also after the archive is imported
+    again."""
+    from datetime import timedelta
+
+    from backend.labelling.export import export_csv
+
+    with transaction(session_factory) as session:
+        video = f.robot_video(session, "r3-transport", "r3", [f.NOW + i / 10 for i in range(30)])
+        f.label(session, video, 2, 20, "walking")
+        f.label(session, video, 10, 25, "falling")
+        first, second = session.scalars(
+            select(AnnotationSegment)
+            .where(AnnotationSegment.video_id == video.id)
+            .order_by(AnnotationSegment.first_frame)
+        ).all()
+        first.updated_at = second.updated_at + timedelta(minutes=5)  # edited last: it wins
+        video_id = video.id
+
+    def exported(session) -> list[str | None]:
+        rows = export_csv(session, session.get(Video, video_id)).splitlines()[1:]
+        return [row.split(",")[3] or None for row in rows]
+
+    with transaction(session_factory) as session:
+        made = archive.export_video(session, session.get(Video, video_id), tmp_path)
+        archive_id, expected = made.id, exported(session)
+    labels = pq.read_table(made.path).column("label").to_pylist()
+    assert labels == expected
+    assert labels[10:21] == ["walking"] * 11 and labels[21:26] == ["falling"] * 5
+
+    with transaction(session_factory) as session:  # frames and labels dropped, then restored
+        session.execute(delete(Frame).where(Frame.video_id == video_id))
+        session.execute(delete(AnnotationSegment).where(AnnotationSegment.video_id == video_id))
+    with transaction(session_factory) as session:
+        archive.import_archive(session, session.get(FrameArchive, archive_id))
+    with transaction(session_factory) as session:
+        assert exported(session) == expected
+        again = archive.export_video(session, session.get(Video, video_id), tmp_path / "again")
+    assert pq.read_table(again.path).column("label").to_pylist() == expected

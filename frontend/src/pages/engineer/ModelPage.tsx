@@ -1,7 +1,7 @@
 import { Fragment, useEffect, useState, type FormEvent } from "react";
 import { Link, useParams } from "react-router-dom";
 import { api, errorMessage } from "../../api/client";
-import { metricName, statusText } from "../../lib/registry";
+import { goldSplitText, metricName, statusText, type GoldSplit } from "../../lib/registry";
 import { ConfirmDialog } from "./ConfirmDialog";
 import { JobProgress } from "./JobProgress";
 import { inputsText } from "./FleetPage";
@@ -64,6 +64,7 @@ export function ModelPage() {
         {gold ? (
           <>
             <p className="muted">Real URFD / labelled recordings with split “test”: {fmt((gold.sequences as string[])?.length)} recordings, {fmt(gold.frames)} frames{gold.generated_data ? " (includes GENERATED data)" : ""}.</p>
+            {gate?.split && <GoldSplitLine split={gate.split} />}
             <div className="table-wrap">
               <table className="table" aria-label="Table 3">
                 <thead><tr>{TABLE3.map((k) => <th key={k} title={metricName(k)}>{k}</th>)}</tr></thead>
@@ -95,6 +96,11 @@ export function ModelPage() {
       <Promote modelId={model.id} version={model.version} needs={model.inputs} gate={gate} onDone={load} />
     </>
   );
+}
+
+function GoldSplitLine({ split }: { split: GoldSplit }) {
+  const { text, clean } = goldSplitText(split);
+  return <p aria-label="Gold set and training" className={clean ? "split-clean" : "error"}>{text}</p>;
 }
 
 function WhatIf({ modelId, threshold, delayMs }: { modelId: number; threshold: number; delayMs: number }) {

@@ -1,5 +1,6 @@
 // Shapes of the registry API (from the generated OpenAPI schema) plus the untyped JSON parts.
 import type { components } from "../../api/schema";
+import type { GoldSplit } from "../../lib/registry";
 
 type Schemas = components["schemas"];
 export type ModelSummary = Schemas["ModelSummary"];
@@ -24,6 +25,7 @@ export interface GateReport {
   passed: boolean;
   checks: GateCheck[];
   warnings?: string[];
+  split?: GoldSplit | null;
 }
 
 export interface GoldEvent {

@@ -1,7 +1,9 @@
 """Per-frame labels <-> runs of equal labels (segments), and the one rule for overlaps.
 
 Where segments overlap, the one updated last wins the frame (on a tie, the one created later):
-`frame_segments` applies it for the exports and for training alike.
+`frame_segments` applies it for the exports, the Parquet archives and training alike. Plain
+functions over anything with a segment's fields, so every process (the backend's labelling and
+storage, the worker) takes the one rule from here.
 """
 
 from __future__ import annotations
