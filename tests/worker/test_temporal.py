@@ -18,6 +18,7 @@ from worker.training import cross_validation
 from worker.training import detector as detector_module
 from worker.training.cross_validation import select
 from worker.training.data import from_urfd
+from worker.training.detector import EmergencyDetector
 from worker.training.estimators import ModelSpec, takes_streams
 from worker.training.publish import publish
 from worker.training.robot_path import replay_stream
@@ -203,3 +204,28 @@ def test_the_published_window_model_scores_the_same_on_the_robot(
     np.testing.assert_allclose(
         robot.scores, trainer.score(selected.fitted, urfd, np.arange(4)), rtol=0, atol=1e-5
     )
+
+
+def test_a_window_model_in_the_detector_has_every_class_of_its_mode():
+    """Wheelchair mode has three classes; Pause frames are absent from these sequences, and the
+    window model still gives three outputs, each frame scored on its own sequence's frames."""
+    rng = np.random.default_rng(2)
+    groups = np.repeat(np.arange(6), 30)
+    X = rng.normal(size=(len(groups), 5))
+    y = np.where((groups < 3) & (np.arange(len(groups)) % 30 >= 15), 1, 0)  # Emergency in 0-2
+    X[:, 0] += 2.0 * y
+    detector = EmergencyDetector(
+        "tcn",
+        {"window": [3], "channels": [4], "epochs": [2]},
+        {"batch_size": 16},
+        None,
+        mode="wheelchair",
+        n_inner=2,
+    )
+    assert detector.fit(X, y, groups) is detector
+    assert detector.model_.steps[-1][1].n_classes == 3 and detector.oof_scores_.shape == (180, 3)
+    scores = detector.predict_proba(X, groups)
+    assert scores.shape == (180, 3)
+    alone = detector.predict_proba(X[groups == 4], groups[groups == 4])
+    np.testing.assert_allclose(scores[groups == 4], alone, rtol=0, atol=1e-6)
+    assert 0 < detector.threshold_ < 1 and set(detector.predict(X, groups)) <= {0, 1, 2}
