@@ -69,7 +69,11 @@ def test_the_cli_default_bootstrap_retrain_and_benchmark_read_the_registry():
     assert spec_for(RetrainParams(spec="rf-keypoints-default")) is bootstrap.KEYPOINTS_SPEC
     with pytest.raises(ValueError, match="choose one of"):
         spec_for(RetrainParams(spec="nope"))
-    # make bench-detection's default models: the registry's benchmarked grids and the tcn.
-    assert cli.ALL_MODELS.split(",") == [*SPECS.benchmarked(), "tcn"]
-    trainers = cli.make_trainers(["rf-keypoints", "rf-default"])
-    assert [t.spec for t in trainers] == [SPECS["rf-keypoints"], SPECS["rf-default"]]
+    # make bench-detection's default models: the registry's benchmarked grids, the window model
+    # (tcn) among them as a spec of its own family, last as before.
+    assert cli.ALL_MODELS.split(",") == list(SPECS.benchmarked())
+    assert cli.ALL_MODELS.split(",")[-1] == "tcn" and SPECS["tcn"].family == "tcn"
+    trainers = cli.make_trainers(["rf-keypoints", "rf-default", "tcn"])
+    assert [t.spec for t in trainers] == [SPECS["rf-keypoints"], SPECS["rf-default"], SPECS["tcn"]]
+    with pytest.raises(ValueError, match="unknown model 'nope'"):
+        cli.make_trainers(["rf", "nope"])

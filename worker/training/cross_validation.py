@@ -3,7 +3,9 @@
 For every outer fold, the grid is searched by inner cross-validation over the training sequences
 (inner folds of whole sequences); the best configuration's inner out-of-fold scores choose the
 threshold and the delay; the configuration is refitted on all training sequences and scored on the
-held-out fold. The test fold never influences any choice.
+held-out fold. The test fold never influences any choice. All of it is EmergencyDetector's fit
+(worker.training.detector), for every model spec: `seed` here splits the outer folds, the
+trainer's seed the inner ones.
 """
 
 from __future__ import annotations
@@ -14,16 +16,11 @@ from typing import Any
 
 import numpy as np
 
-from vigil.classes import Decision
 from worker.training.data import FrameData
-from worker.training.detector import fit_on, jsonable, pooled_average_precision_of
-from worker.training.selection import (
-    StreamScores,
-    choose_operating_point,
-    evaluate_folds,
-)
+from worker.training.detector import fit_on
+from worker.training.selection import StreamScores, evaluate_folds
 from worker.training.splits import grouped_folds
-from worker.training.trainers import SklearnTrainer, Trainer
+from worker.training.trainers import SklearnTrainer
 
 
 @dataclass
@@ -38,69 +35,32 @@ class Selected:
     seconds: float = 0.0
 
 
-def _oof_scores(
-    trainer, data: FrameData, sequences: np.ndarray, params: dict, folds, stride: int
-) -> StreamScores:
-    mask = data.frames_of(sequences)
-    scores = np.zeros((int(mask.sum()), len(data.classes)))
-    group = data.group[mask]
-    for inner_train, inner_test in folds:
-        fitted = trainer.fit(data, sequences[inner_train], params, stride)
-        rows = np.isin(group, sequences[inner_test])
-        scores[rows] = trainer.score(fitted, data, sequences[inner_test])
-    return StreamScores(data, np.sort(sequences), scores)
-
-
 def select(
-    trainer: Trainer,
+    trainer: SklearnTrainer,
     data: FrameData,
     sequences: np.ndarray,
     n_inner: int = 4,
     stride: int = 2,
-    seed: int = 0,
     progress=None,
     n_jobs: int | None = None,
 ) -> Selected:
-    """Grid search + threshold + delay using only `sequences`, then a refit on them.
-
-    scikit-learn families: EmergencyDetector (GridSearchCV, on the active joblib backend).
-    Window models (TemporalTrainer) have one configuration: its inner out-of-fold scores choose
-    threshold and delay the same way."""
+    """Grid search + threshold + delay using only `sequences`, then a refit on them: the
+    trainer's EmergencyDetector (GridSearchCV, on the active joblib backend), for every family,
+    the window model too."""
     start = time.perf_counter()
     sequences = np.sort(np.asarray(sequences))
-    if isinstance(trainer, SklearnTrainer):
-        detector = fit_on(
-            trainer.detector(data.mode.value, n_inner, stride, n_jobs), data, sequences
-        )
-        if progress is not None:
-            progress.update(len(detector.grid_scores_))
-        return Selected(
-            detector.best_params_,
-            detector.threshold_,
-            detector.delay_s_,
-            detector.grid_scores_,
-            detector.delay_sweep_,
-            StreamScores(data, sequences, detector.oof_scores_),
-            detector.model_,
-            time.perf_counter() - start,
-        )
-    (params,) = trainer.configurations()
-    folds = grouped_folds(data.is_positive_sequence[sequences], n_inner, seed)
-    oof = _oof_scores(trainer, data, sequences, params, folds, stride)
+    detector = fit_on(trainer.detector(data.mode.value, n_inner, stride, n_jobs), data, sequences)
     if progress is not None:
-        progress.update(1)
-    mask = data.frames_of(sequences)
-    target = data.target[mask]
-    e = data.classes.index(Decision.EMERGENCY)
-    ap = pooled_average_precision_of(np.where(data.usable[mask], target, -1), oof.scores, e)
-    labelled = target >= 0
-    threshold, delay_s, sweep = choose_operating_point(
-        oof, oof.scores[labelled], target[labelled], trainer.operating_point
-    )
-    fitted = trainer.fit(data, sequences, params, 1)
-    grid_scores = [{"params": jsonable(params), "average_precision": ap}]
+        progress.update(len(detector.grid_scores_))
     return Selected(
-        params, threshold, delay_s, grid_scores, sweep, oof, fitted, time.perf_counter() - start
+        detector.best_params_,
+        detector.threshold_,
+        detector.delay_s_,
+        detector.grid_scores_,
+        detector.delay_sweep_,
+        StreamScores(data, sequences, detector.oof_scores_),
+        detector.model_,
+        time.perf_counter() - start,
     )
 
 
@@ -114,7 +74,7 @@ class CrossValidation:
 
 
 def cross_validate(
-    trainer: Trainer,
+    trainer: SklearnTrainer,
     data: FrameData,
     n_folds: int = 5,
     n_inner: int = 4,
@@ -125,7 +85,7 @@ def cross_validate(
     start = time.perf_counter()
     cv = CrossValidation(trainer.name)
     for train, test in grouped_folds(data.is_positive_sequence, n_folds, seed):
-        selected = select(trainer, data, train, n_inner, stride, seed, progress=progress)
+        selected = select(trainer, data, train, n_inner, stride, progress=progress)
         scores = trainer.score(selected.fitted, data, test)
         cv.folds.append(selected)
         cv.test_scores.append(StreamScores(data, np.sort(test), scores))

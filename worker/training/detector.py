@@ -6,6 +6,13 @@ configuration evaluated by cross-validation over grouped inner folds of whole se
 and the delay (worker.training.selection.choose_operating_point); the winner is then refitted on
 every trainable frame.
 
+Every family of worker.training.estimators runs here, the window model (`tcn`) too, so threshold
+and delay are chosen in this one place. A window model scores a frame on the frames before it in
+its stream: its inner folds fit on every frame of their training sequences (frames not to train
+on get class index -1 and stay as context), every `max(stride, its own stride)`-th trainable
+frame trained on, and it is refitted on every frame of X at its own stride (every other frame:
+30 frames/s are redundant for a window).
+
 Configurations are ranked by the average precision of Emergency over the POOLED inner
 out-of-fold scores, not by the mean of per-fold average precisions: a per-split score cannot
 express a pooled one, so GridSearchCV's unit of evaluation is a configuration's whole inner
@@ -35,7 +42,7 @@ from vigil.classes import MODE_CLASSES, Decision, TransportMode
 from vigil.features import FEATURE_SETS
 from vigil.policy import raw_decisions
 from worker.training.data import FrameData
-from worker.training.estimators import ModelSpec, positive_scores
+from worker.training.estimators import ModelSpec, fit_pipeline, positive_scores, takes_streams
 from worker.training.selection import StreamScores, choose_operating_point
 from worker.training.splits import grouped_folds
 
@@ -47,26 +54,32 @@ class InnerCrossValidation(MetaEstimatorMixin, BaseEstimator):
     out-of-fold scores (`oof_scores_`; the folds' test rows partition X) and the average precision
     of class `positive` over the pooled out-of-fold scores of the scored rows (y >= 0):
     `average_precision_`. `fit_target`, if given, is what the folds' models are fitted to
-    (y otherwise)."""
+    (y otherwise); `streams`, each row's stream, is passed to a model that takes streams."""
 
     def __init__(self, estimator, folds, positive: int = 1) -> None:
         self.estimator = estimator
         self.folds = folds
         self.positive = positive
 
-    def fit(self, X, y, fit_target=None):
+    def fit(self, X, y, fit_target=None, streams=None):
         X, y = np.asarray(X), np.asarray(y)
         fit_target = y if fit_target is None else np.asarray(fit_target)
         scores = None
         for train, test in self.folds:
-            fitted = clone(self.estimator).fit(X[train], fit_target[train])
-            fold_scores = positive_scores(fitted, X[test])
+            fitted = fit_pipeline(
+                clone(self.estimator), X[train], fit_target[train], _rows(streams, train)
+            )
+            fold_scores = positive_scores(fitted, X[test], _rows(streams, test))
             if scores is None:
                 scores = np.zeros((len(X), fold_scores.shape[1]))
             scores[test] = fold_scores
         self.oof_scores_ = scores
         self.average_precision_ = pooled_average_precision_of(y, scores, self.positive)
         return self
+
+
+def _rows(values, rows):
+    return None if values is None else np.asarray(values)[rows]
 
 
 def pooled_average_precision_of(y: np.ndarray, scores: np.ndarray, positive: int) -> float:
@@ -112,7 +125,8 @@ class EmergencyDetector(ClassifierMixin, BaseEstimator):
     sequence of its own). Metadata: `timestamps` (s, for the delay; default 30 frames/s),
     `usable` (a pose was seen; only usable labelled frames are fitted and ranked), `fit_target`
     (what the models are fitted to, default y) and `positive_sequence` (per frame, whether its
-    sequence is a fall; default: it has an Emergency frame).
+    sequence is a fall; default: it has an Emergency frame). Frames of a sequence are in time
+    order (a window model's windows are the frames before each in its sequence).
 
     Learned: `model_` (the refitted pipeline), `threshold_`, `delay_s_`, `columns_`,
     `best_params_` (grid keys), `cv_results_` (GridSearchCV's), `grid_scores_`,
@@ -177,7 +191,10 @@ class EmergencyDetector(ClassifierMixin, BaseEstimator):
         sequence_ids, group = np.unique(groups, return_inverse=True)  # sequences in sorted order
         timestamps = np.arange(n) / 30.0 if timestamps is None else np.asarray(timestamps)
         usable = np.ones(n, bool) if usable is None else np.asarray(usable, bool)
-        fit_target = y if fit_target is None else np.asarray(fit_target)
+        trainable = (y >= 0) & usable
+        # frames not to fit on (unlabelled, or no pose seen) are class -1: a per-frame model never
+        # sees them, a window model keeps them as context
+        fit_target = np.where(trainable, y if fit_target is None else np.asarray(fit_target), -1)
         if positive_sequence is None:
             positive_sequence = y == e
         is_positive = np.zeros(len(sequence_ids), bool)
@@ -188,17 +205,27 @@ class EmergencyDetector(ClassifierMixin, BaseEstimator):
         )
         self.classes_ = np.arange(len(classes))
         features = X[:, self.columns_]
-        trainable = (y >= 0) & usable
         everything = np.arange(n)
-        folds = [
-            (
-                np.flatnonzero(np.isin(group, inner_train) & trainable)[:: self.stride],
-                np.flatnonzero(np.isin(group, inner_test)),
-            )
-            for inner_train, inner_test in grouped_folds(is_positive, self.n_inner, self.seed)
-        ]
         n_features = len(self.columns_)
-        inner_cv = InnerCrossValidation(spec.pipeline(n_features, self.seed), folds, e)
+        model = spec.pipeline(n_features, self.seed)
+        streams = takes_streams(model)
+        inner_model = model
+        if streams:
+            model.set_params(model__n_classes=len(classes))
+            stride = max(self.stride, model.get_params()["model__stride"])
+            inner_model = clone(model).set_params(model__stride=stride)
+        folds = []
+        for inner_train, inner_test in grouped_folds(is_positive, self.n_inner, self.seed):
+            in_train = np.isin(group, inner_train)
+            # a window model fits on whole sequences (its stride picks the frames trained on),
+            # the others on every `stride`-th trainable frame
+            train = (
+                np.flatnonzero(in_train)
+                if streams
+                else np.flatnonzero(in_train & trainable)[:: self.stride]
+            )
+            folds.append((train, np.flatnonzero(np.isin(group, inner_test))))
+        inner_cv = InnerCrossValidation(inner_model, folds, e)
         param_grid = [
             {f"estimator__{key}": values for key, values in point.items()}
             for point in spec.param_grid(n_features)
@@ -214,7 +241,7 @@ class EmergencyDetector(ClassifierMixin, BaseEstimator):
             error_score="raise",
         )
         scored_y = np.where(usable, y, -1)
-        search.fit(features, scored_y, fit_target=fit_target)
+        search.fit(features, scored_y, fit_target=fit_target, streams=group)
         configurations = spec.configurations()
         self.cv_results_ = search.cv_results_
         self.best_params_ = configurations[search.best_index_]
@@ -227,7 +254,9 @@ class EmergencyDetector(ClassifierMixin, BaseEstimator):
         winner = clone(inner_cv).set_params(**search.best_params_)
         self.oof_scores_ = scorer.scores_of(search.best_params_)
         if self.oof_scores_ is None:  # the search ran in other processes
-            self.oof_scores_ = winner.fit(features, scored_y, fit_target=fit_target).oof_scores_
+            self.oof_scores_ = winner.fit(
+                features, scored_y, fit_target=fit_target, streams=group
+            ).oof_scores_
 
         frames = FrameData(
             names=[str(s) for s in sequence_ids],
@@ -245,21 +274,29 @@ class EmergencyDetector(ClassifierMixin, BaseEstimator):
         self.threshold_, self.delay_s_, self.delay_sweep_ = choose_operating_point(
             stream, self.oof_scores_[labelled], y[labelled], spec.operating_point
         )
-        self.model_ = clone(winner.estimator).fit(features[trainable], fit_target[trainable])
+        best = {
+            key.removeprefix("estimator__"): value for key, value in search.best_params_.items()
+        }
+        final = clone(model).set_params(**best)
+        fitted_rows = everything if streams else np.flatnonzero(trainable)
+        self.model_ = fit_pipeline(
+            final, features[fitted_rows], fit_target[fitted_rows], group[fitted_rows]
+        )
         self.seconds_ = time.perf_counter() - start
         return self
 
-    def predict_proba(self, X) -> np.ndarray:
-        """(n, k) class scores of full feature vectors, as the exported ONNX graph gives them."""
+    def predict_proba(self, X, groups=None) -> np.ndarray:
+        """(n, k) class scores of full feature vectors, as the exported ONNX graph gives them
+        (`groups`: each frame's sequence, for a window model; None: one sequence)."""
         check_is_fitted(self, "model_")
         X = validate_data(self, X, reset=False)
-        return positive_scores(self.model_, X[:, self.columns_])
+        return positive_scores(self.model_, X[:, self.columns_], groups)
 
-    def predict(self, X) -> np.ndarray:
+    def predict(self, X, groups=None) -> np.ndarray:
         """Class index per frame at the chosen threshold, before the delay filter (frames
         alone carry no time)."""
         classes = MODE_CLASSES[TransportMode(self.mode)]
-        return raw_decisions(self.predict_proba(X), classes, self.threshold_)
+        return raw_decisions(self.predict_proba(X, groups), classes, self.threshold_)
 
 
 def fit_on(detector: EmergencyDetector, data: FrameData, sequences: np.ndarray):

@@ -1,11 +1,15 @@
 """The model families as scikit-learn pipelines, their grids, and the paper's SVM configuration.
 
 A family is a pipeline factory (FAMILIES); a ModelSpec names a family, a feature set and a grid
-of that family's hyperparameters. The specs themselves, by unique name, are registered in
-worker.training.specs. Grid keys are the model step's parameter names, except
-`gamma_times_1_over_n` (SVM): the paper's gamma is 1/n_features, and since n_features is fixed by
-the feature set, the grid carries SVC's gamma as `gamma_times_1_over_n / n_features`, the very
-value (same float division) the SVC was built with before.
+of that family's hyperparameters. Every family is selected by worker.training.detector's
+EmergencyDetector (grid search, inner cross-validation, threshold and delay), the window model
+`tcn` too: its pipeline's model scores a frame on the frames before it in its stream
+(`takes_streams`), so it is fitted and scored on whole streams with their `groups`. The specs
+themselves, by unique name, are registered in worker.training.specs. Grid keys are the model
+step's parameter names, except `gamma_times_1_over_n` (SVM): the paper's gamma is 1/n_features,
+and since n_features is fixed by the feature set, the grid carries SVC's gamma as
+`gamma_times_1_over_n / n_features`, the very value (same float division) the SVC was built with
+before.
 """
 
 from __future__ import annotations
@@ -46,13 +50,35 @@ def _gbt(seed: int) -> Pipeline:
     )
 
 
+def _tcn(seed: int) -> Pipeline:
+    # torch is imported only where a window model is built
+    from worker.training.temporal import TemporalClassifier
+
+    return Pipeline([("model", TemporalClassifier(seed=seed))])
+
+
 #: family -> pipeline factory (seed -> unfitted pipeline holding the family's constants).
 FAMILIES: dict[str, Callable[[int], Pipeline]] = {
     "svm": _svm,
     "mlp": _mlp,
     "rf": _rf,
     "gbt": _gbt,
+    "tcn": _tcn,
 }
+
+
+def takes_streams(pipeline: Pipeline) -> bool:
+    """Whether the pipeline's model scores a frame on the frames before it in its stream (the
+    window model): it is fitted on whole streams, frames not to train on marked with a negative
+    class index, and its fit and predict_proba take each frame's stream (`groups`)."""
+    return bool(getattr(pipeline.steps[-1][1], "takes_streams", False))
+
+
+def fit_pipeline(pipeline: Pipeline, X, y, groups=None) -> Pipeline:
+    """`pipeline.fit(X, y)`, with the frames' streams for a model that takes them."""
+    if takes_streams(pipeline):
+        return pipeline.fit(X, y, **{f"{pipeline.steps[-1][0]}__groups": groups})
+    return pipeline.fit(X, y)
 
 
 def pipeline_params(params: dict[str, Any], n_features: int) -> dict[str, Any]:
@@ -101,8 +127,11 @@ class ModelSpec:
         ]
 
 
-def positive_scores(pipeline: Pipeline, features: np.ndarray) -> np.ndarray:
-    """(n, k) class scores as the exported ONNX graph computes them."""
+def positive_scores(pipeline: Pipeline, features: np.ndarray, groups=None) -> np.ndarray:
+    """(n, k) class scores as the exported ONNX graph computes them (`groups`: each frame's
+    stream, for a model that takes streams; None: one stream)."""
+    if takes_streams(pipeline):
+        return pipeline.predict_proba(features, groups=groups)
     if isinstance(pipeline.steps[-1][1], SVC):
         p = 1.0 / (1.0 + np.exp(-pipeline.decision_function(features)))
         return np.stack([1 - p, p], axis=1)

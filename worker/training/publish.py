@@ -33,7 +33,7 @@ def publish(
         classes=list(data.classes),
         feature_version=FEATURE_VERSION,
         feature_set=trainer.feature_set,
-        window=trainer.window,
+        window=trainer.window_of(selected.fitted),
         inputs=model_inputs(trainer.feature_set, fitted_with_depth(data)),
         taxonomy_version=DEFAULT_TAXONOMY.version,
         threshold=selected.threshold,

@@ -8,8 +8,8 @@ DuplicateSpecError: a name is what a model version, a benchmark result and a ret
 to, so it must mean one configuration grid.
 
 Names: `<family>[-<feature set>]` is the grid the benchmark searches (`make bench-detection`,
-`benchmarked()`); `-default` marks the one fixed configuration `make run` trains (rf-default
-with floor measures, rf-keypoints-default without).
+`benchmarked()`; `tcn` is the window model's one configuration); `-default` marks the one fixed
+configuration `make run` trains (rf-default with floor measures, rf-keypoints-default without).
 """
 
 from __future__ import annotations
@@ -158,6 +158,17 @@ RF_KEYPOINTS = SPECS.register(
         feature_set="keypoints",
         description="Random forest without floor measures, for robots whose depth camera has no "
         "calibrated mount",
+    ),
+    benchmarked=True,
+)
+#: The window model: a temporal 1D-CNN over the last 24 frames (worker.training.temporal); one
+#: configuration, selected (inner cross-validation, threshold and delay) like every other grid.
+TCN = SPECS.register(
+    ModelSpec(
+        name="tcn",
+        family="tcn",
+        grid={"window": [24], "channels": [48], "epochs": [10], "dropout": [0.2]},
+        description="Temporal 1D-CNN over the last 24 frames of pose, temporal and floor features",
     ),
     benchmarked=True,
 )

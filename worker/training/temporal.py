@@ -4,24 +4,23 @@ Input: (batch, window, n_features) raw features; the standardisation learned on 
 frames is part of the network, so the ONNX graph takes the extractor's output as it is.
 
 `TemporalClassifier` is the scikit-learn estimator (fit(X, y, groups) returns self, learns
-`model_`); `TemporalTrainer` is its Trainer (worker.training.trainers) for cross-validation,
-scoring and export.
+`model_`): the family `tcn` (worker.training.estimators.FAMILIES), which EmergencyDetector
+selects like any other family (grid, inner cross-validation, threshold and delay); `to_onnx`
+exports it.
 """
 
 from __future__ import annotations
 
 import io
-from typing import Any
 
 import numpy as np
 import torch
-from sklearn.base import BaseEstimator, ClassifierMixin, clone
+from sklearn.base import BaseEstimator, ClassifierMixin
 from sklearn.utils.multiclass import check_classification_targets
 from sklearn.utils.validation import check_is_fitted, validate_data
 from torch import nn
 
-from vigil.features import FEATURE_SETS, window_index
-from worker.training.data import FrameData
+from vigil.features import window_index
 
 
 class TemporalCNN(nn.Module):
@@ -66,6 +65,10 @@ class TemporalClassifier(ClassifierMixin, BaseEstimator):
     predict_proba(X, groups) scores each frame on its last `window` frames of its stream.
     Learned: `model_` (TemporalCNN, eval mode), `classes_`, `n_features_in_`.
     """
+
+    #: A frame is scored on the frames before it in its stream: fit and predict_proba take the
+    #: frames' `groups` (worker.training.estimators.takes_streams).
+    takes_streams = True
 
     def __init__(
         self,
@@ -156,61 +159,19 @@ def _streams(groups, n: int) -> np.ndarray:
     return np.zeros(n, np.int64) if groups is None else np.asarray(groups)
 
 
-class TemporalTrainer:
-    """Trainer protocol (see trainers.py) for TemporalClassifier; one measured configuration
-    (`fitted` is a fitted TemporalClassifier)."""
-
-    operating_point = "event"  # see worker.training.selection.choose_operating_point
-
-    #: The classifier parameters that make its one configuration (reported like a grid point).
-    CONFIGURATION = ("window", "channels", "epochs", "dropout")
-
-    def __init__(self, name: str = "tcn", feature_set: str = "full", **classifier_params) -> None:
-        self.name, self.feature_set = name, feature_set
-        self.template = TemporalClassifier(**classifier_params)
-        self.window = self.template.window
-
-    @property
-    def columns(self) -> np.ndarray:
-        return FEATURE_SETS[self.feature_set]
-
-    def configurations(self) -> list[dict[str, Any]]:
-        params = self.template.get_params()
-        return [{key: params[key] for key in self.CONFIGURATION}]
-
-    def classifier(self, params: dict, stride: int, n_classes: int) -> TemporalClassifier:
-        return clone(self.template).set_params(**params, stride=stride, n_classes=n_classes)
-
-    def _frames(self, data: FrameData, sequences: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        mask = data.frames_of(sequences)
-        return data.features[mask][:, self.columns], data.group[mask]
-
-    def fit(self, data: FrameData, sequences: np.ndarray, params: dict, stride: int = 1):
-        mask = data.frames_of(sequences)
-        X, groups = self._frames(data, sequences)
-        # 30 frames/s are redundant for a window model: every other frame is plenty.
-        target = np.where(data.trainable[mask], data.fit_target[mask], -1)
-        return self.classifier(params, max(stride, 2), len(data.classes)).fit(X, target, groups)
-
-    def score(self, fitted: TemporalClassifier, data: FrameData, sequences: np.ndarray):
-        return fitted.predict_proba(*self._frames(data, sequences))
-
-    def to_onnx(self, fitted: TemporalClassifier, data: FrameData) -> bytes:
-        buffer = io.BytesIO()
-        example = torch.zeros(1, self.window, len(self.columns))
-        torch.onnx.export(
-            _Probabilities(fitted.model_).eval(),
-            (example,),
-            buffer,
-            input_names=["windows"],
-            output_names=["probabilities"],
-            dynamic_axes={"windows": {0: "batch"}, "probabilities": {0: "batch"}},
-            dynamo=False,
-        )
-        return buffer.getvalue()
-
-    def reference(self, fitted: TemporalClassifier, data: FrameData, n: int = 256):
-        X, groups = data.features[:, self.columns], data.group
-        rows = np.flatnonzero(data.trainable)
-        rows = rows[np.linspace(0, len(rows) - 1, min(n, len(rows))).astype(int)]
-        return fitted.windows(X, groups)[rows], fitted.predict_proba(X, groups)[rows]
+def to_onnx(classifier: TemporalClassifier) -> bytes:
+    """The fitted classifier's network as an ONNX graph: input `windows` (batch, window,
+    n_features) of raw features, output `probabilities` (batch, classes)."""
+    check_is_fitted(classifier, "model_")
+    buffer = io.BytesIO()
+    example = torch.zeros(1, classifier.window, classifier.n_features_in_)
+    torch.onnx.export(
+        _Probabilities(classifier.model_).eval(),
+        (example,),
+        buffer,
+        input_names=["windows"],
+        output_names=["probabilities"],
+        dynamic_axes={"windows": {0: "batch"}, "probabilities": {0: "batch"}},
+        dynamo=False,
+    )
+    return buffer.getvalue()
