@@ -74,6 +74,11 @@ def derive_model(source: Path, out: Path, version: str, **changes) -> Path:
     """The same ONNX graph under another version and operating point (e.g. threshold 1.0)."""
     manifest, directory = read_manifest(source)
     onnx_bytes = (directory / manifest.file).read_bytes()
+    if "training_recordings" in changes:  # kept in the metrics (ModelManifest.training_recordings)
+        changes["metrics"] = {
+            **manifest.metrics,
+            "training_recordings": changes.pop("training_recordings"),
+        }
     write_model(out, onnx_bytes, manifest.model_copy(update={"version": version, **changes}))
     return out
 

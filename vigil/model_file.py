@@ -51,14 +51,18 @@ class ModelManifest(BaseModel):
     metrics: dict[str, Any] = Field(default_factory=dict)
     training_data_sha256: str
     generated_data: bool = Field(default=False, description="trained on generated, not real data")
-    training_recordings: list[str] | None = Field(
-        default=None,
-        description="names of the recordings the model was fitted on (None: not recorded, e.g. a "
-        "model made elsewhere); the promotion gate refuses a gold set that overlaps them",
-    )
     file: str = MODEL_NAME
     sha256: str = Field(pattern=r"^[0-9a-f]{64}$")
     format: Literal["onnx"] = "onnx"
+
+    @property
+    def training_recordings(self) -> list[str] | None:
+        """Names of the recordings the model was fitted on (None: not recorded, e.g. a model
+        made elsewhere); the promotion gate refuses a gold set that overlaps them. Kept in
+        `metrics`, not as a field of its own: agents of earlier releases refuse a manifest
+        with a field they do not know (extra="forbid"), and a fleet upgrades robot by robot."""
+        names = self.metrics.get("training_recordings")
+        return list(names) if names is not None else None
 
     @field_validator("file")
     @classmethod

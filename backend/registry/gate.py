@@ -107,7 +107,7 @@ def training_recordings(model: ModelVersion) -> list[str] | None:
     the job that trained it); None when nothing records them."""
     names = (model.lineage or {}).get("training_videos")
     if not names:
-        names = (model.manifest or {}).get("training_recordings")
+        names = ((model.manifest or {}).get("metrics") or {}).get("training_recordings")
     return list(names) if names else None
 
 

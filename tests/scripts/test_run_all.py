@@ -86,10 +86,9 @@ def test_the_demo_models_must_be_trained_with_the_generated_walking_transports(t
             taxonomy_version=DEFAULT_TAXONOMY.version,
             threshold=0.5,
             delay_ms=200,
-            metrics={"dataset": dataset},
+            metrics={"dataset": dataset, "training_recordings": trained_on},
             training_data_sha256="0" * 64,
             generated_data=dataset != "urfd",
-            training_recordings=trained_on,
             sha256="0" * 64,
         )
         write_model(directory, upright_model_bytes(), manifest)

@@ -1,3 +1,5 @@
+import json
+
 import numpy as np
 import onnx
 import pytest
@@ -73,3 +75,36 @@ def test_manifest_rejects_wrong_classes_and_paths():
     with pytest.raises(ValueError, match="file"):
         _manifest(file="../evil.onnx")
     assert onnx  # the graph helper above is real ONNX
+
+
+# The manifest fields agents of the previous release know; they refuse any other top-level
+# field (extra="forbid"), and a hospital's fleet upgrades robot by robot.
+PREVIOUS_RELEASE_FIELDS = {
+    "version",
+    "created",
+    "name",
+    "mode",
+    "classes",
+    "feature_version",
+    "feature_set",
+    "window",
+    "inputs",
+    "taxonomy_version",
+    "threshold",
+    "delay_ms",
+    "metrics",
+    "training_data_sha256",
+    "generated_data",
+    "file",
+    "sha256",
+    "format",
+}
+
+
+def test_a_manifest_with_its_training_recordings_is_one_an_earlier_agent_reads(tmp_path):
+    manifest = _manifest(metrics={"training_recordings": ["fall-02", "adl-01"]})
+    write_model(tmp_path, _softmax_model(4), manifest)
+    written = json.loads((tmp_path / "manifest.json").read_text())
+    assert set(written) <= PREVIOUS_RELEASE_FIELDS
+    assert read_manifest(tmp_path)[0].training_recordings == ["fall-02", "adl-01"]
+    assert _manifest().training_recordings is None

@@ -104,7 +104,7 @@ def test_rethreshold_evaluate_and_what_if(factory, worker_settings, urfd_db, tra
         # the child's graph is the parent's and its operating point chosen on the training split.
         assert parent.lineage["training_videos"] == list(TRAIN)
         assert child.lineage["training_videos"] == list(TRAIN)
-        assert child.manifest["training_recordings"] == list(TRAIN)
+        assert child.manifest["metrics"]["training_recordings"] == list(TRAIN)
         assert child.lineage["threshold_videos"] == list(TRAIN)
         assert child.metrics["gold"]["falls_total"] == 2
         assert len(child.metrics["rethreshold"]["delay_sweep"]["delay_s"]) == 151

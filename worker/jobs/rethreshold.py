@@ -62,8 +62,11 @@ def run(context: JobContext) -> dict:
             "threshold": threshold,
             "delay_ms": delay_ms,
             "created": datetime.now(UTC),
-            "metrics": {**manifest.metrics, "rethreshold_data_sha256": data.data_sha256},
-            "training_recordings": trained_on,
+            "metrics": {
+                **manifest.metrics,
+                "rethreshold_data_sha256": data.data_sha256,
+                "training_recordings": trained_on,
+            },
         }
     )
     try:

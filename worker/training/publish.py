@@ -41,11 +41,11 @@ def publish(
         metrics={
             "params": {k: _plain(v) for k, v in selected.params.items()},
             "training_rows": int(len(data.target)),
+            "training_recordings": list(data.names),
             **(metrics or {}),
         },
         training_data_sha256=data.data_sha256,
         generated_data=data.generated,
-        training_recordings=list(data.names),
         sha256="0" * 64,
     )
     sample, expected = trainer.reference(selected.fitted, data, 256)
