@@ -47,7 +47,9 @@ class RobotState:
     # (version, sha256) of the running model as stored, to tell news from a heartbeat
     # repeating it: only news goes to the fleet pages
     stored_model: tuple[str | None, str | None] = (None, None)
-    greeted: bool = False  # a hello in this flush: the robot (re)connected, always news
+    # this flush changed the robot's fleet row otherwise: a hello (it (re)connected, says what
+    # it feeds), a behaviour, detection degraded or recovered
+    fleet_news: bool = False
     # A behaviour the robot reported in this flush: (state, since, reason), written back once.
     behaviour: tuple[str, datetime, str] | None = None
 
@@ -195,7 +197,8 @@ class IngestContext:
 
     def write_back(self, session: Session) -> None:
         """One bulk update per table for the columns the flush changed; the fleet pages are
-        told (after the commit) of the robots that said hello or now run another model."""
+        told (after the commit) of the robots whose row changed: a hello, another running
+        model (not a heartbeat repeating it), a behaviour, detection degraded or recovered."""
         robots = [r for r in self.robots.values() if r is not None and r.last_seen_at]
         robot_table = Robot.__table__
         update_rows(
@@ -217,7 +220,8 @@ class IngestContext:
         fleet_news = [
             r.id
             for r in robots
-            if r.greeted
+            if r.fleet_news
+            or r.behaviour
             or (
                 r.running_model_changed
                 and (r.running_model_version, r.running_model_sha256) != r.stored_model
@@ -265,7 +269,7 @@ class IngestContext:
             robot.last_seen_at = None
             if robot.running_model_changed:
                 robot.stored_model = (robot.running_model_version, robot.running_model_sha256)
-            robot.running_model_changed = robot.greeted = False
+            robot.running_model_changed = robot.fleet_news = False
             robot.behaviour = None
         for transport in transports:
             transport.last_frame_at = None

@@ -1,12 +1,14 @@
 """The fleet's news is pushed, not polled (issue 35): when a robot says hello, reports another
-running model or goes offline, and when a rollout changes, the backend tells the browsers that
-may see the fleet (engineers, admins) on /ws/browser, once the change is committed, so the
-fleet page reloads at once instead of showing "switching…" until its next poll."""
+running model, a behaviour or degraded detection, or goes offline, and when a rollout changes,
+the backend tells the browsers that may see the fleet (engineers, admins) on /ws/browser, once
+the change is committed, so the fleet page reloads at once instead of showing "switching…"
+until its next poll."""
 
 from __future__ import annotations
 
 import asyncio
 import json
+import time
 import uuid
 
 import pytest
@@ -19,7 +21,14 @@ from tests.backend.conftest import ROBOT_TOKEN
 from tests.backend.test_first_alarm import frame
 from tests.backend.test_reliability import REDIS_URL
 from tests.backend.test_robot_model_sha import registered  # noqa: F401
-from vigil.protocol import FrameBatch, Heartbeat, Hello, TransportStart
+from vigil.protocol import (
+    BehaviourChanged,
+    DetectionStatus,
+    FrameBatch,
+    Heartbeat,
+    Hello,
+    TransportStart,
+)
 
 OTHER_SHA = "ab" * 32
 
@@ -148,8 +157,25 @@ def test_a_robot_s_hello_new_model_and_disconnect_reach_the_engineer_only(
             # Another file under the same version: news (the row is no longer in sync).
             heartbeat(3, OTHER_SHA)
             assert told(engineer_ws) == FLEET_NEWS
-        # Offline: the row says so at once.
-        assert news(engineer_ws) == FLEET_NEWS[0]
+            # What the robot does and whether its detection is degraded are on the row too.
+            now = time.time()
+            changed = BehaviourChanged(ts=now, since=now, state="paused", transport_id="t-1")
+            robot.send_text(changed.model_dump_json(exclude_none=True))
+            then_frames(4)
+            assert told(engineer_ws) == FLEET_NEWS
+            status = DetectionStatus(
+                ts=now, transport_id="t-1", degraded=True, missing_inputs=["depth"]
+            )
+            robot.send_text(status.model_dump_json(exclude_none=True))
+            then_frames(5)
+            assert told(engineer_ws) == FLEET_NEWS
+            robot.send_text(status.model_dump_json(exclude_none=True))  # a replay: no change
+            then_frames(6)
+            assert told(engineer_ws) == []
+            # Offline: the row says so at once. (Closed here: leaving the block would also
+            # cancel the server's side of the socket, as a server shutting down does.)
+            robot.close(1000)
+            assert news(engineer_ws) == FLEET_NEWS[0]
 
         # The nurse (no fleet page) heard none of it.
         assert told(nurse_ws) == []
