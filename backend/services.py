@@ -59,7 +59,8 @@ class Labelling:
 
 @dataclass(frozen=True)
 class Fanout:
-    """Where committed changes go: alarms to the bus, assignments to the robots' links."""
+    """Where committed changes go: alarms and the fleet's news to the bus, assignments to the
+    robots' links."""
 
     bus: AlarmBus
     assignments: AssignmentPusher
@@ -77,6 +78,9 @@ class Fanout:
 
     async def push_assignments(self, robot_ids: list[str]) -> None:
         await self.assignments.push_to_robots(robot_ids)
+
+    async def publish_fleet(self, robot_ids: list[str]) -> None:
+        await self.bus.publish_fleet(robot_ids)
 
 
 @dataclass

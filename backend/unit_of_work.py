@@ -5,7 +5,8 @@ Nothing else in the code base commits (tests/backend/test_unit_of_work.py scans 
 what must happen only once their change is durable (push an alarm to the nurse boards, send a
 robot its model assignment, close a socket whose credentials were just revoked) they register
 on the unit with `publish_alarm(session, alarm, serialise)`,
-`push_assignments(session, robot_ids)` or `after_commit(session, hook)`. The owner of the unit
+`push_assignments(session, robot_ids)`, `fleet_changed(session, robot_ids)` (tell the engineers'
+fleet pages to reload) or `after_commit(session, hook)`. The owner of the unit
 (the request dependency, the frame writer, the alarm monitor, a job) runs those effects after
 the commit, in the event loop, with `run_after_commit(effects)`; nothing registered on a unit
 that rolls back ever runs.
@@ -46,6 +47,9 @@ class Effects(Protocol):
     # Optional (an Effects without it drops robot messages): send one message to a robot
     # connected to this process (alarm_acknowledged, alarm_resolved).
     # async def send_to_robot(self, robot_id: str, text: str) -> None: ...
+    # Optional too (an Effects without it drops the news): tell the browsers that show the
+    # fleet (engineers, admins) that these robots' rows or the deployments changed.
+    # async def publish_fleet(self, robot_ids: list[str]) -> None: ...
 
 
 class UnitOfWork:
@@ -60,6 +64,9 @@ class UnitOfWork:
         self._robots: list[str] = []
         self._hooks: list[AfterCommit] = []
         self._robot_messages: list[tuple[str, str]] = []  # (robot_id, message JSON)
+        # None: the fleet did not change; else the robots whose rows changed (may be empty: a
+        # deployment changed and no robot's target with it)
+        self._fleet: list[str] | None = None
         self.committed = False
         self._effects_ran = False
 
@@ -72,6 +79,11 @@ class UnitOfWork:
 
     def push_assignments(self, robot_ids: Iterable[str]) -> None:
         self._robots.extend(r for r in robot_ids if r not in self._robots)
+
+    def fleet_changed(self, robot_ids: Iterable[str] = ()) -> None:
+        if self._fleet is None:
+            self._fleet = []
+        self._fleet.extend(r for r in robot_ids if r not in self._fleet)
 
     def after_commit(self, hook: AfterCommit) -> None:
         self._hooks.append(hook)
@@ -93,6 +105,7 @@ class UnitOfWork:
         self._robots.clear()
         self._hooks.clear()
         self._robot_messages.clear()
+        self._fleet = None
 
     def close(self) -> None:
         self.session.info.pop(_UNIT, None)
@@ -113,10 +126,13 @@ class UnitOfWork:
         self.push_assignments(other._robots)
         self._hooks.extend(other._hooks)
         self._robot_messages.extend(other._robot_messages)
+        if other._fleet is not None:
+            self.fleet_changed(other._fleet)
 
     async def run_after_commit(self, effects: Effects | None = None) -> None:
-        """Alarms first, then assignments, then the other hooks; each failure is logged and the
-        rest still run (the change is committed whatever a browser or robot does)."""
+        """Alarms first, then assignments, the fleet's news, then the other hooks; each failure
+        is logged and the rest still run (the change is committed whatever a browser or robot
+        does)."""
         if not self.committed or self._effects_ran:
             return
         self._effects_ran = True
@@ -132,6 +148,12 @@ class UnitOfWork:
                     await effects.push_assignments(robots)
                 except Exception:
                     log.exception("assignments to %s not sent", robots)
+            publish_fleet = getattr(effects, "publish_fleet", None)
+            if self._fleet is not None and publish_fleet is not None:
+                try:
+                    await publish_fleet(list(self._fleet))
+                except Exception:
+                    log.exception("fleet change of %s not published", self._fleet)
             send = getattr(effects, "send_to_robot", None)
             for robot_id, text in self._robot_messages if send is not None else ():
                 try:
@@ -246,6 +268,14 @@ def push_assignments(session: Session, robot_ids: Iterable[str]) -> None:
     unit = of(session)
     if unit is not None:
         unit.push_assignments(robot_ids)
+
+
+def fleet_changed(session: Session, robot_ids: Iterable[str] = ()) -> None:
+    """Tell the fleet pages (engineers', admins') to reload once the session's unit commits:
+    these robots' target or running model, or a deployment, changed."""
+    unit = of(session)
+    if unit is not None:
+        unit.fleet_changed(robot_ids)
 
 
 def tell_robot(session: Session, robot_id: str, text: str) -> None:

@@ -31,7 +31,7 @@ from backend.registry.schemas import (
 from backend.security import robot_token_matches
 from backend.services import ServicesDep
 from backend.settings import Settings
-from backend.unit_of_work import push_assignments
+from backend.unit_of_work import fleet_changed, push_assignments
 from vigil.model_file import MANIFEST_NAME
 
 router = APIRouter(prefix="/api", tags=["registry"])
@@ -53,7 +53,7 @@ def _deployment(session, deployment_id: int) -> Deployment:
 
 def _change(session: SessionDep, change: Callable[[Any], tuple[Any, list[str]]]):
     """Run a rollout change in the request's unit of work; once it is committed, the robots
-    it names get their assignments."""
+    it names get their assignments and the fleet pages reload (the deployments changed)."""
     try:
         result, robots = change(session)
     except rollout.RolloutError as error:
@@ -62,6 +62,7 @@ def _change(session: SessionDep, change: Callable[[Any], tuple[Any, list[str]]])
         raise HTTPException(status.HTTP_422_UNPROCESSABLE_CONTENT, str(error)) from None
     session.flush()
     push_assignments(session, robots)
+    fleet_changed(session, robots)
     return result
 
 

@@ -209,3 +209,8 @@ async def robot_socket(websocket: WebSocket) -> None:
         if connection is not None:
             connection.closed = True
             state.robots.disconnect(connection.robot_id, connection)
+            if state.robots.socket(connection.robot_id) is None:  # not replaced: offline now
+                try:
+                    await state.effects.publish_fleet([connection.robot_id])
+                except Exception:
+                    log.exception("fleet change of %s not published", connection.robot_id)

@@ -15,6 +15,7 @@ from backend.ingest.bulk_update import update_rows
 from backend.models.alarms import Alarm, AlarmKind, AlarmState
 from backend.models.robots import Robot, Transport
 from backend.models.videos import Video, widened
+from backend.unit_of_work import fleet_changed
 from vigil.classes import Decision, TransportMode
 
 ALARM_KIND_OF_DECISION = {Decision.EMERGENCY: AlarmKind.EMERGENCY, Decision.PAUSE: AlarmKind.PAUSE}
@@ -50,6 +51,12 @@ class RobotState:
     running_model_version: str | None = None
     running_model_sha256: str | None = None
     running_model_changed: bool = False
+    # (version, sha256) of the running model as stored, to tell news from a heartbeat
+    # repeating it: only news goes to the fleet pages
+    stored_model: tuple[str | None, str | None] = (None, None)
+    # this flush changed the robot's fleet row otherwise: a hello (it (re)connected, says what
+    # it feeds), a behaviour, detection degraded or recovered
+    fleet_news: bool = False
     # A behaviour the robot reported in this flush: (state, since, reason), written back once.
     behaviour: tuple[str, datetime, str] | None = None
     # What its hello in this flush said: (agent version, inputs), written back once.
@@ -136,11 +143,22 @@ class IngestContext:
         if missing:
             self.robots.update(dict.fromkeys(missing))
             for row in session.execute(
-                select(Robot.id, Robot.ward, Robot.token_hash, Robot.last_seq).where(
-                    Robot.id.in_(missing)
-                )
+                select(
+                    Robot.id,
+                    Robot.ward,
+                    Robot.token_hash,
+                    Robot.last_seq,
+                    Robot.running_model_version,
+                    Robot.running_model_sha256,
+                ).where(Robot.id.in_(missing))
             ):
-                self.robots[row.id] = RobotState(row.id, row.ward, row.token_hash, row.last_seq)
+                self.robots[row.id] = RobotState(
+                    row.id,
+                    row.ward,
+                    row.token_hash,
+                    row.last_seq,
+                    stored_model=(row.running_model_version, row.running_model_sha256),
+                )
         missing = transport_ids - self.transports.keys()
         if missing:
             self.transports.update(dict.fromkeys(missing))
@@ -187,7 +205,9 @@ class IngestContext:
         return self
 
     def write_back(self, session: Session) -> None:
-        """One bulk update per table for the columns the flush changed."""
+        """One bulk update per table for the columns the flush changed; the fleet pages are
+        told (after the commit) of the robots whose row changed: a hello, another running
+        model (not a heartbeat repeating it), a behaviour, detection degraded or recovered."""
         robots = [r for r in self.robots.values() if r is not None and r.last_seen_at]
         robot_table = Robot.__table__
         update_rows(
@@ -206,6 +226,18 @@ class IngestContext:
                 if r.running_model_changed
             ],
         )
+        fleet_news = [
+            r.id
+            for r in robots
+            if r.fleet_news
+            or r.behaviour
+            or (
+                r.running_model_changed
+                and (r.running_model_version, r.running_model_sha256) != r.stored_model
+            )
+        ]
+        if fleet_news:
+            fleet_changed(session, fleet_news)
         update_rows(
             session,
             robot_table,
@@ -251,7 +283,9 @@ class IngestContext:
         )
         for robot in robots:
             robot.last_seen_at = None
-            robot.running_model_changed = False
+            if robot.running_model_changed:
+                robot.stored_model = (robot.running_model_version, robot.running_model_sha256)
+            robot.running_model_changed = robot.fleet_news = False
             robot.behaviour = None
             robot.agent = None
         for transport in transports:

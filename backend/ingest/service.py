@@ -57,6 +57,7 @@ def apply_hello(robot: RobotState, hello: Hello) -> None:
     robot.running_model_version = hello.running_model
     robot.running_model_sha256 = hello.running_sha256
     robot.running_model_changed = True
+    robot.fleet_news = True
     robot.last_seen_at = utcnow()
     # Said at every connect; an agent that says nothing feeds keypoints only (None).
     inputs = list(hello.inputs) if hello.inputs is not None else None

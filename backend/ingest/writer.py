@@ -496,6 +496,7 @@ class FrameWriter:
                 except ValueError as error:
                     raise _refused(error) from None
                 if changed:
+                    robot.fleet_news = True  # the row's "detection degraded" pill
                     log.warning(
                         "robot %s: detection %s: %s",
                         robot.id,

@@ -1,6 +1,8 @@
 """Alarm fan-out. A committed alarm goes to this process's browsers at once and, when
 `redis_url` is set, through Redis pub/sub to every other backend replica, which hands it to its
-own browsers (each replica ignores its own messages)."""
+own browsers (each replica ignores its own messages). The fleet's news (a robot's running model
+or a deployment changed) travels the same way on a channel of its own (`<channel>.fleet`: a
+replica that knows only alarms never sees it)."""
 
 from __future__ import annotations
 
@@ -22,6 +24,7 @@ class AlarmBus:
         self.origin = uuid.uuid4().hex
         self._redis_url = redis_url
         self._channel = channel
+        self._fleet_channel = f"{channel}.fleet"
         self._redis = None
         self._listener: asyncio.Task | None = None
         self.subscribed = asyncio.Event()
@@ -74,17 +77,36 @@ class AlarmBus:
         except Exception as error:  # Redis down: local browsers have it; others see it on reload
             log.warning("alarm %s not fanned out through Redis: %s", alarm.get("id"), error)
 
+    async def publish_fleet(self, robot_ids: list[str]) -> None:
+        """Tell every fleet page (here and on the other replicas) these robots changed."""
+        await self.hub.publish_fleet(robot_ids)
+        if self._redis is None:
+            return
+        try:
+            await self._redis.publish(
+                self._fleet_channel, json.dumps({"origin": self.origin, "fleet": robot_ids})
+            )
+        except Exception as error:  # Redis down: the other replicas' pages see it on their poll
+            log.warning("fleet change of %s not fanned out through Redis: %s", robot_ids, error)
+
     async def _listen(self) -> None:
         while True:
             try:
                 async with self._redis.pubsub() as pubsub:
-                    await pubsub.subscribe(self._channel)
+                    await pubsub.subscribe(self._channel, self._fleet_channel)
                     self.subscribed.set()
                     async for message in pubsub.listen():
                         if message.get("type") != "message":
                             continue
                         payload = json.loads(message["data"])
-                        if payload.get("origin") != self.origin:
+                        if payload.get("origin") == self.origin:
+                            continue
+                        channel = message.get("channel")
+                        if isinstance(channel, bytes):
+                            channel = channel.decode()
+                        if channel == self._fleet_channel:
+                            await self.hub.publish_fleet(list(payload["fleet"]))
+                        else:
                             await self.hub.publish_alarm(payload["alarm"])
                             for listener in self.on_remote:
                                 listener(payload["alarm"])

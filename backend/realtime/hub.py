@@ -1,4 +1,5 @@
-"""Live alarm push to browsers, filtered by the user's ward and role."""
+"""Live push to browsers: alarms, filtered by the user's ward and role, and the fleet's news
+(a robot's running model or a deployment changed) to those who may see the fleet."""
 
 from __future__ import annotations
 
@@ -11,11 +12,14 @@ from datetime import UTC, datetime
 from fastapi import WebSocket
 
 from backend.models.users import Role
+from backend.permissions import PERMISSIONS
 from backend.wards import HasWard, sees_ward
 
 log = logging.getLogger(__name__)
 
 ALARM_VIEWERS = frozenset({Role.NURSE, Role.ENGINEER, Role.ADMIN})
+#: Who is told the fleet changed: whoever may read it (the fleet page, GET /api/fleet).
+FLEET_VIEWERS = PERMISSIONS[("GET", "/api/fleet")]
 
 
 def sees(viewer: HasWard, ward: str) -> bool:
@@ -105,7 +109,16 @@ class BrowserHub:
         """Push one committed alarm to every browser allowed to see it."""
         self._remember(alarm)
         message = {"type": "alarm", "alarm": alarm}
-        targets = [c for c in self._connections if c.can_see(alarm["ward"])]
+        await self._broadcast([c for c in self._connections if c.can_see(alarm["ward"])], message)
+
+    async def publish_fleet(self, robot_ids: list[str]) -> None:
+        """Tell every browser that may see the fleet that it changed (these robots' rows, or
+        only the deployments when empty): the fleet page reloads at once, not at its next
+        poll. Only the robot ids travel: the page reads the rest through its own scope."""
+        message = {"type": "fleet", "robots": sorted(robot_ids)}
+        await self._broadcast([c for c in self._connections if c.role in FLEET_VIEWERS], message)
+
+    async def _broadcast(self, targets: list[BrowserConnection], message: dict) -> None:
         results = await asyncio.gather(
             *(self.send(c, message) for c in targets), return_exceptions=True
         )

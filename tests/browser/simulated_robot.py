@@ -95,15 +95,26 @@ def fall_frames(
 
 
 class SimulatedRobot:
-    def __init__(self, ws_url: str, robot_id: str, token: str) -> None:
+    def __init__(
+        self, ws_url: str, robot_id: str, token: str, inputs: list[str] | None = None
+    ) -> None:
+        """`inputs`: what its hello says it feeds (None: an older agent that says nothing)."""
         self.ws_url, self.robot_id, self.token = ws_url, robot_id, token
+        self.inputs = inputs
         self.connection: ClientConnection | None = None
         self.welcome: dict | None = None
 
     def __enter__(self) -> SimulatedRobot:
         self._context = connect(self.ws_url, open_timeout=10)
         self.connection = self._context.__enter__()
-        self.send(Hello(robot_id=self.robot_id, token=self.token, running_model="sim-1"))
+        self.send(
+            Hello(
+                robot_id=self.robot_id,
+                token=self.token,
+                running_model="sim-1",
+                inputs=self.inputs,
+            )
+        )
         self.welcome = self.receive("welcome")
         return self
 

@@ -13,7 +13,9 @@ export type Verdict = NonNullable<Alarm["verdict"]>;
 export type FalseAlarmReason = NonNullable<Alarm["reason"]>;
 export type AlarmEvent = Schemas["AlarmEventOut"];
 
-/** Messages the backend pushes over /ws/browser. */
+/** Messages the backend pushes over /ws/browser: the alarm board's, and the fleet's news (these
+ * robots' rows or the deployments changed: the fleet page reloads; engineers and admins only). */
 export type BrowserMessage =
   | { type: "snapshot"; alarms: Alarm[] }
-  | { type: "alarm"; alarm: Alarm };
+  | { type: "alarm"; alarm: Alarm }
+  | { type: "fleet"; robots: string[] };

@@ -52,6 +52,11 @@ describe("applyMessage", () => {
     board = applyMessage(board, { type: "alarm", alarm: alarm({ id: 4, state: "open" }) });
     expect(board.get(4)?.state).toBe("acknowledged");
   });
+
+  it("leaves the board as it is on the fleet's news (an engineer's board gets it too)", () => {
+    const board = applyMessage(emptyBoard, { type: "snapshot", alarms: [alarm({ id: 5 })] });
+    expect(applyMessage(board, { type: "fleet", robots: ["robot-a"] })).toBe(board);
+  });
 });
 
 describe("alarms pushed before they are stored (fail open)", () => {

@@ -13,6 +13,7 @@ export const emptyBoard: Board = new Map();
  * one card per alarm, never two. */
 export function applyMessage(board: Board, message: BrowserMessage): Board {
   if (message.type === "snapshot") return snapshotBoard(message.alarms);
+  if (message.type === "fleet") return board; // the fleet page's news: no alarm in it
   const alarm = message.alarm;
   const known = board.get(alarm.id);
   // Messages may overtake each other; never let an older version replace a newer one.

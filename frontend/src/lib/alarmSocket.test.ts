@@ -77,6 +77,18 @@ describe("AlarmSocket", () => {
     expect(messages).toEqual([{ type: "snapshot", alarms: [] }]);
   });
 
+  it("hands on the fleet's news, and drops a fleet message without its robots", () => {
+    socket.start();
+    sockets[0].onopen?.({});
+    sockets[0].serverSays({ type: "snapshot", alarms: [] });
+    sockets[0].serverSays({ type: "fleet" });
+    sockets[0].serverSays({ type: "fleet", robots: ["robot-a"] });
+    expect(messages).toEqual([
+      { type: "snapshot", alarms: [] },
+      { type: "fleet", robots: ["robot-a"] },
+    ]);
+  });
+
   it("reconnects after a drop and reports disconnected meanwhile", () => {
     socket.start();
     sockets[0].serverSays({ type: "snapshot", alarms: [] });

@@ -40,10 +40,11 @@ export function authMessage(token: string): string {
 
 function isBrowserMessage(value: unknown): value is BrowserMessage {
   if (!value || typeof value !== "object") return false;
-  const message = value as { type?: unknown; alarms?: unknown; alarm?: unknown };
+  const message = value as { type?: unknown; alarms?: unknown; alarm?: unknown; robots?: unknown };
   return (
     (message.type === "snapshot" && Array.isArray(message.alarms)) ||
-    (message.type === "alarm" && typeof message.alarm === "object" && message.alarm !== null)
+    (message.type === "alarm" && typeof message.alarm === "object" && message.alarm !== null) ||
+    (message.type === "fleet" && Array.isArray(message.robots))
   );
 }
 

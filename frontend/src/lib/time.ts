@@ -34,3 +34,10 @@ export function duration(seconds: number): string {
   if (minutes < 60) return `${minutes} min`;
   return `${Math.floor(minutes / 60)} h ${String(minutes % 60).padStart(2, "0")} min`;
 }
+
+/** The time from one ISO timestamp to a later one, as `duration` says it ("4 min 05 s",
+ * "50 min"), or "–" while there is no end yet (the history's time to acknowledge). */
+export function durationBetween(startIso: string, endIso: string | null | undefined): string {
+  if (!endIso) return "–";
+  return duration(Math.max(0, (Date.parse(endIso) - Date.parse(startIso)) / 1000));
+}

@@ -3,7 +3,7 @@ import { Link, useNavigate } from "react-router-dom";
 import { api, errorMessage } from "../api/client";
 import type { Alarm, AlarmKind, Verdict } from "../api/types";
 import { KIND_LABEL } from "../lib/alarmBoard";
-import { clockTime, localInputToIso } from "../lib/time";
+import { clockTime, durationBetween, localInputToIso } from "../lib/time";
 import { robotLabel } from "../lib/dispositions";
 import { VERDICT_LABEL, verdictText } from "./labels";
 
@@ -105,7 +105,7 @@ export function HistoryPage() {
                 <td>{a.state}</td>
                 <td>{verdictText(a.verdict, a.reason)}</td>
                 <td>{a.model_version ?? "–"}</td>
-                <td>{a.acknowledged_at ? `${Math.round((Date.parse(a.acknowledged_at) - Date.parse(a.raised_at)) / 1000)} s` : "–"}</td>
+                <td data-testid="time-to-ack">{durationBetween(a.raised_at, a.acknowledged_at)}</td>
               </tr>
             ))}
           </tbody>

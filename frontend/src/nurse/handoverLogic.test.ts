@@ -20,5 +20,9 @@ describe("shift handover", () => {
     expect(secondsText(null)).toBe("–");
     expect(secondsText(42.4)).toBe("42 s");
     expect(secondsText(125)).toBe("2 min 05 s");
+    // Minutes and hours, never "133 min 00 s" nor "1 min 60 s".
+    expect(secondsText(7980)).toBe("2 h 13 min");
+    expect(secondsText(2972)).toBe("50 min");
+    expect(secondsText(119.7)).toBe("2 min 00 s");
   });
 });

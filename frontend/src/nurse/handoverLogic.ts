@@ -1,5 +1,6 @@
 // Shift handover: how its rows are grouped and its figures worded (plain functions, Vitest).
 import type { components } from "../api/schema";
+import { duration } from "../lib/time";
 
 type Row = components["schemas"]["HandoverAlarm"];
 type Section = Row["section"];
@@ -27,8 +28,7 @@ export function shareText(part: number, whole: number): string {
   return `${Math.round((part / whole) * 100)} % (${part} of ${whole} with a verdict)`;
 }
 
+/** A figure in seconds in a nurse's words (minutes and hours: `duration`), "–" when absent. */
 export function secondsText(value: number | null | undefined): string {
-  if (value == null) return "–";
-  if (value < 60) return `${Math.round(value)} s`;
-  return `${Math.floor(value / 60)} min ${String(Math.round(value % 60)).padStart(2, "0")} s`;
+  return value == null ? "–" : duration(value);
 }

@@ -3,6 +3,12 @@ import { api, errorMessage } from "../../api/client";
 import { clockTime } from "../../lib/time";
 import { ConfirmDialog } from "./ConfirmDialog";
 import type { Deployment, FleetRobot } from "./types";
+import { useFleetPush } from "./useFleetPush";
+
+/** The fleet's changes are pushed (useFleetPush); this slow poll is only a fallback, for news
+ * the socket could not bring (a change made by the worker, e.g. an automatic rollback, or on a
+ * replica without Redis). */
+export const FLEET_FALLBACK_POLL_MS = 30_000;
 
 /** "keypoints, depth, floor" (or "keypoints (not reported)" for an agent that did not say). */
 export function inputsText(robot: Pick<FleetRobot, "inputs" | "inputs_reported">): string {
@@ -24,9 +30,10 @@ export function FleetPage() {
   };
   useEffect(() => {
     load();
-    const timer = setInterval(load, 3000);
+    const timer = setInterval(load, FLEET_FALLBACK_POLL_MS);
     return () => clearInterval(timer);
   }, []);
+  useFleetPush(load);
 
   const askRollback = (deployment: Deployment) => { setRollingBack(deployment); setReason(""); };
   async function act(id: number, action: "rollback" | "advance" | "approve") {
