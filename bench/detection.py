@@ -22,8 +22,15 @@ from pathlib import Path
 import numpy as np
 
 from vigil.datasets import urfd
-from vigil.detector import Detector
+from vigil.detector import Detector, patient_stream
+from vigil.events import SequenceEvent, summarise
 from vigil.features import FEATURE_VERSION
+from vigil.policy import (
+    LOST_FALL_SPEED,
+    LOST_FALL_WINDOW_S,
+    LOST_WHILE_FALLING,
+    LostWhileFalling,
+)
 from vigil.runtime import FrameClassifier
 from worker.training.cli import ALL_MODELS, make_trainers
 from worker.training.data import from_urfd
@@ -54,6 +61,7 @@ ROBOT_PATH_KEYS = (
     "frame_f1",
     "median_time_to_alarm_s",
     "tracker_dropped_frames",
+    "tracker_refused_implausible_frames",
     "recall_by_onset",
 )
 
@@ -86,15 +94,50 @@ def frame_latency_ms(model_dir: Path, sequences) -> dict:
     }
 
 
+def lost_while_falling_figures(sequences) -> dict:
+    """The frame path's lost-while-falling rule benchmarked like a model, on its own: every URFD
+    recording through the patient tracker (vigil.detector.patient_stream) and the rule; an alarm
+    is the rule turning Emergency, scored with the binding event definitions (vigil.events).
+    In every model's robot_path figures the rule runs beside the model."""
+    events = []
+    for seq in sequences:
+        frames, seen = patient_stream(seq.observations())
+        rule = LostWhileFalling()
+        fired = np.array([rule.update(f, s) for f, s in zip(frames, seen, strict=True)], bool)
+        turned = fired & ~np.r_[False, fired[:-1]]
+        alarms = tuple(float(t) for t in seq.timestamps[turned])
+        events.append(SequenceEvent(seq.name, seq.is_fall, seq.first_emergency_time(), alarms))
+    summary = summarise(events)
+    return {
+        "name": LOST_WHILE_FALLING,
+        "speed_torso_lengths_per_s": LOST_FALL_SPEED,
+        "window_s": LOST_FALL_WINDOW_S,
+        **{
+            k: summary[k]
+            for k in (
+                "falls_detected",
+                "falls_total",
+                "adl_false_alarms",
+                "adl_total",
+                "median_time_to_alarm_s",
+                "max_time_to_alarm_s",
+            )
+        },
+        "falls_fired": sorted(e.name for e in events if e.positive and e.detected),
+        "adl_fired": sorted(e.name for e in events if not e.positive and e.false_alarm),
+    }
+
+
 def markdown_table(result: dict) -> str:
     """The results table of docs/detection.md, generated from detection_urfd.json: the robot
     path's figures, and the direct ones beside them."""
     header = (
         "| model | inputs | frame recall | frame F1 | falls detected "
         "| ADL sequences with a false alarm | median time to alarm (s) | tracker dropped frames "
+        "| refused as implausible "
         "| direct: recall / F1 / falls / ADL / time | threshold | delay (ms) |"
     )
-    lines = [header, "|---|---|---|---|---|---|---|---|---|---|---|"]
+    lines = [header, "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for m in result["models"]:
         rp = m.get("robot_path") or {}
         best = " (best)" if m["name"] == result["best"] else ""
@@ -106,6 +149,7 @@ def markdown_table(result: dict) -> str:
             f"| {rp.get('adl_false_alarms', '-')}/{rp.get('adl_total', '-')} "
             f"| {_f(rp.get('median_time_to_alarm_s'), 2)} "
             f"| {rp.get('tracker_dropped_frames', '-')} "
+            f"| {rp.get('tracker_refused_implausible_frames', '-')} "
             f"| {_f(m['frame_recall'])} / {_f(m['frame_f1'])} / "
             f"{m['falls_detected']}/{m['falls_total']} / {m['adl_false_alarms']}/{m['adl_total']} "
             f"/ {_f(m['median_time_to_alarm_s'], 2)} "
@@ -175,6 +219,7 @@ def main(argv: list[str] | None = None) -> int:
         "p99_frame_ms": latency[report["best"]]["p99"],
         "p99_frame_cpu_ms": latency[report["best"]]["cpu_p99"],
         "frame_latency_ms": latency,
+        "rules": [lost_while_falling_figures(sequences)],
         "machine": {
             "cpus": os.cpu_count(),
             "platform": platform.platform(),

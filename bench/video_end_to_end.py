@@ -44,8 +44,11 @@ Times (video time = video frame index / the clip's fps):
 - label_to_alarm_upper_bound_s = raised_at - the wall-clock timestamp the robot gave the first
   labelled frame (transport start + video time): it also counts the agent's start-up (MediaPipe
   and the first frame) before the video's first frame is shown.
-Goal (issue): an Emergency alarm within 1 s of the first Emergency-labelled frame, judged as
-label_to_alarm_s <= 1 s.
+Goal (issue #34): an Emergency alarm within 1.5 s of the first Emergency-labelled frame (URFD's
+label precedes the visible motion by 0.57-0.77 s on this clip), judged as label_to_alarm_s <=
+1.5 s. The alarm may come from the model or from the frame path's lost-while-falling rule
+(vigil.policy.LostWhileFalling); the agent's transport-end line says how many frames the tracker
+refused as implausible (the office chair MediaPipe reports once the patient is down).
 
 Also per run, as diagnostics: the same model on URFD's own MoveNet keypoints of fall-01 (the kind
 of data it was trained on; offline, vigil.runtime.FrameClassifier), the frames where no patient
@@ -92,7 +95,7 @@ DEPTH_HALF = (0, 0, 320, 240)
 #: video frame i (0-based) shows official URFD frame i + VIDEO_TO_OFFICIAL
 VIDEO_TO_OFFICIAL = 1
 EMERGENCY_LABELS = (0, 1)  # URFD: 0 falling / in between, 1 lying on the ground
-GOAL_S = 1.0
+GOAL_S = 1.5
 DETECTION_RESULTS = REPO / "bench" / "results" / "detection_urfd.json"
 ROBOT_TIMEOUT_S = 180
 DECISION_LINE = re.compile(r"transport (\S+) frame (\d+): EMERGENCY\b")
@@ -577,6 +580,30 @@ ROBOT_PACE = re.compile(
 )
 
 
+TRANSPORT_COUNTS = re.compile(
+    r"(?P<frames>\d+) frames, (?P<person>\d+) with a person in view, (?P<patient>\d+) with the "
+    r"patient, (?P<refused>\d+) refused as implausible"
+)
+
+
+def tracker_counts(lines: list[tuple[float, str]]) -> dict:
+    """The agent's transport-end counts: frames with a person in view, with the patient, and
+    without the patient because the tracker refused what was in view as implausible (not a
+    person: furniture), apart from dropped frames (a plausible person but no patient)."""
+    for _, line in lines:
+        if (match := TRANSPORT_COUNTS.search(line)) is not None:
+            person, patient = int(match["person"]), int(match["patient"])
+            refused = int(match["refused"])
+            return {
+                "frames": int(match["frames"]),
+                "with_person": person,
+                "with_patient": patient,
+                "refused_implausible": refused,
+                "dropped": person - patient - refused,
+            }
+    return {"what": "no transport-end line from the agent", "refused_implausible": None}
+
+
 def robot_pace(lines: list[tuple[float, str]]) -> dict:
     """The agent's own account of keeping the video's pace (its transport-end log line,
     robot_agent.pipeline): how far its frames' completion fell behind the source's pace, and
@@ -681,6 +708,7 @@ def measure_run(model: dict, label_index: int, fps: float) -> dict:
         else None,
     }
     result["robot_pace"] = robot_pace(lines)
+    result["tracker"] = tracker_counts(lines)
     result.update(_alarm_timing(alarm, frames, lines, arrivals, label_index, fps))
     result["reference_urfd_keypoints"] = reference_on_urfd_keypoints(model["dir"])
     return result
@@ -812,7 +840,7 @@ def main(argv: list[str] | None = None) -> int:
         "missing_share": urfd_missing_shares(judged["missing_share_at_label"]),
     }
     result["goal"] = {
-        "what": "an Emergency alarm within 1 s of the first Emergency-labelled frame "
+        "what": f"an Emergency alarm within {GOAL_S:g} s of the first Emergency-labelled frame "
         "(label_to_alarm_s = time_to_alarm_s + lag_at_alarm_s + delivery_s), model "
         + goal_model
         + " (the best keypoints-only model of bench/results/detection_urfd.json)",

@@ -70,6 +70,7 @@ class _TransportCounts:
     frames: int = 0
     with_person: int = 0
     with_patient: int = 0
+    refused_implausible: int = 0  # frames without the patient where someone was refused
     first_ts: float | None = None
     last_ts: float | None = None
     # Keeping real time: when the first frame was done (monotonic clock), how far the latest
@@ -85,11 +86,19 @@ class _TransportCounts:
     cpu_last: float = 0.0
 
     def add(
-        self, ts: float, people: int, seen: bool, started: float, done: float, cpu: float
+        self,
+        ts: float,
+        people: int,
+        seen: bool,
+        started: float,
+        done: float,
+        cpu: float,
+        refused_implausible: bool = False,
     ) -> None:
         self.frames += 1
         self.with_person += people > 0
         self.with_patient += seen
+        self.refused_implausible += refused_implausible
         self.first_ts = ts if self.first_ts is None else self.first_ts
         self.last_ts = ts
         self.first_done = done if self.first_done is None else self.first_done
@@ -226,11 +235,13 @@ class Pipeline:
         counts = self._counts
         fps = counts.fps
         log.info(
-            "transport %s ended: %d frames, %d with a person in view, %d with the patient, %s; %s",
+            "transport %s ended: %d frames, %d with a person in view, %d with the patient, "
+            "%d refused as implausible (not a person: not dropped), %s; %s",
             self.transport_id,
             counts.frames,
             counts.with_person,
             counts.with_patient,
+            counts.refused_implausible,
             "no frame rate" if fps is None else f"{fps:.1f} frames/s",
             counts.pace(),
         )
@@ -388,6 +399,7 @@ class Pipeline:
             started,
             self._clock(),
             self._cpu_clock(),
+            detected.refused_implausible,
         )
         changed = decision is not None and decision != self.last_decision
         if changed and (decision != Decision.NORMAL or self.last_decision is not None):

@@ -14,16 +14,22 @@ and reports the change once (``DetectedFrame.status``) for the robot to raise "d
 degraded". When every input is back for ``recover_after_s`` the assigned model decides again and
 the recovery is reported. Without a fallback the assigned model keeps deciding on what it has,
 and the degradation is still reported.
+
+Lost while falling. Beside the model, vigil.policy.LostWhileFalling watches the patient's hips:
+when they were going down fast and the pose estimator then loses the patient, the decision is
+Emergency at once (``Classification.rule`` says so), held while the patient stays lost,
+whatever the model scores on the held pose; once they are seen again the model decides.
 """
 
 from __future__ import annotations
 
 from collections import deque
 from collections.abc import Callable, Iterable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
+from vigil.classes import Decision
 from vigil.depth import sample_depth
 from vigil.features import FeatureExtractor
 from vigil.floor import CameraMount, floor_measures
@@ -37,6 +43,7 @@ from vigil.inputs import (
     missing_inputs,
 )
 from vigil.observation import Observation
+from vigil.policy import LOST_WHILE_FALLING, LostWhileFalling
 from vigil.runtime import Classification, FrameClassifier
 from vigil.skeleton import SkeletonFrame, empty_keypoints
 from vigil.tracking import PatientTracker
@@ -71,7 +78,8 @@ class PatientFrames:
     """Observation -> the patient's frame: tracked, depth sampled, floor measures computed.
 
     A frame without the patient has no keypoints (and no depth or floor): the feature extractor
-    holds the last pose for it, as in training."""
+    holds the last pose for it, as in training. ``refused_`` is how many people in the last
+    observation the tracker refused as implausible (vigil.tracking: not the patient)."""
 
     def __init__(
         self,
@@ -82,12 +90,16 @@ class PatientFrames:
         self.tracker = tracker if tracker is not None else PatientTracker()
         self.depth_sampler = depth_sampler
         self.camera_mount = camera_mount
+        self.refused_ = 0
 
     def reset(self) -> None:
         self.tracker.reset()
+        self.refused_ = 0
 
     def __call__(self, observation: Observation) -> tuple[SkeletonFrame, bool]:
-        patient = self.tracker.update(observation).patient
+        result = self.tracker.update(observation)
+        self.refused_ = result.refused
+        patient = result.patient
         if patient is None:
             return SkeletonFrame(empty_keypoints(), timestamp=observation.timestamp), False
         depth = patient.depth
@@ -156,6 +168,18 @@ class DetectedFrame:
     people: int  # people in view
     classification: Classification | None  # of the model that decides (None: no model)
     status: DetectionStatusChange | None = None  # set on the frame detection degraded/recovered
+    refused: int = 0  # people in view the tracker refused as implausible (furniture, not a body)
+
+    @property
+    def refused_implausible(self) -> bool:
+        """Nobody passed on, and somebody in view was refused as implausible: not a dropped
+        frame (a frame where a plausible person went unmatched)."""
+        return not self.seen and self.refused > 0
+
+    @property
+    def dropped(self) -> bool:
+        """A plausible person in view, but no patient passed on."""
+        return not self.seen and self.people - self.refused > 0
 
 
 class Detector:
@@ -181,6 +205,7 @@ class Detector:
         self.degrade_after_s = degrade_after_s
         self.recover_after_s = recover_after_s
         self.history: deque[SkeletonFrame] = deque(maxlen=HISTORY_FRAMES)
+        self.lost_while_falling = LostWhileFalling()
         self.reset()
 
     # --- state ------------------------------------------------------------------------------
@@ -190,6 +215,7 @@ class Detector:
             if model is not None:
                 model.reset()
         self.history.clear()
+        self.lost_while_falling.reset()
         self.degraded_ = False
         self.missing_: tuple[InputName, ...] = ()
         self._lacking_since: float | None = None
@@ -257,7 +283,23 @@ class Detector:
         if self.fallback is not None and not is_keypoints_only(self.needed_inputs):
             backup = self.fallback.classify(frame)
         classification = backup if (self.degraded_ and backup is not None) else primary
-        return DetectedFrame(frame, seen, len(observation.people), classification, status)
+        fallen = self.lost_while_falling.update(frame, seen)
+        if fallen and classification is not None and Decision.EMERGENCY in classification.scores:
+            classification = replace(
+                classification,
+                decision=Decision.EMERGENCY,
+                raw_decision=Decision.EMERGENCY,
+                pending=False,
+                rule=LOST_WHILE_FALLING,
+            )
+        return DetectedFrame(
+            frame,
+            seen,
+            len(observation.people),
+            classification,
+            status,
+            self.patient_frames.refused_,
+        )
 
     def _update_status(self, frame: SkeletonFrame, seen: bool) -> DetectionStatusChange | None:
         needed = self.needed_inputs

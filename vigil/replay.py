@@ -28,18 +28,26 @@ class ReplayedRecording:
     seen: np.ndarray  # (n,) the tracker passed on a patient
     people: np.ndarray  # (n,) people in view
     degraded: np.ndarray  # (n,) the detector was degraded (deciding with its fallback)
+    refused: np.ndarray  # (n,) people in view the tracker refused as implausible
 
     @property
     def dropped_frames(self) -> int:
-        """Frames with a person in view but no patient passed on."""
-        return int(np.sum((self.people > 0) & ~self.seen))
+        """Frames with a plausible person in view but no patient passed on."""
+        return int(np.sum((self.people - self.refused > 0) & ~self.seen))
+
+    @property
+    def refused_implausible_frames(self) -> int:
+        """Frames without the patient where the tracker refused someone in view as implausible
+        (vigil.tracking: furniture the pose estimator took for a person), apart from
+        dropped_frames."""
+        return int(np.sum((self.refused > 0) & ~self.seen))
 
 
 def replay(observations: Iterable[Observation], detector: Detector) -> ReplayedRecording:
     """One recording as one stream: the detector is reset first."""
     detector.reset()
     classes = None
-    times, scores, raw, decisions, seen, people, degraded = [], [], [], [], [], [], []
+    times, scores, raw, decisions, seen, people, degraded, refused = ([] for _ in range(8))
     for observation in observations:
         result = detector.process(observation)
         classification = result.classification
@@ -54,6 +62,7 @@ def replay(observations: Iterable[Observation], detector: Detector) -> ReplayedR
         seen.append(result.seen)
         people.append(result.people)
         degraded.append(detector.degraded_)
+        refused.append(result.refused)
     k = len(classes) if classes is not None else 0
     return ReplayedRecording(
         timestamps=np.asarray(times, np.float64),
@@ -63,4 +72,5 @@ def replay(observations: Iterable[Observation], detector: Detector) -> ReplayedR
         seen=np.asarray(seen, bool),
         people=np.asarray(people, np.int64),
         degraded=np.asarray(degraded, bool),
+        refused=np.asarray(refused, np.int64),
     )

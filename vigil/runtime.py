@@ -24,6 +24,7 @@ class Classification:
     delay_ms: int
     pending: bool  # a change to Emergency/Pause is waiting for the delay
     raw_decision: Decision | None = None  # before the delay filter
+    rule: str | None = None  # a rule beside the model decided (vigil.policy.LOST_WHILE_FALLING)
 
 
 class FrameClassifier:

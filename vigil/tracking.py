@@ -19,6 +19,24 @@ is matched (the gate widens a little per missed frame), or when a person who app
 patient was lost, and is no known bystander, shows up near the patient's last position (the
 patient changed pose while hidden). After ``max_missed`` frames it is SEARCHING and selects
 anew, never choosing a known bystander (the marker, if seen, still decides).
+
+Furniture is not the patient (issue #34). A detection whose geometry cannot be the patient is
+*refused*: never matched to the patient, never selected, and counted per frame
+(``TrackResult.refused``) apart from frames where a plausible person went unmatched. Two checks,
+both in body sizes (ratios), never pixels, so they hold for any camera and pose estimator:
+
+- proportions (``implausible_proportions``): with at least ``MIN_SEGMENTS`` of the torso, limb,
+  shoulder and hip segments measured, the longest more than ``MAX_SEGMENT_RATIO`` times their
+  median is no body (a person seen from any side, lying or folded stays within it on every frame
+  of URFD). Missing keypoints are never held against a skeleton.
+- reach (``PatientTracker.reach``): while a patient seen in at least ``ESTABLISHED_FRAMES``
+  frames is LOST, a lone, nearly whole skeleton
+  (``FULL_BODY_KEYPOINTS``) whose centre lies more than ``reach`` of the patient's body sizes
+  from where their last nearly whole skeleton was is not them: a patient lost after a fall lies
+  where they went down. This is the office chair that MoveNet (URFD) and MediaPipe (fall-01)
+  report as the only person once the patient is down: its proportions are a seated person's,
+  its place is not the patient's. A refused track stays refused while it is followed
+  (furniture does not become a person), and selection never takes it.
 """
 
 from __future__ import annotations
@@ -39,6 +57,56 @@ TORSO = np.array(
 MIN_SHARED_JOINTS = 3
 MIN_PERSON_KEYPOINTS = 4
 SCALE_MEMORY = 0.97  # share of a track's remembered body size kept per frame
+
+#: Segments whose lengths the proportion check compares: torso, upper and lower arms and legs,
+#: shoulders and hips.
+SEGMENTS = np.array(
+    [
+        (INDEX[a], INDEX[b])
+        for a, b in (
+            ("neck", "mid_hip"),
+            ("r_shoulder", "r_elbow"),
+            ("l_shoulder", "l_elbow"),
+            ("r_elbow", "r_wrist"),
+            ("l_elbow", "l_wrist"),
+            ("r_hip", "r_knee"),
+            ("l_hip", "l_knee"),
+            ("r_knee", "r_ankle"),
+            ("l_knee", "l_ankle"),
+            ("r_shoulder", "l_shoulder"),
+            ("r_hip", "l_hip"),
+        )
+    ]
+)
+MIN_SEGMENTS = 5  # fewer measured segments: too little to judge, the skeleton is taken
+MAX_SEGMENT_RATIO = 12.0  # longest segment / median segment (URFD's real people: at most 9.5)
+#: Body joints (nose, shoulders, elbows, wrists, hips, knees, ankles: 13) a skeleton needs to be
+#: judged by the reach check; partial detections have unreliable centres and are left to the gates.
+BODY_JOINTS = np.array(
+    [
+        INDEX[k]
+        for k in (
+            "nose",
+            "r_shoulder",
+            "l_shoulder",
+            "r_elbow",
+            "l_elbow",
+            "r_wrist",
+            "l_wrist",
+            "r_hip",
+            "l_hip",
+            "r_knee",
+            "l_knee",
+            "r_ankle",
+            "l_ankle",
+        )
+    ]
+)
+FULL_BODY_KEYPOINTS = 8
+REACH = 1.0  # patient body sizes from their last nearly whole skeleton, while they are LOST
+#: Frames the patient must have been seen in before the reach check trusts where they were (a
+#: transport that starts on the chair must not refuse the patient walking in).
+ESTABLISHED_FRAMES = 15
 
 
 class TrackState(StrEnum):
@@ -81,6 +149,7 @@ class TrackResult:
     index: int | None
     selected_by: SelectedBy | None = None
     missed: int = 0
+    refused: int = 0  # detections refused as implausible in this frame (not the patient)
 
 
 def _box(keypoints: np.ndarray, joints: np.ndarray | None = None) -> np.ndarray | None:
@@ -133,6 +202,23 @@ def marker_wearer(
         if any(np.all((c >= lo) & (c <= hi)) for c in centres) and area < best_area:
             best, best_area = index, area
     return best
+
+
+def implausible_proportions(keypoints: np.ndarray) -> bool:
+    """The skeleton's segment lengths cannot be a body's: with at least MIN_SEGMENTS of SEGMENTS
+    measured, the longest is more than MAX_SEGMENT_RATIO times their median (scale-free)."""
+    present = (keypoints[SEGMENTS[:, 0], 2] > 0) & (keypoints[SEGMENTS[:, 1], 2] > 0)
+    if present.sum() < MIN_SEGMENTS:
+        return False
+    ends = keypoints[SEGMENTS[present]][:, :, :2]
+    lengths = np.linalg.norm(ends[:, 0] - ends[:, 1], axis=1)
+    median = float(np.median(lengths))
+    return bool(lengths.max() > MAX_SEGMENT_RATIO * max(median, 1e-6))
+
+
+def body_keypoints(keypoints: np.ndarray) -> int:
+    """How many of the 13 BODY_JOINTS the skeleton has."""
+    return int((keypoints[BODY_JOINTS, 2] > 0).sum())
 
 
 def central_closest(people: list[SkeletonFrame], image_width: float) -> int | None:
@@ -197,7 +283,18 @@ def body_gap(predicted: np.ndarray, candidate: np.ndarray, scale: float) -> floa
 class _Track:
     """One person followed from frame to frame (the patient or someone to tell apart)."""
 
-    __slots__ = ("keypoints", "depth", "velocity", "scale", "missed", "born", "bystander")
+    __slots__ = (
+        "keypoints",
+        "depth",
+        "velocity",
+        "scale",
+        "missed",
+        "born",
+        "bystander",
+        "implausible",
+        "whole",
+        "matched",
+    )
 
     def __init__(self, person: SkeletonFrame, born: int, min_scale: float) -> None:
         self.keypoints = person.keypoints.copy()
@@ -207,6 +304,15 @@ class _Track:
         self.missed = 0
         self.born = born  # frame count when first seen
         self.bystander = False  # seen in the same frame as the patient: not the patient
+        self.implausible = False  # refused by the reach check: never the patient
+        self.matched = 1  # frames this person was seen in
+        self.whole: tuple[np.ndarray, float] | None = None  # last nearly whole body: centre, size
+        self._remember_whole(person.keypoints)
+
+    def _remember_whole(self, keypoints: np.ndarray) -> None:
+        if body_keypoints(keypoints) >= FULL_BODY_KEYPOINTS:
+            present = keypoints[:, 2] > 0
+            self.whole = (keypoints[present, :2].mean(0), self.scale)
 
     def predicted(self) -> np.ndarray:
         out = self.keypoints.copy()
@@ -242,6 +348,8 @@ class _Track:
         # the body is remembered and forgets slowly (SCALE_MEMORY per frame).
         self.scale = max(skeleton_height(keypoints), SCALE_MEMORY**frames * self.scale, min_scale)
         self.missed = 0
+        self.matched += 1
+        self._remember_whole(keypoints)
 
 
 class PatientTracker:
@@ -263,7 +371,9 @@ class PatientTracker:
     carries no image. min_scale: the smallest body size used for the gates, as a share of the
     image width. sample_depth: when the observation has a depth image, sample everyone's depth
     first (one vectorised call, about 0.2 ms for five people) so distance separates people who
-    overlap in the image; the reported patient then carries that depth.
+    overlap in the image; the reported patient then carries that depth. reach: how far (in the
+    patient's body sizes) from their last nearly whole skeleton a lone, nearly whole skeleton may
+    be while the patient is LOST and still be taken for them (module docstring).
     """
 
     def __init__(
@@ -279,6 +389,7 @@ class PatientTracker:
         image_width: float = 640.0,
         min_scale: float = 0.1,
         sample_depth: bool = True,
+        reach: float = REACH,
     ) -> None:
         if max_missed < 0:
             raise ValueError(f"max_missed must be >= 0, got {max_missed}")
@@ -297,6 +408,7 @@ class PatientTracker:
         self.image_width = image_width
         self.min_scale = min_scale
         self.sample_depth = sample_depth
+        self.reach = reach
         self.reset()
 
     def reset(self) -> None:
@@ -316,23 +428,38 @@ class PatientTracker:
         self.min_scale_px_ = self.min_scale * self._width(observation)
         if self.sample_depth and observation.depth_image is not None and observation.people:
             observation = replace(observation, people=people_with_depth(observation))
+        # Skeletons no body can make are not followed at all (implausible_proportions).
+        kept = [
+            i for i, p in enumerate(observation.people) if not implausible_proportions(p.keypoints)
+        ]
+        broken = len(observation.people) - len(kept)
+        if broken:
+            observation = replace(observation, people=[observation.people[i] for i in kept])
+        result, assigned = self._update(observation)
+        refused = broken + sum(
+            track.implausible for i, track in assigned.items() if i != result.index
+        )
+        index = None if result.index is None else kept[result.index]
+        return replace(result, index=index, refused=refused)
+
+    def _update(self, observation: Observation) -> tuple[TrackResult, dict[int, _Track]]:
         people = observation.people
         assigned = self._associate(people)  # detection index -> track, for everyone
         if self.state_ is TrackState.SEARCHING:
-            return self._select(observation, assigned)
+            return self._select(observation, assigned), assigned
         index = next((i for i, t in assigned.items() if t is self.patient_), None)
         if index is None:
             index = self._reacquire(assigned)
         if index is not None:
             self._mark_bystanders(assigned)
             TRACKER.move(self, TrackState.TRACKING)
-            return TrackResult(self.state_, people[index], index)
+            return TrackResult(self.state_, people[index], index), assigned
         TRACKER.move(self, TrackState.LOST)
         if self.missed_ <= self.max_missed:
-            return TrackResult(self.state_, None, None, missed=self.missed_)
+            return TrackResult(self.state_, None, None, missed=self.missed_), assigned
         TRACKER.move(self, TrackState.SEARCHING)
         self.patient_ = None
-        return self._select(observation, assigned)
+        return self._select(observation, assigned), assigned
 
     def _select(self, observation: Observation, assigned: dict[int, _Track]) -> TrackResult:
         people = observation.people
@@ -341,7 +468,11 @@ class PatientTracker:
             index = marker_wearer(people, detect_markers(observation.rgb), self.marker_id)
             how = SelectedBy.MARKER
         if index is None and not (self.require_marker and observation.rgb is not None):
-            candidates = [i for i in range(len(people)) if not assigned[i].bystander]
+            candidates = [
+                i
+                for i in range(len(people))
+                if not (assigned[i].bystander or assigned[i].implausible)
+            ]
             choice = central_closest([people[i] for i in candidates], self._width(observation))
             index = None if choice is None else candidates[choice]
             how = SelectedBy.CENTRAL_CLOSEST
@@ -369,12 +500,16 @@ class PatientTracker:
             (index, track)
             for index, track in assigned.items()
             if not track.bystander
+            and not track.implausible
             and not track.missed
             and not (np.isfinite(track.depth) and abs(track.depth - patient.depth) > depth_limit)
         ]
         best = None
         if len(candidates) == 1 and len(assigned) == 1:
             best = candidates[0][0]
+            if self._out_of_reach(candidates[0][1]):
+                candidates[0][1].implausible = True
+                best = None
         else:
             best_distance = self.reacquire_radius
             for index, track in candidates:
@@ -387,6 +522,19 @@ class PatientTracker:
             self.tracks_.remove(patient)
             self.patient_ = assigned[best]
         return best
+
+    def _out_of_reach(self, track: _Track) -> bool:
+        """A nearly whole skeleton farther than ``reach`` of the lost patient's body sizes from
+        their last nearly whole skeleton (module docstring)."""
+        whole = self.patient_.whole
+        if (
+            whole is None
+            or self.patient_.matched < ESTABLISHED_FRAMES
+            or body_keypoints(track.keypoints) < FULL_BODY_KEYPOINTS
+        ):
+            return False
+        centre, size = whole
+        return bool(np.linalg.norm(track.centre() - centre) > self.reach * size)
 
     def _mark_bystanders(self, assigned: dict[int, _Track]) -> None:
         for track in assigned.values():

@@ -50,7 +50,7 @@ def score_stream(
             manifest.threshold if threshold is None else threshold,
             manifest.delay_ms if delay_ms is None else delay_ms,
         )
-    stream, _ = replay_stream(FrameClassifier(classifier), data)
+    stream, _, _ = replay_stream(FrameClassifier(classifier), data)
     return stream
 
 

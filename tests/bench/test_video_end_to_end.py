@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 
 from bench.video_end_to_end import (
+    GOAL_S,
     best_matches,
     decision_seq,
     first_emergency_frame,
@@ -20,6 +21,7 @@ from bench.video_end_to_end import (
     runs_of,
     shown_command,
     time_to_alarm,
+    tracker_counts,
     video_index,
 )
 
@@ -165,6 +167,30 @@ def test_robot_pace_reads_the_agents_transport_end_line(tmp_path, caplog):
     assert pace["frame_path_mean_ms"] == 25.0 and pace["frame_path_max_ms"] == 25.0
     assert pace["process_cpu_ms_per_frame"] == 75.0
     assert robot_pace([(0.0, "something else")])["behind_source_pace_max_s"] is None
+    counts = tracker_counts(lines)
+    assert counts == {
+        "frames": 31,
+        "with_person": 0,
+        "with_patient": 0,
+        "refused_implausible": 0,
+        "dropped": 0,
+    }
+
+
+def test_tracker_counts_keep_refused_frames_apart_from_dropped_ones():
+    line = (
+        "transport t-1 ended: 160 frames, 122 with a person in view, 80 with the patient, "
+        "40 refused as implausible (not a person: not dropped), 30.0 frames/s; ..."
+    )
+    counts = tracker_counts([(0.0, line)])
+    assert counts["refused_implausible"] == 40 and counts["dropped"] == 2
+    assert tracker_counts([(0.0, "no such line")])["refused_implausible"] is None
+
+
+def test_goal_is_an_alarm_within_one_and_a_half_seconds_of_the_label():
+    """Issue #34 decided 1.5 s (the label precedes the visible motion by 0.57-0.77 s)."""
+    assert GOAL_S == 1.5
+    assert goal_met(1.4, GOAL_S) and not goal_met(1.6, GOAL_S)
 
 
 def test_goal_is_judged_on_the_benchmarks_best_keypoints_only_model():

@@ -305,7 +305,36 @@ def test_transport_start_carries_the_source_frame_rate_and_end_logs_counts(tmp_p
     start = json.loads(next(m.text for m in outbox.pending(limit=100) if m.seq is None))
     assert start["type"] == "transport_start" and start["fps"] == 23.976
     (line,) = [r.getMessage() for r in caplog.records if "ended" in r.getMessage()]
-    assert "25 frames, 20 with a person in view, 20 with the patient, 24.0 frames/s" in line
+    assert (
+        "25 frames, 20 with a person in view, 20 with the patient, 0 refused as implausible "
+        "(not a person: not dropped), 24.0 frames/s"
+    ) in line
+
+
+def test_transport_end_counts_frames_refused_as_implausible_apart(tmp_path, caplog):
+    """The patient walks, goes down and is lost; the pose estimator then reports a whole "person"
+    far from where they lay (the office chair): those frames are counted as refused, not as
+    frames with the patient, and the detector says they are not dropped."""
+    outbox = Outbox(tmp_path / "o.sqlite")
+    pipeline = Pipeline(outbox, TransportMode.WALKING)
+    pipeline.start_transport("t-1", ts=1_700_000_000.0, fps=30.0)
+    person = next(o for o in FallSource() if o.people).people[0]
+    kp = person.keypoints.copy()
+    present = kp[:, 2] > 0
+    size = float(np.ptp(kp[present, 1]))
+    chair_kp = kp.copy()
+    chair_kp[present, 0] -= 3 * size
+    chair = SkeletonFrame(chair_kp, timestamp=0.0)
+    detected = []
+    for i in range(40):
+        people = [person] if i < 20 else [] if i < 22 else [chair]
+        pipeline.process(Observation(i / 30, people, i))
+        detected.append(pipeline.detector.patient_frames.refused_)
+    with caplog.at_level("INFO", logger="robot_agent.pipeline"):
+        pipeline.end_transport(1_700_000_100.0)
+    (line,) = [r.getMessage() for r in caplog.records if "ended" in r.getMessage()]
+    assert "40 frames, 38 with a person in view, 20 with the patient, 18 refused" in line
+    assert detected[22:] == [1] * 18
 
 
 class _SlowClock:

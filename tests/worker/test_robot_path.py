@@ -52,7 +52,7 @@ def test_bulk_and_robot_path_decide_the_same_on_every_frame(data, model_dir):
     classifier = load_classifier(model_dir)
     manifest = classifier.manifest
     assert manifest.inputs == ["keypoints", "floor"]  # full feature set, URFD's floor measures
-    robot, dropped = replay_stream(FrameClassifier(classifier), data)
+    robot, dropped, _ = replay_stream(FrameClassifier(classifier), data)
     assert dropped == 0
     columns = np.arange(data.features.shape[1])
     bulk_scores = classifier.predict_proba(data.features[:, columns])

@@ -228,8 +228,8 @@ def markdown(report: dict) -> str:
             "features, ONNX Runtime and the delay filter, with each fold's exported model.",
             "",
             "| model | inputs | frame recall | frame F1 | falls | ADL false alarms "
-            "| median time to alarm s | tracker dropped frames |",
-            "|---|---|---|---|---|---|---|---|",
+            "| median time to alarm s | tracker dropped frames | refused as implausible |",
+            "|---|---|---|---|---|---|---|---|---|",
         ]
         for row in robot_rows:
             rp = row["robot_path"]
@@ -237,7 +237,8 @@ def markdown(report: dict) -> str:
                 f"| {row['name']} | {', '.join(row['inputs'])} | {_fmt(rp['frame_recall'])} "
                 f"| {_fmt(rp['frame_f1'])} | {rp['falls_detected']}/{rp['falls_total']} "
                 f"| {rp['adl_false_alarms']}/{rp['adl_total']} "
-                f"| {_fmt(rp['median_time_to_alarm_s'], 2)} | {rp['tracker_dropped_frames']} |"
+                f"| {_fmt(rp['median_time_to_alarm_s'], 2)} | {rp['tracker_dropped_frames']} "
+                f"| {rp.get('tracker_refused_implausible_frames', '-')} |"
             )
     lines += ["", "Plots: `plots/<model>_roc_pr.png`, `plots/<model>_delay.png`."]
     return "\n".join(lines) + "\n"
