@@ -168,19 +168,6 @@ def model_entry(row: dict) -> dict:
     return entry
 
 
-def with_generated_beds(data, trainers, n: int):
-    """URFD plus `n` GENERATED lie-on-a-bed transports as train-only sequences (hard negatives
-    for every training fold, never evaluated), the trainers renamed `<spec>+generated-beds`."""
-    from dataclasses import replace
-
-    from worker.training.data import with_training_only
-    from worker.training.generated import bed_frames
-    from worker.training.trainers import SklearnTrainer
-
-    renamed = [SklearnTrainer(replace(t.spec, name=f"{t.name}+generated-beds")) for t in trainers]
-    return with_training_only(data, bed_frames(n)), renamed
-
-
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--models", default=ALL_MODELS)
@@ -193,13 +180,6 @@ def main(argv: list[str] | None = None) -> int:
         "--latency-only",
         action="store_true",
         help="re-measure per-frame latency of the models of an existing run",
-    )
-    parser.add_argument(
-        "--generated-beds",
-        type=int,
-        default=0,
-        help="add this many GENERATED lie-on-a-bed transports to every training fold (never to "
-        "an evaluated one); the models' names get '+generated-beds' (issue #34)",
     )
     args = parser.parse_args(argv)
     if args.table:
@@ -220,11 +200,8 @@ def main(argv: list[str] | None = None) -> int:
         return 0
 
     data = from_urfd(args.urfd_dir)
-    trainers = make_trainers(args.models.split(","))
-    if args.generated_beds:
-        data, trainers = with_generated_beds(data, trainers, args.generated_beds)
     report_dir = args.out.with_suffix("")  # bench/results/detection_urfd/
-    report = train_all(data, trainers, report_dir, n_folds=5)
+    report = train_all(data, make_trainers(args.models.split(",")), report_dir, n_folds=5)
     sequences = urfd.load(args.urfd_dir)
     latency = {
         row["name"]: frame_latency_ms(Path(row["model_dir"]), sequences) for row in report["models"]
@@ -252,13 +229,6 @@ def main(argv: list[str] | None = None) -> int:
         if report_dir.is_relative_to(RESULTS.parent.parent)
         else str(report_dir),
     }
-    if args.generated_beds:
-        result["dataset"] = "urfd (evaluated) + GENERATED lie-on-a-bed transports (training only)"
-        result["generated_training"] = {
-            "what": "GENERATED lie-on-a-bed transports (vigil.synthetic) in every training fold, "
-            "never in an evaluated fold: every figure is URFD's",
-            "transports": args.generated_beds,
-        }
     args.out.write_text(json.dumps(result, indent=2) + "\n")
     print(json.dumps({k: v for k, v in result.items() if k != "frame_latency_ms"}, indent=2))
     return 0

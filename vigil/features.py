@@ -65,16 +65,6 @@ _LEGS = tuple(
 # horizontal), lean of the shoulders-over-ankles line (1 upright): how the body folds as it goes
 # down, which the heights alone do not tell.
 LIMBS = ("knee_bend", "hip_bend", "thigh_down", "shank_down", "lean")
-# Body orientation (issue #34, set `keypoints-orient` only): ratios of image distances, so
-# neither the image's scale nor the person's distance from the camera changes them. How far the
-# shoulder line and the hip line tilt from level (0 level, 1 vertical: a person lying on their
-# side), the hips' height over the ankles and the head's (nose) over the hips in torso lengths
-# (neck to mid hip), each with a has-flag; and the hips' downward speed in torso lengths per
-# second over ORIENT_HORIZONS_S.
-ORIENT = ("shoulder_tilt", "hip_tilt", "hip_over_ankles", "head_over_hips")
-ORIENT_HORIZONS_S: tuple[float, ...] = (0.2, 0.4, 0.8)
-ORIENT_LIMIT = 5.0  # torso lengths: beyond this a foreshortened torso, not a pose
-HIP_RATE_LIMIT = 20.0  # torso lengths per second
 
 # Per-frame scalar quantities tracked over time (columns of the "state" array).
 _STATE = (
@@ -95,9 +85,6 @@ _STATE = (
     "has_floor",
     *LIMBS,
     *(f"has_{limb}" for limb in LIMBS),
-    "hip_y",
-    "torso_len",
-    "has_torso",
 )
 _S = {name: i for i, name in enumerate(_STATE)}
 _LIMB_STATE = slice(_S[LIMBS[0]], _S[LIMBS[-1]] + 1)
@@ -144,18 +131,12 @@ def _names() -> tuple[str, ...]:
     temporal += list(_MEMORY)
     limbs = [*LIMBS, *(f"has_{limb}" for limb in LIMBS)]
     floor = ["floor_top", "floor_centre", "near_floor", "has_floor"]
-    orient = [*ORIENT, *(f"has_{o}" for o in ORIENT)]
-    orient += [f"hip_rate@{h}" for h in ORIENT_HORIZONS_S]
-    return tuple(pose + temporal + limbs + floor + orient)
+    return tuple(pose + temporal + limbs + floor)
 
 
 FEATURE_NAMES: tuple[str, ...] = _names()
 N_POSE = N_KEYPOINTS * 3 + 6
 N_LIMB = 2 * len(LIMBS)  # values and has-flags
-N_ORIENT = 2 * len(ORIENT)  # values and has-flags (the hip rates are temporal)
-#: The body-orientation features (ORIENT, their has-flags, the hip rates): only the set
-#: `keypoints-orient` reads them, so every other set's columns are the ones of before.
-ORIENT_FEATURES = frozenset(FEATURE_NAMES[FEATURE_NAMES.index(ORIENT[0]) :])
 #: The features made from floor measures (`above_floor@h` is made from keypoints, not these).
 FLOOR_FEATURES = frozenset(
     name for name in FEATURE_NAMES if "floor_" in name or name in ("near_floor", "has_floor")
@@ -165,13 +146,8 @@ FLOOR_FEATURES = frozenset(
 #: that learnt "no pose lately" from MoveNet did not alarm on a MediaPipe video of a fall), so the
 #: models meant for any camera and estimator (set `keypoints`) leave them out (feature version 6).
 ESTIMATOR_DROPOUT_FEATURES = frozenset({"since_seen", "missing"})
-_BEFORE_ORIENT = FEATURE_NAMES.index(ORIENT[0])
 FEATURE_SETS: dict[str, np.ndarray] = {
-    # Every column: what the training rows hold (worker.training.data.build_rows); each model
-    # reads its own set's columns from them.
-    "all": np.arange(len(FEATURE_NAMES)),
-    # pose, temporal, limbs and floor measures (feature version 6), without body orientation
-    "full": np.arange(_BEFORE_ORIENT),
+    "full": np.arange(len(FEATURE_NAMES)),
     "pose": np.arange(N_POSE),  # single-frame keypoint features only, as in the paper
     # For cameras without a known pose over the floor and any pose estimator: everything but the
     # floor measures and the estimator's dropout memory.
@@ -179,22 +155,14 @@ FEATURE_SETS: dict[str, np.ndarray] = {
         [
             i
             for i, n in enumerate(FEATURE_NAMES)
-            if n not in FLOOR_FEATURES
-            and n not in ESTIMATOR_DROPOUT_FEATURES
-            and n not in ORIENT_FEATURES
+            if n not in FLOOR_FEATURES and n not in ESTIMATOR_DROPOUT_FEATURES
         ]
     ),
 }
-#: The set `keypoints` plus the body orientation (issue #34's keypoints-only attempt).
-FEATURE_SETS["keypoints-orient"] = np.concatenate(
-    [FEATURE_SETS["keypoints"], [FEATURE_NAMES.index(n) for n in sorted(ORIENT_FEATURES)]]
-)
-FEATURE_SETS["keypoints-orient"].sort()
 #: Feature sets whose models need floor measures in the frames (vigil.floor).
-NEEDS_FLOOR = frozenset({"full", "all"})
+NEEDS_FLOOR = frozenset({"full"})
 _MAX_HORIZON = max(HORIZONS_S)
 _HORIZONS = np.array(HORIZONS_S)
-_ORIENT_HORIZONS = np.array(ORIENT_HORIZONS_S)
 _TEMPORAL_START = FEATURE_NAMES.index(f"{_DELTAS[0]}@{HORIZONS_S[0]}")
 _PEAK_SOURCE = [FEATURE_NAMES.index(f"{p}@0.4") - _TEMPORAL_START for p in _PEAKED]
 _DESCENT_SOURCE = FEATURE_NAMES.index(f"d_floor_top@{_DESCENT_HORIZON_S}") - _TEMPORAL_START
@@ -244,7 +212,6 @@ def _pose_and_state(
 
     rel = np.where(present[..., None], (xy - centre[:, None, :]) / scale[:, None, None], 0.0)
     limbs, limbs_seen = _limbs(xy, present)
-    orient, orient_seen = _orient(xy, present, hip, hip_ok, neck, neck_ok, torso_len)
     floor = floor.astype(np.float64)
     has_floor = np.isfinite(floor).all(axis=1)
     floor = np.where(has_floor[:, None], floor, 0.0)
@@ -257,8 +224,6 @@ def _pose_and_state(
             limbs_seen,
             floor,
             has_floor[:, None],
-            orient,
-            orient_seen,
         ],
         axis=1,
     )
@@ -271,9 +236,6 @@ def _pose_and_state(
             *(floor[:, 0], floor[:, 1], has_floor),
             *limbs.T,
             *limbs_seen.T,
-            hip[:, 1],
-            torso_len,
-            (usable & neck_ok & hip_ok).astype(np.float64),
         ],
         axis=1,
     )
@@ -311,53 +273,6 @@ def _limbs(xy: np.ndarray, present: np.ndarray) -> tuple[np.ndarray, np.ndarray]
     has = np.concatenate([count > 0, lean_ok[:, None]], axis=1)
     limbs = np.concatenate([per_leg, lean[:, None]], axis=1)
     return np.where(has, limbs, 0.0), has.astype(np.float64)
-
-
-def _tilt(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """How far the line a - b tilts from level: 0 level, 1 vertical."""
-    v = b - a
-    return np.abs(v[..., 1]) / np.maximum(np.sqrt((v**2).sum(axis=-1)), 1e-9)
-
-
-def _orient(xy, present, hip, hip_ok, neck, neck_ok, torso_len):
-    """ORIENT values (n, 4) (0 where unknown) and their has-flags (n, 4); heights in torso
-    lengths, image y pointing down."""
-    r_s, l_s, r_h, l_h = (INDEX[k] for k in ("r_shoulder", "l_shoulder", "r_hip", "l_hip"))
-    torso_ok = hip_ok & neck_ok & (torso_len > 1e-6)
-    ankles = present[:, _ANKLES]
-    ankle_y = (xy[:, _ANKLES, 1] * ankles).sum(axis=1) / np.maximum(ankles.sum(axis=1), 1)
-    nose = INDEX["nose"]
-    values = np.stack(
-        [
-            _tilt(xy[:, r_s], xy[:, l_s]),
-            _tilt(xy[:, r_h], xy[:, l_h]),
-            (ankle_y - hip[:, 1]) / torso_len,
-            (hip[:, 1] - xy[:, nose, 1]) / torso_len,
-        ],
-        axis=1,
-    )
-    has = np.stack(
-        [
-            present[:, r_s] & present[:, l_s],
-            present[:, r_h] & present[:, l_h],
-            torso_ok & ankles.any(axis=1),
-            torso_ok & present[:, nose],
-        ],
-        axis=1,
-    )
-    values = np.clip(values, -ORIENT_LIMIT, ORIENT_LIMIT)
-    return np.where(has, values, 0.0), has.astype(np.float64)
-
-
-def _hip_rates(state_now: np.ndarray, state_then: np.ndarray) -> np.ndarray:
-    """(m, len(_STATE)) pairs -> (m,) downward speed of the hips in torso lengths (the longer of
-    then and now) per second; 0 unless both frames had a torso."""
-    elapsed = state_now[:, _S["seen_at"]] - state_then[:, _S["seen_at"]]
-    torso = np.maximum(state_then[:, _S["torso_len"]], state_now[:, _S["torso_len"]])
-    both = state_now[:, _S["has_torso"]] * state_then[:, _S["has_torso"]]
-    rate = (state_now[:, _S["hip_y"]] - state_then[:, _S["hip_y"]]) / np.maximum(torso, 1e-6)
-    rate = np.where(elapsed > 1e-9, rate / np.maximum(elapsed, 1e-9), 0.0)
-    return np.clip(rate, -HIP_RATE_LIMIT, HIP_RATE_LIMIT) * both
 
 
 def _point(xy, present, index, pair) -> tuple[np.ndarray, np.ndarray]:
@@ -509,11 +424,7 @@ def extract_arrays(
     )
     pose, state = _hold(pose, state, usable, None)
     held = (~usable).astype(np.float64)[:, None]
-    temporal, hip_rates = [], []
-    for horizon in ORIENT_HORIZONS_S:
-        then = _lag_index(timestamps, timestamps, horizon)
-        hip_rates.append(np.where(usable, _hip_rates(state, state[then]), 0.0))
-    hip_rates = np.stack(hip_rates, axis=1)
+    temporal = []
     for horizon in HORIZONS_S:
         then = _lag_index(timestamps, timestamps, horizon)
         delta = _deltas(state, state[then], horizon)[:, _HORIZON_COLUMNS[horizon]]
@@ -530,17 +441,14 @@ def extract_arrays(
         memories[i] = memory.step(
             state[i], bool(usable[i]), dt, float(timestamps[i]), temporal[i, _DESCENT_SOURCE]
         )
-    features = _assemble(pose, held, temporal, peaks.reshape(n, -1), memories, hip_rates)
+    features = _assemble(pose, held, temporal, peaks.reshape(n, -1), memories)
     return features[:, FEATURE_SETS[feature_set]].astype(np.float32)
 
 
-def _assemble(pose, held, temporal, peaks, memories, hip_rates) -> np.ndarray:
+def _assemble(pose, held, temporal, peaks, memories) -> np.ndarray:
     keypoint_pose, limbs = pose[:, : N_POSE - 1], pose[:, N_POSE - 1 : N_POSE - 1 + N_LIMB]
-    floor = pose[:, N_POSE - 1 + N_LIMB : N_POSE + N_LIMB + N_FLOOR]
-    orient = pose[:, N_POSE + N_LIMB + N_FLOOR :]
-    return np.concatenate(
-        [keypoint_pose, held, temporal, peaks, memories, limbs, floor, orient, hip_rates], axis=1
-    )
+    floor = pose[:, N_POSE - 1 + N_LIMB :]
+    return np.concatenate([keypoint_pose, held, temporal, peaks, memories, limbs, floor], axis=1)
 
 
 def extract_sequence(frames: Sequence[SkeletonFrame], feature_set: str = "full") -> np.ndarray:
@@ -599,19 +507,13 @@ class FeatureExtractor:
         temporal = np.concatenate(
             [deltas[k, _HORIZON_COLUMNS[h]] for k, h in enumerate(HORIZONS_S)]
         )[None]
-        orient_then = _lag_index(np.array(self._times), t, _ORIENT_HORIZONS)
-        hip_rates = _hip_rates(
-            np.repeat(state, len(_ORIENT_HORIZONS), axis=0),
-            np.stack([self._states[i] for i in orient_then]),
-        )[None]
         if not usable[0]:
             temporal = np.zeros_like(temporal)
-            hip_rates = np.zeros_like(hip_rates)
         self._peaks = _peak_step(self._peaks, temporal[0, _PEAK_SOURCE], dt)
         held = (~usable).astype(np.float64)[:, None]
         top_drop = temporal[0, _DESCENT_SOURCE]
         memory = self._memory.step(state[0], bool(usable[0]), dt, t, top_drop)[None]
-        features = _assemble(pose, held, temporal, self._peaks.reshape(1, -1), memory, hip_rates)
+        features = _assemble(pose, held, temporal, self._peaks.reshape(1, -1), memory)
         return features[0, self.columns_].astype(np.float32)
 
 

@@ -146,7 +146,7 @@ def db_recordings(
 
 
 def frame_data(
-    session: Session, videos: list[Video], mode: TransportMode, feature_set: str = "all"
+    session: Session, videos: list[Video], mode: TransportMode, feature_set: str = "full"
 ) -> FrameData:
     """Training rows of the videos in order (the one builder, `build_rows`, fed by the database
     source), targets from accepted segments (-1 where none)."""

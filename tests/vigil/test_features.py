@@ -6,8 +6,6 @@ from vigil.features import (
     FEATURE_NAMES,
     FEATURE_SETS,
     FLOOR_FEATURES,
-    ORIENT,
-    ORIENT_FEATURES,
     FeatureExtractor,
     extract_sequence,
     window_index,
@@ -38,7 +36,7 @@ def test_floor_measures_enter_only_the_sets_that_declare_them(sequences):
     blind = [SkeletonFrame(f.keypoints, f.depth, f.timestamp) for f in frames]  # floor unknown
     names = np.array(FEATURE_NAMES)
     has_floor = list(FEATURE_NAMES).index("has_floor")
-    with_floor, without = extract_sequence(frames, "all"), extract_sequence(blind, "all")
+    with_floor, without = extract_sequence(frames), extract_sequence(blind)
     assert with_floor[:, has_floor].min() == 1.0 and without[:, has_floor].max() == 0.0
     floor_columns = np.array([n in FLOOR_FEATURES for n in names])
     # values + flag, drops, peaks, descent memory
@@ -192,7 +190,7 @@ def _descent(tops: list[float], fps: float = 30.0) -> dict[str, np.ndarray]:
         SkeletonFrame(kp, timestamp=i / fps, floor=np.array([top, top / 2, 0.1], np.float32))
         for i, top in enumerate(tops)
     ]
-    features = extract_sequence(frames, "all")
+    features = extract_sequence(frames)
     return {name: features[:, i] for i, name in enumerate(FEATURE_NAMES)}
 
 
@@ -242,7 +240,7 @@ def _person(knee_xy, ankle_xy, shoulders_y=100.0) -> np.ndarray:
 
 
 def _limb_features(kp) -> dict[str, float]:
-    features = extract_sequence([SkeletonFrame(kp)], "all")[0]
+    features = extract_sequence([SkeletonFrame(kp)])[0]
     return {name: float(features[FEATURE_NAMES.index(name)]) for name in FEATURE_NAMES}
 
 
@@ -288,97 +286,3 @@ def test_limb_changes_cover_short_horizons_only():
     features = extract_sequence(frames)
     assert features[-1, FEATURE_NAMES.index("d_knee_bend@0.4")] == pytest.approx(1, abs=1e-5)
     assert features[14, FEATURE_NAMES.index("d_knee_bend@0.4")] == 0
-
-
-# --- body orientation (set `keypoints-orient`, issue #34) --------------------------------------
-
-ORIENT_COLUMNS = [n for n in FEATURE_NAMES if n in ORIENT_FEATURES]
-
-
-def _standing(dx: float = 0.0, dy: float = 0.0) -> np.ndarray:
-    """A front-facing standing person (nose, shoulders, hips, knees, ankles), shifted by dx, dy."""
-    kp = _person(knee_xy=(0, 300), ankle_xy=(0, 400))
-    kp[INDEX["nose"]] = (300, 60, 0.9)
-    kp[:, 0] += dx * (kp[:, 2] > 0)
-    kp[:, 1] += dy * (kp[:, 2] > 0)
-    return kp
-
-
-def _lying(kp: np.ndarray) -> np.ndarray:
-    """The same person turned by 90 degrees in the image: lying on their side, head to the left."""
-    out = kp.copy()
-    seen = kp[:, 2] > 0
-    out[seen, 0] = 300 - (kp[seen, 1] - 200)
-    out[seen, 1] = 400 + (kp[seen, 0] - 300)
-    return out
-
-
-def _orient_of(frames) -> np.ndarray:
-    features = extract_sequence(frames, "keypoints-orient")
-    names = [FEATURE_NAMES[i] for i in FEATURE_SETS["keypoints-orient"]]
-    return features[:, [names.index(n) for n in ORIENT_COLUMNS]]
-
-
-def _falling(transform) -> list[SkeletonFrame]:
-    """Standing for 1 s, then the hips drop 150 px in 0.5 s: a stream of 45 frames at 30 fps."""
-    frames = []
-    for i in range(45):
-        kp = _standing(dy=max(0, i - 30) * 10.0)
-        frames.append(SkeletonFrame(transform(kp), timestamp=i / 30))
-    return frames
-
-
-def test_orientation_is_not_in_the_sets_of_before():
-    assert len(FEATURE_SETS["full"]) == 181 and len(ORIENT_COLUMNS) == 11
-    for name in ("full", "pose", "keypoints"):
-        assert not {FEATURE_NAMES[i] for i in FEATURE_SETS[name]} & ORIENT_FEATURES
-    orient = {FEATURE_NAMES[i] for i in FEATURE_SETS["keypoints-orient"]}
-    keypoints = {FEATURE_NAMES[i] for i in FEATURE_SETS["keypoints"]}
-    assert orient == keypoints | ORIENT_FEATURES and not orient & FLOOR_FEATURES
-
-
-def test_orientation_does_not_change_when_the_skeleton_is_scaled_or_moved():
-    def scaled(kp, factor, shift):
-        out = kp.copy()
-        seen = kp[:, 2] > 0
-        out[seen, :2] = kp[seen, :2] * factor + shift
-        return out
-
-    base = _orient_of(_falling(lambda kp: kp))
-    assert np.abs(base).max() > 0.5  # the columns do move over the stream
-    for factor, shift in ((0.5, (40.0, -30.0)), (2.5, (-200.0, 120.0)), (1.0, (500.0, 300.0))):
-        moved = _orient_of(_falling(lambda kp, f=factor, s=shift: scaled(kp, f, np.array(s))))
-        np.testing.assert_allclose(moved, base, atol=1e-4)
-
-
-def test_lying_and_standing_have_the_expected_orientation():
-    values = {}
-    for pose, kp in (("standing", _standing()), ("lying", _lying(_standing()))):
-        row = _orient_of([SkeletonFrame(kp)])[0]
-        values[pose] = dict(zip(ORIENT_COLUMNS, row, strict=True))
-    standing, lying = values["standing"], values["lying"]
-    assert standing["shoulder_tilt"] == pytest.approx(0, abs=1e-6)  # shoulders level
-    assert lying["shoulder_tilt"] == pytest.approx(1, abs=1e-6)  # one above the other
-    assert lying["hip_tilt"] == pytest.approx(1, abs=1e-6)
-    assert standing["hip_over_ankles"] == pytest.approx(2.0)  # ankles 200 px below, torso 100
-    assert standing["head_over_hips"] == pytest.approx(1.4)
-    assert lying["hip_over_ankles"] == pytest.approx(0, abs=1e-6)
-    assert lying["head_over_hips"] == pytest.approx(0, abs=1e-6)
-    assert all(standing[f"has_{o}"] == 1 for o in ORIENT)
-
-
-def test_orientation_without_its_keypoints_is_flagged_unknown():
-    kp = _standing()
-    kp[[INDEX["r_ankle"], INDEX["l_ankle"], INDEX["nose"]], 2] = 0
-    row = dict(zip(ORIENT_COLUMNS, _orient_of([SkeletonFrame(kp)])[0], strict=True))
-    assert row["has_hip_over_ankles"] == 0 and row["hip_over_ankles"] == 0
-    assert row["has_head_over_hips"] == 0 and row["head_over_hips"] == 0
-    assert row["has_shoulder_tilt"] == 1
-
-
-def test_hip_rate_is_the_hips_downward_speed_in_torso_lengths_per_second():
-    frames = _falling(lambda kp: kp)
-    rates = _orient_of(frames)[:, [ORIENT_COLUMNS.index(f"hip_rate@{h}") for h in (0.2, 0.4)]]
-    assert np.all(rates[:30] == 0)  # standing still
-    # 10 px a frame at 30 fps = 300 px/s; the torso is 100 px long: 3 torso lengths per second
-    assert rates[44] == pytest.approx([3.0, 3.0], abs=1e-5)

@@ -77,17 +77,3 @@ def test_the_cli_default_bootstrap_retrain_and_benchmark_read_the_registry():
     assert [t.spec for t in trainers] == [SPECS["rf-keypoints"], SPECS["rf-default"], SPECS["tcn"]]
     with pytest.raises(ValueError, match="unknown model 'nope'"):
         cli.make_trainers(["rf", "nope"])
-
-
-def test_the_keypoints_orientation_specs_are_opt_in_grids_of_the_keypoints_families():
-    from vigil.features import FEATURE_NAMES, FEATURE_SETS, ORIENT_FEATURES
-    from vigil.inputs import model_inputs
-
-    for family in ("rf", "gbt"):
-        spec, base = SPECS[f"{family}-keypoints-orient"], SPECS[f"{family}-keypoints"]
-        assert spec.family == base.family and spec.grid == base.grid
-        assert spec.feature_set == "keypoints-orient"
-        assert spec.name not in SPECS.benchmarked()  # the default benchmark run is unchanged
-        assert model_inputs(spec.feature_set) == ["keypoints"]
-    names = {FEATURE_NAMES[i] for i in FEATURE_SETS["keypoints-orient"]}
-    assert names >= ORIENT_FEATURES

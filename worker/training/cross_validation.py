@@ -84,10 +84,7 @@ def cross_validate(
 ) -> CrossValidation:
     start = time.perf_counter()
     cv = CrossValidation(trainer.name)
-    evaluated = data.evaluated
-    always = np.setdiff1d(np.arange(len(data.names)), evaluated)  # train-only sequences
-    for train, test in grouped_folds(data.is_positive_sequence[evaluated], n_folds, seed):
-        train, test = np.r_[evaluated[train], always], evaluated[test]
+    for train, test in grouped_folds(data.is_positive_sequence, n_folds, seed):
         selected = select(trainer, data, train, n_inner, stride, progress=progress)
         scores = trainer.score(selected.fitted, data, test)
         cv.folds.append(selected)

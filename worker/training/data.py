@@ -39,17 +39,6 @@ class FrameData:
     # Per sequence, the recording as observations: evaluations replay it through the robot's
     # frame path (vigil.replay). Features above are computed from the same path's frames.
     recordings: tuple[tuple[Observation, ...], ...] | None = None
-    # Per sequence, True where it only ever trains: cross-validation adds it to every training
-    # fold and never evaluates it (GENERATED hard negatives beside real recordings; see
-    # training_only). None: every sequence is evaluated.
-    train_only: np.ndarray | None = None
-
-    @property
-    def evaluated(self) -> np.ndarray:
-        """Indices of the sequences cross-validation folds and evaluates."""
-        if self.train_only is None:
-            return np.arange(len(self.names))
-        return np.flatnonzero(~np.asarray(self.train_only, bool))
 
     @property
     def classes(self):
@@ -127,21 +116,6 @@ def concatenate(*parts: FrameData) -> FrameData:
     )
 
 
-def with_training_only(data: FrameData, extra: FrameData) -> FrameData:
-    """`data` and `extra` as one, `extra`'s sequences marked train-only: cross-validation adds
-    them to every outer training fold and never to a held-out fold, so every evaluated figure is
-    `data`'s alone (its folds are the ones it has without `extra`). Marked generated if `extra`
-    is."""
-    both = concatenate(data, extra)
-    train_only = np.r_[
-        np.zeros(len(data.names), bool)
-        if data.train_only is None
-        else np.asarray(data.train_only, bool),
-        np.ones(len(extra.names), bool),
-    ]
-    return replace(both, train_only=train_only)
-
-
 @dataclass(frozen=True)
 class Recording:
     """One recording as a source gives it to the builder: what the camera saw, frame by frame,
@@ -164,7 +138,7 @@ def build_rows(
     recordings: list[Recording],
     mode: TransportMode | str,
     data_sha256: str,
-    feature_set: str = "all",
+    feature_set: str = "full",
 ) -> FrameData:
     """The one builder of training rows (issue #34), fed by sources: URFD files
     (`urfd_recordings`), database recordings with their accepted segments
@@ -224,7 +198,7 @@ def urfd_recordings(
 
 
 def from_urfd(
-    directory=None, names: list[str] | None = None, feature_set: str = "all"
+    directory=None, names: list[str] | None = None, feature_set: str = "full"
 ) -> FrameData:
     recordings, digest = urfd_recordings(directory, names)
     return build_rows(recordings, TransportMode.WALKING, digest, feature_set)

@@ -70,27 +70,23 @@ def generated_recordings(
     digest = hashlib.sha256()
     recordings = []
     for transport in generate_for_mode(mode, repeats, seed):
-        recordings.append(_recording(transport, mode, classes, depth))
-        digest.update(transport.patient_sequence().keypoints.tobytes())
-    return recordings, digest.hexdigest()
-
-
-def _recording(transport: GeneratedTransport, mode: TransportMode, classes, depth: bool):
-    keypoints, depths, usable, floor = patient_arrays(transport)
-    if not depth:
-        depths = np.full_like(depths, np.nan)
-    timestamps = np.arange(transport.n_frames) / transport.fps
-    observations = tuple(
-        Observation(
-            float(ts),
-            [SkeletonFrame(keypoints[t], depths[t], float(ts), floor[t])] if usable[t] else [],
-            t,
+        keypoints, depths, usable, floor = patient_arrays(transport)
+        if not depth:
+            depths = np.full_like(depths, np.nan)
+        timestamps = np.arange(transport.n_frames) / transport.fps
+        observations = tuple(
+            Observation(
+                float(ts),
+                [SkeletonFrame(keypoints[t], depths[t], float(ts), floor[t])] if usable[t] else [],
+                t,
+            )
+            for t, ts in enumerate(timestamps)
         )
-        for t, ts in enumerate(timestamps)
-    )
-    target = np.array([classes.index(d) for d in transport.decisions(mode)])
-    name = f"gen-{transport.locomotion.value}-{'+'.join(transport.events)}-{transport.seed:03d}"
-    return Recording(name, observations, target, generated=True)
+        target = np.array([classes.index(d) for d in transport.decisions(mode)])
+        name = f"gen-{transport.locomotion.value}-{'+'.join(transport.events)}-{transport.seed:03d}"
+        recordings.append(Recording(name, observations, target, generated=True))
+        digest.update(keypoints.tobytes())
+    return recordings, digest.hexdigest()
 
 
 def generated_frames(
@@ -100,37 +96,3 @@ def generated_frames(
     generated source); see `generated_recordings`."""
     recordings, digest = generated_recordings(mode, repeats, seed, depth)
     return build_rows(recordings, mode, digest)
-
-
-#: The GENERATED hard negatives of issue #34's keypoints-only attempt: a walking patient lying
-#: down deliberately on a bed 0.55-0.8 m up (vigil.synthetic's `lying_down_deliberately`), what
-#: URFD's daily activities adl-10 and adl-11 do and where a keypoints-only model alarms.
-BED_EVENT = "lying_down_deliberately"
-BED_TRANSPORTS = 12
-BED_SEED = 7000  # apart from GENERATED_SEED (worker.training.cli), the demo's and the fleet's
-BED_DURATION_S = 8.0  # the generator makes room for walking, sitting, lying down and lying
-
-
-def bed_recordings(
-    n: int = BED_TRANSPORTS, seed: int = BED_SEED, duration_s: float = BED_DURATION_S
-) -> tuple[list[Recording], str]:
-    """`n` GENERATED walking transports of a patient lying down on a bed, as the generated
-    source gives them (`generated_recordings`: the patient alone, targets for walking mode),
-    without depth at the keypoints, as URFD's recordings."""
-    digest = hashlib.sha256()
-    recordings = []
-    classes = MODE_CLASSES[TransportMode.WALKING]
-    for k in range(n):
-        transport = generate_transport(
-            Locomotion.WALKING, seed=seed + k, duration_s=duration_s, events=[BED_EVENT]
-        )
-        recordings.append(_recording(transport, TransportMode.WALKING, classes, depth=False))
-        digest.update(recordings[-1].name.encode())
-        digest.update(transport.patient_sequence().keypoints.tobytes())
-    return recordings, digest.hexdigest()
-
-
-def bed_frames(n: int = BED_TRANSPORTS, seed: int = BED_SEED) -> FrameData:
-    """Training rows of `bed_recordings` (the one builder, `build_rows`)."""
-    recordings, digest = bed_recordings(n, seed)
-    return build_rows(recordings, TransportMode.WALKING, digest)

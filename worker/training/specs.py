@@ -161,29 +161,6 @@ RF_KEYPOINTS = SPECS.register(
     ),
     benchmarked=True,
 )
-# Issue #34's keypoints-only attempt: the same grids on the set `keypoints` plus body
-# orientation (vigil.features.ORIENT, the hips' speed in torso lengths per second). Not in the
-# default benchmark run: `python -m bench.detection --models rf-keypoints-orient,...`.
-GBT_KEYPOINTS_ORIENT = SPECS.register(
-    ModelSpec(
-        name="gbt-keypoints-orient",
-        family="gbt",
-        grid=GBT.grid,
-        feature_set="keypoints-orient",
-        description="Gradient-boosted trees on keypoints with scale-free body orientation "
-        "(no floor measures)",
-    )
-)
-RF_KEYPOINTS_ORIENT = SPECS.register(
-    ModelSpec(
-        name="rf-keypoints-orient",
-        family="rf",
-        grid=RF.grid,
-        feature_set="keypoints-orient",
-        description="Random forest on keypoints with scale-free body orientation (no floor "
-        "measures)",
-    )
-)
 #: The window model: a temporal 1D-CNN over the last 24 frames (worker.training.temporal); one
 #: configuration, selected (inner cross-validation, threshold and delay) like every other grid.
 TCN = SPECS.register(

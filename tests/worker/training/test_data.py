@@ -38,7 +38,7 @@ class FeatureRecorder:
             mode=TransportMode.WALKING,
             classes=[Decision.NORMAL, Decision.EMERGENCY],
             feature_version=FEATURE_VERSION,
-            feature_set="all",  # every column the training rows hold
+            feature_set="full",
             taxonomy_version=1,
             threshold=0.5,
             delay_ms=0,
