@@ -250,7 +250,9 @@ def test_rosbag_feature_rows_are_the_replays(bag_source, replayed_observations, 
     rows_r, seen_r = stream_features(retimed, feature_set)
     assert rows.shape == rows_r.shape and rows.shape[0] == 160
     np.testing.assert_array_equal(seen, seen_r)
-    assert seen.sum() > 100  # the patient is found in most frames: the comparison is not empty
+    # The patient is found in over half the frames (the office chair MediaPipe reports once
+    # they are down is refused, vigil.tracking): the comparison is not empty.
+    assert seen.sum() > 80
     # 16UC1 holds whole millimetres, the replay the raw picture's fractions: depth features may
     # differ by that rounding only
     np.testing.assert_allclose(rows, rows_r, atol=2e-3, equal_nan=True)

@@ -199,7 +199,7 @@ def test_the_published_window_model_scores_the_same_on_the_robot(
     assert manifest.delay_ms == round(selected.delay_s * 1000)
     session = onnxruntime.InferenceSession(tmp_path.joinpath("tcn", "model.onnx").read_bytes())
     assert session.get_inputs()[0].shape[1:] == [8, len(FEATURE_SETS["full"])]
-    robot, dropped = replay_stream(FrameClassifier.from_dir(tmp_path / "tcn"), urfd)
+    robot, dropped, _ = replay_stream(FrameClassifier.from_dir(tmp_path / "tcn"), urfd)
     assert dropped == 0
     np.testing.assert_allclose(
         robot.scores, trainer.score(selected.fitted, urfd, np.arange(4)), rtol=0, atol=1e-5
