@@ -66,7 +66,9 @@ async def _robot(index: int, urls: list[str], hz: float, stop_at: float, emergen
     acks: list[tuple[float, float]] = []  # (sent, latency ms)
     emergencies: dict[int, float] = {}
     connections: list[tuple[float, str, float | None]] = []  # (connected at, url, first ack)
-    seq, url_index, started = 0, index % 2, False
+    # Like the agent's outbox: the start is resent on every connection until an ack on a
+    # connection that carried it confirms it (a replica killed before committing it loses it).
+    seq, url_index, start_confirmed = 0, index % 2, False
     while time.time() < stop_at:
         url = urls[url_index]
         try:
@@ -78,7 +80,7 @@ async def _robot(index: int, urls: list[str], hz: float, stop_at: float, emergen
                     acks.append((sent[s], (time.time() - sent.pop(s)) * 1000))
                 connection = [time.time(), url, None]
                 connections.append(connection)
-                if not started:
+                if not start_confirmed:
                     await ws.send(
                         json.dumps(
                             {
@@ -89,7 +91,6 @@ async def _robot(index: int, urls: list[str], hz: float, stop_at: float, emergen
                             }
                         )
                     )
-                    started = True
                 # resend what the backend does not have, in order
                 for s in sorted(sent):
                     decision = "emergency" if s in emergencies else "normal"
@@ -99,10 +100,12 @@ async def _robot(index: int, urls: list[str], hz: float, stop_at: float, emergen
                     )
 
                 async def receive(connection=connection) -> None:
+                    nonlocal start_confirmed
                     async for raw in ws:
                         message = json.loads(raw)
                         if message.get("type") != "ack":
                             continue
+                        start_confirmed = True  # handled in order: the start came first
                         now = time.time()
                         if connection[2] is None:
                             connection[2] = now
@@ -348,8 +351,9 @@ def run(args) -> dict:
                 stored_seqs.setdefault(robot_id, set()).add(seq)
             per_transport = connection.execute(
                 text(
-                    "SELECT transport_key, count(*) FROM alarms WHERE kind = 'emergency' "
-                    "AND robot_id LIKE 'bench-%' GROUP BY transport_key"
+                    "SELECT robot_id, transport_key, count(*) FROM alarms "
+                    "WHERE kind = 'emergency' AND robot_id LIKE 'bench-%' "
+                    "GROUP BY robot_id, transport_key"
                 )
             ).all()
             distributed = connection.scalar(
@@ -392,7 +396,8 @@ def run(args) -> dict:
         acked = set(range(r["sent"])) - set(r["unacked_seqs"])
         lost += len(acked - stored_seqs.get(r["robot_id"], set()))
     duplicates = sum(stored.values()) - sum(distinct.values())
-    alarms_per_transport = [n for _, n in per_transport]
+    alarms_per_transport = [n for _, _, n in per_transport]
+    without_transport = sum(n for _, key, n in per_transport if key == "")
     measured = {
         "robots": args.robots,
         "hz": args.hz,
@@ -420,6 +425,8 @@ def run(args) -> dict:
         "emergency_alarms_per_transport": {
             "transports": len(alarms_per_transport),
             "more_than_one": sum(1 for n in alarms_per_transport if n > 1),
+            # Emergency alarms of frames whose transport the backend never heard start
+            "without_transport": without_transport,
         },
         "alarm_messages_delivered": distributed,
         "open_alarms_seeded": args.open_alarms,
@@ -443,6 +450,7 @@ def run(args) -> dict:
         and lost == 0
         and duplicates == 0
         and measured["emergency_alarms_per_transport"]["more_than_one"] == 0
+        and measured["emergency_alarms_per_transport"]["without_transport"] == 0
         and duties_after
         and duties_after.get("leading")
     )
