@@ -28,12 +28,12 @@ import logging
 from collections.abc import Callable, Collection
 from datetime import datetime, timedelta
 
+from sqlalchemy import Row
 from sqlalchemy.orm import Session, sessionmaker
 
 from backend.alarms import queries, service
 from backend.models._types import utcnow
 from backend.models.alarms import Alarm, AlarmKind, AlarmState
-from backend.models.robots import Robot, Transport
 from backend.realtime.hub import Viewer
 from backend.settings import Settings
 from backend.unit_of_work import Effects, UnitOfWork, unit_of_work
@@ -101,8 +101,8 @@ class AlarmMonitor:
 
     def _technical(self, session: Session, now: datetime) -> list[Alarm]:
         settings = self._settings
-        raised = []
         waiting = self._waiting_robots()
+        outages = []
         for transport, robot in queries.active_transports(session):
             if robot.id in waiting:
                 continue
@@ -120,10 +120,13 @@ class AlarmMonitor:
                 kind, silent_since = AlarmKind.PATIENT_NOT_SEEN, last_patient
             else:
                 continue
-            latest = queries.latest_of_kind(session, robot.id, transport.id, kind)
-            if latest is not None and (
-                latest.resolved_at is None or latest.raised_at >= silent_since
-            ):
+            outages.append((transport, robot, kind, silent_since))
+        alarmed = queries.outages_with_an_alarm(
+            session, [(r.id, t.id, kind, since) for t, r, kind, since in outages]
+        )
+        raised = []
+        for transport, robot, kind, _ in outages:
+            if (robot.id, transport.id, kind) in alarmed:
                 continue  # this outage already has its alarm
             evidence = service.DecisionEvidence(seq=robot.last_seq, ts=None)
             alarm, _ = service.raise_or_update(session, robot, transport, kind, evidence)
@@ -134,9 +137,9 @@ class AlarmMonitor:
     def _cleared(self, session: Session, now: datetime) -> list[Alarm]:
         """Clear the robot_offline / stream_stalled / patient_not_seen alarms whose cause ended."""
         reasons = {
-            alarm.id: reason
-            for alarm, robot, transport in queries.unresolved_outages(session, OUTAGE_KINDS)
-            if (reason := self._outage_over(alarm, robot, transport, now)) is not None
+            outage.alarm_id: reason
+            for outage in queries.unresolved_outages(session, OUTAGE_KINDS)
+            if (reason := self._outage_over(outage, now)) is not None
         }
         claimed = queries.claim(session, list(reasons))
         return [
@@ -145,32 +148,26 @@ class AlarmMonitor:
             if a.state in (AlarmState.OPEN, AlarmState.ACKNOWLEDGED)
         ]
 
-    def _outage_over(
-        self, alarm: Alarm, robot: Robot, transport: Transport | None, now: datetime
-    ) -> str | None:
+    def _outage_over(self, outage: Row, now: datetime) -> str | None:
         """Why this robot_offline / stream_stalled / patient_not_seen alarm's cause ended, or
-        None if it did not. Only what the robot sent after the alarm was raised counts."""
+        None if it did not (`outage`: a row of `queries.unresolved_outages`). Only what the
+        robot sent after the alarm was raised counts."""
         settings = self._settings
-        if transport is not None and transport.ended_at is not None:
+        if outage.ended_at is not None:
             return "cleared: transport ended"
 
         def recent(at: datetime | None, within_s: float) -> bool:
             return (
-                at is not None and at > alarm.raised_at and now - at <= timedelta(seconds=within_s)
+                at is not None and at > outage.raised_at and now - at <= timedelta(seconds=within_s)
             )
 
-        if alarm.kind == AlarmKind.PATIENT_NOT_SEEN:
-            seen = recent(
-                transport.last_patient_at if transport else None, settings.patient_unseen_seconds
-            )
+        if outage.kind == AlarmKind.PATIENT_NOT_SEEN:
+            seen = recent(outage.last_patient_at, settings.patient_unseen_seconds)
             return "cleared: patient in view again" if seen else None
-        frames = recent(
-            transport.last_frame_at if transport else None, settings.stream_stall_seconds
-        )
-        if frames:
+        if recent(outage.last_frame_at, settings.stream_stall_seconds):
             return "cleared: frames flowing again"
-        if alarm.kind == AlarmKind.ROBOT_OFFLINE and recent(
-            robot.last_seen_at, settings.robot_offline_seconds
+        if outage.kind == AlarmKind.ROBOT_OFFLINE and recent(
+            outage.last_seen_at, settings.robot_offline_seconds
         ):
             return "cleared: robot talking again"
         return None

@@ -7,7 +7,7 @@ from contextlib import contextmanager
 from datetime import datetime
 from typing import TypeVar
 
-from sqlalchemy import func, select, text
+from sqlalchemy import Row, func, or_, select, text
 from sqlalchemy.exc import OperationalError
 from sqlalchemy.orm import Session, aliased
 
@@ -128,21 +128,65 @@ def active_transports(session: Session) -> Sequence[tuple[Transport, Robot]]:
     ).all()
 
 
-def unresolved_outages(
-    session: Session, kinds: Collection[AlarmKind]
-) -> Sequence[tuple[Alarm, Robot, Transport | None]]:
-    """Unresolved technical alarms of `kinds` (robot offline, stream stalled) with their robot
-    and transport: what the monitor checks for a cause that ended."""
-    return (
-        session.execute(
-            select(Alarm, Robot, Transport)
-            .join(Robot, Robot.id == Alarm.robot_id)
-            .outerjoin(Transport, Transport.id == Alarm.transport_id)
-            .where(Alarm.kind.in_(list(kinds)), Alarm.state != AlarmState.RESOLVED)
+def unresolved_outages(session: Session, kinds: Collection[AlarmKind]) -> Sequence[Row]:
+    """Unresolved technical alarms of `kinds` (robot offline, stream stalled, patient not
+    seen) with what says whether their cause ended: what the monitor checks every pass.
+
+    Columns, not alarms: a robot that died mid-transport keeps its alarm open for hours, and
+    loading each such alarm with its users and dispositions every second was most of the
+    monitor's work with a few hundred of them. Rows: `alarm_id`, `kind`, `raised_at`,
+    `last_seen_at` (the robot's), `transport_id`, `ended_at`, `last_patient_at`,
+    `last_frame_at` (the transport's; None without one)."""
+    return session.execute(
+        select(
+            Alarm.id.label("alarm_id"),
+            Alarm.kind,
+            Alarm.raised_at,
+            Robot.last_seen_at,
+            Transport.id.label("transport_id"),
+            Transport.ended_at,
+            Transport.last_patient_at,
+            Transport.last_frame_at,
         )
-        .unique()
-        .all()
-    )
+        .join(Robot, Robot.id == Alarm.robot_id)
+        .outerjoin(Transport, Transport.id == Alarm.transport_id)
+        .where(Alarm.kind.in_(list(kinds)), Alarm.state != AlarmState.RESOLVED)
+    ).all()
+
+
+#: Transports per query when asking about many at once (SQLite's bound-parameter limit).
+_IN_CHUNK = 500
+
+
+def outages_with_an_alarm(
+    session: Session, outages: Sequence[tuple[str, str, AlarmKind, datetime]]
+) -> set[tuple[str, str, AlarmKind]]:
+    """Of the outages (robot id, transport id, kind, silent since), those that already have
+    their alarm: one of the kind on that transport that is unresolved or was raised since the
+    silence began. One query per 500 transports, not one per transport and pass."""
+    if not outages:
+        return set()
+    since = {(robot, key, kind): at for robot, key, kind, at in outages}
+    keys = sorted({key for _, key, _, _ in outages})
+    kinds = sorted({kind for _, _, kind, _ in outages})
+    earliest = min(since.values())
+    alarmed: set[tuple[str, str, AlarmKind]] = set()
+    for start in range(0, len(keys), _IN_CHUNK):
+        rows = session.execute(
+            select(
+                Alarm.robot_id, Alarm.transport_key, Alarm.kind, Alarm.resolved_at, Alarm.raised_at
+            ).where(
+                Alarm.transport_key.in_(keys[start : start + _IN_CHUNK]),
+                Alarm.kind.in_(kinds),
+                or_(Alarm.resolved_at.is_(None), Alarm.raised_at >= earliest),
+            )
+        )
+        for robot_id, key, kind, resolved_at, raised_at in rows:
+            outage = (robot_id, key, AlarmKind(kind))
+            began = since.get(outage)
+            if began is not None and (resolved_at is None or raised_at >= began):
+                alarmed.add(outage)
+    return alarmed
 
 
 def latest_of_kind(

@@ -585,3 +585,40 @@ def test_missed_emergency_escalates_on_to_the_wards_further_responders_with_audi
     later = tick(client, missed_at_a + timedelta(hours=2))
     assert {(a["id"], a["state"]) for a in later} <= {(alarm_a.id, "acknowledged")}
     assert len(responders(alarm_a.id)) == 2
+
+
+def test_the_monitor_asks_about_many_outages_in_a_few_queries_and_raises_each_once(
+    client, session_factory
+):
+    """A robot that died mid-transport keeps its outage for hours: a pass costs a few queries
+    however many such transports there are (not one or two per transport and second)."""
+    from sqlalchemy import event
+
+    from backend.models import Transport
+
+    started = utcnow() - timedelta(minutes=5)
+    with transaction(session_factory) as session:
+        session.add(
+            Robot(id="silent", name="silent", ward="ward-a", token_hash=hash_robot_token("x"))
+        )
+        session.flush()
+        for i in range(60):
+            session.add(
+                Transport(id=f"s-{i}", robot_id="silent", mode="walking", started_at=started)
+            )
+    first = tick(client, utcnow())
+    assert sorted(a["transport_id"] for a in first) == sorted(f"s-{i}" for i in range(60))
+    assert {a["kind"] for a in first} == {"robot_offline"}
+
+    statements: list[str] = []
+
+    def count(conn, cursor, statement, *args) -> None:
+        statements.append(statement)
+
+    engine = client.app.state.services.engine
+    event.listen(engine, "before_cursor_execute", count)
+    try:
+        assert tick(client, utcnow() + timedelta(seconds=5)) == []  # one alarm per outage
+    finally:
+        event.remove(engine, "before_cursor_execute", count)
+    assert len(statements) <= 12, statements
