@@ -11,7 +11,9 @@ from backend.unit_of_work import transaction
 __all__ = ["Base", "make_engine", "make_session_factory", "transaction"]
 
 
-def make_engine(database_url: str) -> Engine:
+def make_engine(database_url: str, pool_size: int = 10, max_overflow: int = 20) -> Engine:
+    """`pool_size`, `max_overflow`: PostgreSQL connections kept open, and opened beyond them
+    for a peak (each closed again when returned: a new server process per checkout)."""
     if database_url.startswith("sqlite"):
         engine = create_engine(
             database_url, connect_args={"check_same_thread": False, "timeout": 30}
@@ -34,7 +36,9 @@ def make_engine(database_url: str) -> Engine:
             cursor.close()
 
         return engine
-    return create_engine(database_url, pool_size=10, max_overflow=20, pool_pre_ping=True)
+    return create_engine(
+        database_url, pool_size=pool_size, max_overflow=max_overflow, pool_pre_ping=True
+    )
 
 
 def make_session_factory(engine: Engine) -> sessionmaker[Session]:

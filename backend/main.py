@@ -146,7 +146,11 @@ def create_app(settings: Settings | None = None) -> FastAPI:
 
 async def start_services(settings: Settings) -> Services:
     """Build every service of the process (in the lifespan: some are bound to its event loop)."""
-    engine = make_engine(settings.database_url)
+    engine = make_engine(
+        settings.database_url,
+        pool_size=settings.database_pool_size,
+        max_overflow=settings.database_max_overflow,
+    )
     factory = make_session_factory(engine)
     log.info("database %s", engine.url.render_as_string(hide_password=True))
     database = await health.check_database(engine, settings.health_timeout_s)

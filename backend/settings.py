@@ -18,6 +18,22 @@ class Settings(StorageSettings):
         default=f"sqlite:///{REPO_ROOT / 'var' / 'vigil.db'}",
         description="SQLAlchemy URL; postgresql+psycopg://... selects PostgreSQL",
     )
+    # The request threads (40), the frame writer and the duties use connections at once; a
+    # connection opened beyond the kept ones is closed when returned, and a thousand robots
+    # reconnecting then cost PostgreSQL a new server process per checkout.
+    database_pool_size: int = Field(
+        default=30,
+        ge=1,
+        le=200,
+        description="PostgreSQL: connections each backend process keeps open",
+    )
+    database_max_overflow: int = Field(
+        default=10,
+        ge=0,
+        le=200,
+        description="PostgreSQL: connections opened beyond database_pool_size for a peak "
+        "(closed again when returned)",
+    )
     secret_key: str = Field(
         default="",
         description="HMAC key signing browser sessions; empty: a random key kept in "

@@ -35,6 +35,9 @@ log = logging.getLogger(__name__)
 _UNIT = "vigil.unit_of_work"
 
 AfterCommit = Callable[[], Awaitable[None] | None]
+#: The alarm domain's JSON of alarms, all of a unit's at once (one query loads what a flush
+#: left unloaded of them, not one or two per alarm).
+SerialiseAlarms = Callable[[Session, "list[Alarm]"], list[dict]]
 
 
 class Effects(Protocol):
@@ -59,7 +62,7 @@ class UnitOfWork:
         self.session = factory()
         self.session.info[_UNIT] = self
         # id -> (alarm, its serialiser); the last change of each is pushed
-        self._alarms: dict[int, tuple[Alarm, Callable[[Alarm], dict]]] = {}
+        self._alarms: dict[int, tuple[Alarm, SerialiseAlarms]] = {}
         self._published: list[dict] = []  # AlarmOut JSON, serialised at commit
         self._robots: list[str] = []
         self._hooks: list[AfterCommit] = []
@@ -71,9 +74,10 @@ class UnitOfWork:
         self._effects_ran = False
 
     # -- what services register --------------------------------------------------------------
-    def publish_alarm(self, alarm: Alarm, serialise: Callable[[Alarm], dict]) -> None:
-        """Push `alarm` after the commit, as `serialise` (the alarm domain's own JSON) makes it
-        at commit time: the unit of work knows no alarm schema."""
+    def publish_alarm(self, alarm: Alarm, serialise: SerialiseAlarms) -> None:
+        """Push `alarm` after the commit, as `serialise` (the alarm domain's own JSON, for all
+        the unit's alarms at once) makes it at commit time: the unit of work knows no alarm
+        schema."""
         self._alarms.pop(alarm.id, None)  # re-inserted: pushed in the order of last change
         self._alarms[alarm.id] = (alarm, serialise)
 
@@ -95,7 +99,14 @@ class UnitOfWork:
     def commit(self) -> None:
         self.session.flush()
         if self._alarms:
-            self._published = [serialise(a) for a, serialise in self._alarms.values()]
+            batches: dict[SerialiseAlarms, list[Alarm]] = {}
+            for alarm, serialise in self._alarms.values():
+                batches.setdefault(serialise, []).append(alarm)
+            made: dict[int, dict] = {}
+            for serialise, alarms in batches.items():
+                for alarm, out in zip(alarms, serialise(self.session, alarms), strict=True):
+                    made[alarm.id] = out
+            self._published = [made[alarm_id] for alarm_id in self._alarms]
         self.session.commit()
         self.committed = True
 
@@ -255,7 +266,7 @@ def of(session: Session) -> UnitOfWork | None:
     return session.info.get(_UNIT)
 
 
-def publish_alarm(session: Session, alarm: Alarm, serialise: Callable[[Alarm], dict]) -> None:
+def publish_alarm(session: Session, alarm: Alarm, serialise: SerialiseAlarms) -> None:
     """Push this alarm (as `serialise` makes it) to the boards once the session's unit
     commits. The alarm domain calls it (`backend.alarms.service.publish`)."""
     unit = of(session)

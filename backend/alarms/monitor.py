@@ -129,7 +129,8 @@ class AlarmMonitor:
             if (robot.id, transport.id, kind) in alarmed:
                 continue  # this outage already has its alarm
             evidence = service.DecisionEvidence(seq=robot.last_seq, ts=None)
-            alarm, _ = service.raise_or_update(session, robot, transport, kind, evidence)
+            # No unresolved alarm of this outage: the query above saw every one.
+            alarm = service.open_alarm(session, robot, transport, kind, evidence)
             log.warning("%s: robot %s, transport %s", kind.value, robot.id, transport.id)
             raised.append(alarm)
         return raised

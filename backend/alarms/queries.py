@@ -8,8 +8,9 @@ from datetime import datetime
 from typing import TypeVar
 
 from sqlalchemy import Row, func, or_, select, text
+from sqlalchemy import inspect as sa_inspect
 from sqlalchemy.exc import OperationalError
-from sqlalchemy.orm import Session, aliased
+from sqlalchemy.orm import Session, aliased, selectinload
 
 from backend import wards
 from backend.models.alarms import Alarm, AlarmEvent, AlarmKind, AlarmState
@@ -187,6 +188,18 @@ def outages_with_an_alarm(
             if began is not None and (resolved_at is None or raised_at >= began):
                 alarmed.add(outage)
     return alarmed
+
+
+def load_for_board(session: Session, alarms: Sequence[Alarm]) -> None:
+    """Load what the board needs of `alarms` and is not loaded yet (after a flush: defaults,
+    transport, dispositions), in one query for all of them."""
+    ids = [alarm.id for alarm in alarms if alarm.id is not None and sa_inspect(alarm).unloaded]
+    for start in range(0, len(ids), _IN_CHUNK):
+        session.scalars(
+            select(Alarm)
+            .where(Alarm.id.in_(ids[start : start + _IN_CHUNK]))
+            .options(selectinload(Alarm.dispositions))
+        ).unique().all()
 
 
 def latest_of_kind(

@@ -67,7 +67,15 @@ def _record(
 
 def publish(session: Session, alarm: Alarm) -> None:
     """Push this alarm to the boards, as AlarmOut JSON, once the session's unit commits."""
-    publish_alarm(session, alarm, alarm_json)
+    publish_alarm(session, alarm, board_json)
+
+
+def board_json(session: Session, alarms: list[Alarm]) -> list[dict]:
+    """The alarms as the boards receive them. A flush leaves a new alarm's defaults, its
+    transport and its dispositions unloaded: one query loads them for all (the monitor raising
+    or escalating hundreds in one pass made a query or two per alarm)."""
+    queries.load_for_board(session, alarms)
+    return [alarm_json(alarm) for alarm in alarms]
 
 
 def find_unresolved(
@@ -110,11 +118,25 @@ def raise_or_update(
 
     Returns the alarm and whether it is new.
     """
-    now = utcnow()
     transport_id = transport.id if transport else None
     alarm = find_unresolved(session, robot.id, transport_id, kind)
     if alarm is not None:
-        return fold_evidence(session, alarm, evidence, now), False
+        return fold_evidence(session, alarm, evidence, utcnow()), False
+    return open_alarm(session, robot, transport, kind, evidence), True
+
+
+def open_alarm(
+    session: Session,
+    robot: Robot,
+    transport: Transport | None,
+    kind: AlarmKind,
+    evidence: DecisionEvidence,
+) -> Alarm:
+    """Open an alarm for (transport, kind), for a caller that knows none is unresolved (the
+    monitor, which asked for all of a pass's outages at once); the unique index refuses a
+    second."""
+    now = utcnow()
+    transport_id = transport.id if transport else None
     alarm = Alarm(
         kind=kind,
         priority=PRIORITY_OF_KIND[kind],
@@ -141,7 +163,7 @@ def raise_or_update(
     session.flush()
     actor = "system" if kind in TECHNICAL_KINDS else f"robot:{robot.id}"
     _record(session, alarm, AlarmAction.RAISE, None, actor)
-    return alarm, True
+    return alarm
 
 
 def _audited(prefix: str | None, text: str | None) -> str | None:

@@ -118,6 +118,20 @@ async def check_transports(
     unchecked = _transport_ids(message) - connection.checked_transports
     if not unchecked:
         return
+    # The writer knows the transports it stored or loaded: a robot reconnecting to its
+    # transport costs no query (a thousand of them at once after a replica died).
+    writer = socket_services(websocket).writer
+    for transport_id in sorted(unchecked):
+        owner = writer.transport_owner(transport_id)
+        if owner is not None and owner != connection.robot_id:
+            raise CloseConnection(
+                protocol.CLOSE_FORBIDDEN, str(service.TransportNotOwned(transport_id))
+            )
+        if owner is not None:
+            connection.checked_transports.add(transport_id)
+    unchecked -= connection.checked_transports
+    if not unchecked:
+        return
 
     def _owners() -> dict[str, str]:
         with socket_services(websocket).session_factory() as session:

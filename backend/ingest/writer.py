@@ -292,6 +292,12 @@ class FrameWriter:
         cache = self._cache
         return cache.transports.get(transport_id) if cache is not None else None
 
+    def transport_owner(self, transport_id: str) -> str | None:
+        """The robot a transport the writer has stored or loaded belongs to (None: not known
+        here). A transport never changes robots, so this is as good as asking the database."""
+        transport = self._known_transport(transport_id)
+        return transport.robot_id if transport is not None else None
+
     def _take(self) -> list[Job]:
         """The oldest queued messages, up to max_flush_frames frames (a message without
         frames, such as a hello, counts as one; at least one message).
