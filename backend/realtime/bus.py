@@ -2,7 +2,14 @@
 `redis_url` is set, through Redis pub/sub to every other backend replica, which hands it to its
 own browsers (each replica ignores its own messages). The fleet's news (a robot's running model
 or a deployment changed) travels the same way on a channel of its own (`<channel>.fleet`: a
-replica that knows only alarms never sees it)."""
+replica that knows only alarms never sees it).
+
+Fleet news is coalesced: one fleet message is on its way at a time, and the news that arrives
+meanwhile travels together in the next. A thousand robots saying hello to the replica left
+after a kill -9 made a thousand Redis publishes at once, past redis-py's pool (100
+connections, then "Too many connections"), and as many messages to every engineer's page.
+Publishes wait for a free pooled connection rather than fail: an alarm not fanned out is an
+alarm missing from the other replicas' boards."""
 
 from __future__ import annotations
 
@@ -16,6 +23,7 @@ from collections.abc import Callable
 from backend.realtime.hub import BrowserHub
 
 log = logging.getLogger(__name__)
+REDIS_MAX_CONNECTIONS = 32
 
 
 class AlarmBus:
@@ -31,13 +39,19 @@ class AlarmBus:
         # Called with each alarm change of another replica (the alarm distribution's sender
         # on the replica that runs it looks at once for the change's queued message).
         self.on_remote: list[Callable[[dict], None]] = []
+        self._fleet_news: set[str] = set()
+        self._fleet_due = False  # news waits (maybe of no robot: the deployments changed)
+        self._fleet_sending = False
 
     async def start(self) -> None:
         if not self._redis_url:
             return
         import redis.asyncio as redis
 
-        self._redis = redis.from_url(self._redis_url)
+        pool = redis.BlockingConnectionPool.from_url(
+            self._redis_url, max_connections=REDIS_MAX_CONNECTIONS, timeout=5
+        )
+        self._redis = redis.Redis(connection_pool=pool)
         self._listener = asyncio.create_task(self._listen(), name="alarm-bus")
         # Serve only once subscribed, so no alarm of another replica is missed at start-up.
         try:
@@ -78,7 +92,23 @@ class AlarmBus:
             log.warning("alarm %s not fanned out through Redis: %s", alarm.get("id"), error)
 
     async def publish_fleet(self, robot_ids: list[str]) -> None:
-        """Tell every fleet page (here and on the other replicas) these robots changed."""
+        """Tell every fleet page (here and on the other replicas) these robots changed (none:
+        the deployments did). Sent at once, unless a fleet message is on its way: then it goes
+        with the next, together with the rest of the news that arrived meanwhile."""
+        self._fleet_news.update(robot_ids)
+        self._fleet_due = True
+        if self._fleet_sending:
+            return
+        self._fleet_sending = True
+        try:
+            while self._fleet_due:
+                self._fleet_due = False
+                news, self._fleet_news = sorted(self._fleet_news), set()
+                await self._send_fleet(news)
+        finally:
+            self._fleet_sending = False
+
+    async def _send_fleet(self, robot_ids: list[str]) -> None:
         await self.hub.publish_fleet(robot_ids)
         if self._redis is None:
             return

@@ -207,3 +207,52 @@ def test_the_fleet_s_news_crosses_replicas_through_redis():
 
     on_a, on_b = asyncio.run(scenario())
     assert on_a == on_b == [{"type": "fleet", "robots": ["robot-a"]}]
+
+
+def test_a_reconnect_storm_s_news_goes_out_in_a_few_messages_with_every_robot_and_all_alarms():
+    """A thousand robots saying hello at once (the replica left after a kill -9): the fleet's
+    news leaves in a few messages that name every robot, and the alarms published at the same
+    time all cross to the other replica (redis-py's pool used to refuse past 100 at once)."""
+    url = REDIS_URL
+
+    async def scenario() -> tuple[list[dict], list[dict], list[dict]]:
+        channel = f"vigil-test-{uuid.uuid4().hex}"
+        hub_a, hub_b = BrowserHub(), BrowserHub()
+        socket_a, socket_b = FakeSocket(), FakeSocket()
+        hub_a.add(BrowserConnection(socket_a, 1, Role.ENGINEER, None))
+        hub_b.add(BrowserConnection(socket_b, 2, Role.ADMIN, None))
+        bus_a, bus_b = AlarmBus(hub_a, url, channel), AlarmBus(hub_b, url, channel)
+        await bus_a.start()
+        await bus_b.start()
+        alarms = [
+            {
+                "id": i,
+                "robot_id": f"robot-{i}",
+                "ward": "ward-a",
+                "kind": "emergency",
+                "state": "open",
+            }
+            for i in range(300)
+        ]
+        try:
+            await asyncio.gather(
+                *(bus_a.publish_fleet([f"robot-{i}"]) for i in range(1000)),
+                *(bus_a.publish(alarm) for alarm in alarms),
+            )
+            for _ in range(300):
+                fleet_b = [m for m in socket_b.sent if m["type"] == "fleet"]
+                if sum(len(m["robots"]) for m in fleet_b) >= 1000 and len(socket_b.sent) > 300:
+                    break
+                await asyncio.sleep(0.01)
+        finally:
+            await bus_a.stop()
+            await bus_b.stop()
+        return socket_a.sent, socket_b.sent, alarms
+
+    on_a, on_b, alarms = asyncio.run(scenario())
+    everyone = {f"robot-{i}" for i in range(1000)}
+    for sent in (on_a, on_b):
+        fleet = [m for m in sent if m["type"] == "fleet"]
+        assert 1 <= len(fleet) <= 10
+        assert set().union(*(m["robots"] for m in fleet)) == everyone
+    assert sorted(m["alarm"]["id"] for m in on_b if m["type"] == "alarm") == list(range(300))
