@@ -174,7 +174,7 @@ class AlarmMonitor:
         return None
 
     def _escalations(self, session: Session, now: datetime, viewers: list[Viewer]) -> list[Alarm]:
-        def due(alarm: Alarm) -> bool:
+        def due(alarm: Alarm | Row) -> bool:
             if alarm.state != AlarmState.OPEN:
                 return False
             wait = timedelta(seconds=self._settings.escalation_seconds_for(alarm.ward))
@@ -200,7 +200,7 @@ class AlarmMonitor:
         to the next of its ward's responders, until the chain ends."""
         wait = timedelta(seconds=self._settings.missed_escalation_seconds)
 
-        def next_responder(alarm: Alarm) -> str | None:
+        def next_responder(alarm: Alarm | Row) -> str | None:
             if (
                 alarm.state != AlarmState.MISSED
                 or now - (alarm.escalated_at or alarm.raised_at) < wait
@@ -225,7 +225,7 @@ class AlarmMonitor:
     def _realarms(self, session: Session, now: datetime) -> list[Alarm]:
         wait = timedelta(minutes=self._settings.realarm_minutes)
 
-        def due(alarm: Alarm) -> bool:
+        def due(alarm: Alarm | Row) -> bool:
             if alarm.state != AlarmState.ACKNOWLEDGED:
                 return False
             return now - (alarm.realarmed_at or alarm.acknowledged_at or alarm.updated_at) >= wait
