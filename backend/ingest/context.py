@@ -107,6 +107,8 @@ class IngestContext:
     # robot id -> seq -> capture time of the frames gathered and not inserted yet
     pending_seqs: dict[str, dict[int, float]] = field(default_factory=dict)
     open_alarms: dict[tuple[str, str, AlarmKind], Alarm] = field(default_factory=dict)
+    # The robots whose unresolved alarms `open_alarms` holds (loaded by `preload`).
+    alarming: set[str] = field(default_factory=set)
     # alarm id -> monotonic time its last fold was pushed to the boards (kept between flushes)
     pushed_at: dict[int, float] = field(default_factory=dict)
     push_every_fold: bool = False  # a provisional card waits for its stored alarm
@@ -193,6 +195,7 @@ class IngestContext:
                     row.last_frame_ts,
                 )
         alarming = robot_ids if alarming_robots is None else alarming_robots & robot_ids
+        self.alarming |= alarming
         if alarming:
             for alarm in session.scalars(
                 select(Alarm).where(

@@ -31,6 +31,7 @@ from backend.ingest.failopen import FailOpen
 from backend.ingest.received import ReceivedFrame, ReceivedFrames
 from backend.ingest.stall_actions import StallActions
 from backend.metrics import Metrics
+from backend.models.alarms import AlarmKind, AlarmState
 from backend.unit_of_work import Effects, UnitOfWork, unit_of_work
 from vigil import protocol
 from vigil.classes import Decision
@@ -88,13 +89,19 @@ class Job:
     def frame_count(self) -> int:
         return len(self.message.frames) if isinstance(self.message, ReceivedFrames) else 0
 
-    @property
-    def urgent(self) -> bool:
-        """It carries an Emergency decision: committed (and pushed to the board) without
-        waiting for more messages to batch with it."""
-        return isinstance(self.message, ReceivedFrames) and any(
-            frame.decision == Decision.EMERGENCY for frame in self.message.frames
-        )
+    # Committed (and pushed to the board) without waiting for more messages to batch with it:
+    # it carries an Emergency decision whose alarm is not stored yet (set by `submit`).
+    urgent: bool = False
+
+    def emergency_transports(self) -> set[str]:
+        """The transports ('' for none) this message decides Emergency on."""
+        if not isinstance(self.message, ReceivedFrames):
+            return set()
+        return {
+            frame.transport_id or ""
+            for frame in self.message.frames
+            if frame.decision == Decision.EMERGENCY
+        }
 
 
 @dataclass
@@ -131,6 +138,12 @@ class FrameWriter:
         self._pending_frames = 0
         self._oldest: float | None = None
         self._urgent = False  # an Emergency waits: flush without lingering
+        # robot id -> transports ('' for none) with an unresolved Emergency alarm, as stored
+        # at the last commit that had the robot's alarms loaded: a robot that keeps deciding
+        # Emergency (stopped, waiting for help) folds into its stored alarm and need not
+        # make every message a commit of its own (a hundred such robots made a commit per
+        # message). After a resolve elsewhere, a new Emergency waits at most one flush_ms.
+        self._alarmed: dict[str, set[str]] = {}
         self._arrived = asyncio.Event()
         self._room = asyncio.Event()
         self._room.set()
@@ -153,6 +166,8 @@ class FrameWriter:
     async def submit(self, link: Acknowledged, message: RobotWork, received: float) -> Job:
         """Queue a message for the next commit; waits only when the writer is far behind."""
         job = Job(link, message, received)
+        emergencies = job.emergency_transports()
+        job.urgent = bool(emergencies - self._alarmed.get(link.robot_id, set()))
         # Before any wait: an Emergency must reach the board even if the writer is stuck.
         self.fail_open.on_submit(job, self._known_transport)
         while self._pending_frames >= self._max_pending_frames:
@@ -393,14 +408,17 @@ class FrameWriter:
                     settled = self.stall_actions.apply(unit.session)
             outcome.units.append(unit)
             outcome.pushed, outcome.held_back = context.pushed, context.held_back
+            self._remember_alarmed(context)
             self._cache = context.detach()
             if self.stall_actions is not None:
                 self.stall_actions.done(settled)
             return outcome
         except RejectedMessage:
             self._cache = None
+            self._alarmed = {}
         except Exception as error:
             self._cache = None
+            self._alarmed = {}
             log.warning("shared ingest transaction failed (%s); retrying robot by robot", error)
         outcome = Outcome()
         by_link: dict[int, list[Job]] = {}
@@ -431,6 +449,14 @@ class FrameWriter:
             outcome.stored += single.stored
             outcome.units.append(unit)
         return outcome
+
+    def _remember_alarmed(self, context: IngestContext) -> None:
+        """The robots whose alarms this commit loaded: their stored unresolved Emergencies."""
+        alarmed: dict[str, set[str]] = {robot_id: set() for robot_id in context.alarming}
+        for (robot_id, key, kind), alarm in context.open_alarms.items():
+            if kind == AlarmKind.EMERGENCY and alarm.state != AlarmState.RESOLVED:
+                alarmed.setdefault(robot_id, set()).add(key)
+        self._alarmed.update(alarmed)
 
     def _apply(self, session: Session, jobs: list[Job], context: IngestContext) -> Outcome:
         outcome = Outcome()

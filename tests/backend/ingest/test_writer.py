@@ -146,3 +146,42 @@ def test_hellos_of_many_robots_in_one_commit_store_each_agent_and_inputs(session
         ("storm-4", "1.4", ["keypoints"]),
     ]
     assert all(r.last_seen_at is not None for r in rows)
+
+
+def test_an_emergency_already_stored_does_not_make_every_message_a_commit(
+    client, robot, session_factory
+):
+    """A robot stopped in Emergency keeps deciding Emergency: once its alarm is stored, its
+    messages batch like any other (they fold into the alarm). The first Emergency is urgent,
+    and so is the first of a transport without a stored one; after a resolve the next
+    Emergency opens a new alarm at the next flush."""
+    from backend.models import Alarm, AlarmState
+
+    with client.websocket_connect("/ws/robot") as ws:
+        connect(ws, robot, ROBOT_TOKEN)
+        start(ws, "t-e")
+        start(ws, "t-f")
+        send(ws, [frame(0, transport="t-e")])
+        assert ack(ws) == 0
+
+    def submitted(writer, link, seq: int, transport: str = "t-e") -> bool:
+        batch = from_batch(FrameBatch(frames=[frame(seq, "emergency", transport=transport)]))
+        asyncio.run(writer.submit(link, batch, 0.0))
+        return writer._urgent
+
+    writer = FrameWriter(session_factory, Metrics(), NoEffects(), flush_ms=60_000)
+    link = FakeLink(robot)
+    assert submitted(writer, link, 1)  # no alarm stored yet
+    asyncio.run(writer._flush())
+    assert not submitted(writer, link, 2)  # folds into the stored alarm: waits for a batch
+    assert submitted(writer, link, 3, "t-f")  # another transport's first Emergency
+    asyncio.run(writer._flush())
+    with transaction(session_factory) as session:
+        for alarm in session.scalars(select(Alarm).where(Alarm.transport_key == "t-e")):
+            alarm.state = AlarmState.RESOLVED  # resolved by a nurse, on another replica
+    submitted(writer, link, 4)
+    asyncio.run(writer._flush())
+    with session_factory() as session:
+        alarms = session.scalars(select(Alarm).where(Alarm.transport_key == "t-e")).all()
+        assert sorted(a.state for a in alarms) == ["open", "resolved"]
+    assert not submitted(writer, link, 5)
