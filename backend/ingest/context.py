@@ -8,7 +8,7 @@ from dataclasses import dataclass, field
 from datetime import datetime
 
 from sqlalchemy import bindparam, select, update
-from sqlalchemy.orm import Session
+from sqlalchemy.orm import Session, lazyload
 
 from backend.ingest.bulk import insert_frame_rows
 from backend.ingest.bulk_update import update_rows
@@ -197,13 +197,18 @@ class IngestContext:
         alarming = robot_ids if alarming_robots is None else alarming_robots & robot_ids
         self.alarming |= alarming
         if alarming:
+            # Without the users, transport and dispositions the board shows: a robot deciding
+            # Emergency brings its alarm into every flush, and the board needs them only for
+            # the (held-back) pushes, loaded then for all at once (alarms.service.board_json).
             for alarm in session.scalars(
-                select(Alarm).where(
+                select(Alarm)
+                .where(
                     Alarm.robot_id.in_(alarming),
                     Alarm.state != AlarmState.RESOLVED,
                     Alarm.kind.in_(ALARM_KIND_OF_DECISION.values()),
                 )
-            ).unique():
+                .options(lazyload("*"))
+            ):
                 self.open_alarms[(alarm.robot_id, alarm.transport_key, alarm.kind)] = alarm
         return self
 
