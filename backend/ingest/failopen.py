@@ -108,7 +108,9 @@ class FailOpen:
         self._transports: dict[str, tuple[str | None, str | None]] = {}  # id -> patient, location
 
     # -- robot messages ---------------------------------------------------------------------
-    def on_submit(self, job, transport_lookup=None) -> None:
+    def on_submit(self, job, transport_lookup=None, unalarmed: set[str] | None = None) -> None:
+        """`unalarmed`: the transports ('' for none) of the job's Emergency frames without a
+        stored alarm the writer knows of (None: all of them); only those are watched."""
         link, message = job.link, job.message
         ward = getattr(link, "ward", None)
         if isinstance(message, TransportStart):
@@ -119,6 +121,8 @@ class FailOpen:
         for frame in message.frames:
             if frame.decision != Decision.EMERGENCY:
                 continue
+            if unalarmed is not None and (frame.transport_id or "") not in unalarmed:
+                continue  # its alarm is stored and on the boards: this frame folds into it
             key = alarm_key(link.robot_id, frame.transport_id, AlarmKind.EMERGENCY)
             entry = self.unstored.get(key)
             if entry is None:

@@ -138,12 +138,16 @@ class FrameWriter:
         self._pending_frames = 0
         self._oldest: float | None = None
         self._urgent = False  # an Emergency waits: flush without lingering
-        # robot id -> transports ('' for none) with an unresolved Emergency alarm, as stored
-        # at the last commit that had the robot's alarms loaded: a robot that keeps deciding
-        # Emergency (stopped, waiting for help) folds into its stored alarm and need not
-        # make every message a commit of its own (a hundred such robots made a commit per
-        # message). After a resolve elsewhere, a new Emergency waits at most one flush_ms.
-        self._alarmed: dict[str, set[str]] = {}
+        # robot id -> (monotonic time, transports ('' for none) with an unresolved Emergency
+        # alarm), as stored at the last commit that loaded the robot's alarms. A robot that
+        # keeps deciding Emergency (stopped, waiting for help) folds into its stored alarm:
+        # its messages need not each be a commit of their own, nor a provisional card on the
+        # board when a commit is slow (a hundred such robots made a commit per message, and
+        # every frame waiting 0.3 s a provisional card and a push of every fold). Trusted for
+        # storage_stall_s only: during a longer stall, or after a resolve made elsewhere just
+        # before it, every Emergency frame is tracked by the fail-open watch again.
+        self._alarmed: dict[str, tuple[float, set[str]]] = {}
+        self._alarmed_trust_s = storage_stall_s
         self._arrived = asyncio.Event()
         self._room = asyncio.Event()
         self._room.set()
@@ -167,9 +171,10 @@ class FrameWriter:
         """Queue a message for the next commit; waits only when the writer is far behind."""
         job = Job(link, message, received)
         emergencies = job.emergency_transports()
-        job.urgent = bool(emergencies - self._alarmed.get(link.robot_id, set()))
+        unalarmed = emergencies - self._stored_emergencies(link.robot_id)
+        job.urgent = bool(unalarmed)
         # Before any wait: an Emergency must reach the board even if the writer is stuck.
-        self.fail_open.on_submit(job, self._known_transport)
+        self.fail_open.on_submit(job, self._known_transport, unalarmed)
         while self._pending_frames >= self._max_pending_frames:
             self._room.clear()
             await self._room.wait()
@@ -452,11 +457,19 @@ class FrameWriter:
 
     def _remember_alarmed(self, context: IngestContext) -> None:
         """The robots whose alarms this commit loaded: their stored unresolved Emergencies."""
-        alarmed: dict[str, set[str]] = {robot_id: set() for robot_id in context.alarming}
+        now = time.monotonic()
+        alarmed: dict[str, tuple[float, set[str]]] = {r: (now, set()) for r in context.alarming}
         for (robot_id, key, kind), alarm in context.open_alarms.items():
             if kind == AlarmKind.EMERGENCY and alarm.state != AlarmState.RESOLVED:
-                alarmed.setdefault(robot_id, set()).add(key)
+                alarmed.setdefault(robot_id, (now, set()))[1].add(key)
         self._alarmed.update(alarmed)
+
+    def _stored_emergencies(self, robot_id: str) -> set[str]:
+        """The robot's transports known to have a stored unresolved Emergency alarm."""
+        entry = self._alarmed.get(robot_id)
+        if entry is None or time.monotonic() - entry[0] > self._alarmed_trust_s:
+            return set()
+        return entry[1]
 
     def _apply(self, session: Session, jobs: list[Job], context: IngestContext) -> Outcome:
         outcome = Outcome()

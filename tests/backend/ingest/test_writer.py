@@ -174,6 +174,7 @@ def test_an_emergency_already_stored_does_not_make_every_message_a_commit(
     assert submitted(writer, link, 1)  # no alarm stored yet
     asyncio.run(writer._flush())
     assert not submitted(writer, link, 2)  # folds into the stored alarm: waits for a batch
+    assert writer.fail_open.unstored == {}  # and needs no provisional card if it is slow
     assert submitted(writer, link, 3, "t-f")  # another transport's first Emergency
     asyncio.run(writer._flush())
     with transaction(session_factory) as session:
@@ -185,3 +186,7 @@ def test_an_emergency_already_stored_does_not_make_every_message_a_commit(
         alarms = session.scalars(select(Alarm).where(Alarm.transport_key == "t-e")).all()
         assert sorted(a.state for a in alarms) == ["open", "resolved"]
     assert not submitted(writer, link, 5)
+    # Not trusted for longer than a storage stall: then every Emergency is watched again.
+    writer._alarmed_trust_s = 0.0
+    assert submitted(writer, link, 6)
+    assert list(writer.fail_open.unstored) == [f"{robot}/t-e/emergency"]
