@@ -130,6 +130,7 @@ bench-alarm-distribution: $(STAMP)
 # Two replicas, kill -9 of the one running the duties (issue 36); writes ingest.json's hospital_group
 bench-hospital-group: $(STAMP)
 	$(PY) -m bench.hospital_group --robots 100 --processes 2
+	$(PY) -m bench.hospital_group --robots 300 --processes 2
 	$(PY) -m bench.hospital_group --robots 1000 --processes 4
 
 # Frames at hospital scale (issue 20); sizes: python -m bench.storage --help

@@ -451,6 +451,18 @@ def _storage_stall() -> str | None:
     )
 
 
+def _outside_failover(run: dict) -> str:
+    """Acks of frames not sent from 1 s before the kill to 5 s after (older runs: not kept)."""
+    steady = run.get("ack_ms_outside_failover")
+    return "—" if steady is None else f"{steady['p50']} / {steady['p99']}"
+
+
+def _alarmed_twice(per_transport: dict) -> str:
+    without = per_transport.get("without_transport")
+    twice = str(per_transport["more_than_one"])
+    return twice if without is None else f"{twice} (without a transport: {without})"
+
+
 def _hospital_group() -> str | None:
     data = _load("ingest.json")
     runs = (data or {}).get("hospital_group")
@@ -465,11 +477,12 @@ def _hospital_group() -> str | None:
             [
                 f"{run['robots']} × {run['hz']:g} Hz",
                 f"{run['ack_ms']['p50']} / {run['ack_ms']['p99']}",
+                _outside_failover(run),
                 f"{alarm['p50']} / {alarm['p99']}",
                 f"{run['emergencies_on_a_board']} of {run['emergencies']}",
-                "—" if again["max"] is None else again["max"],
+                "none within the window" if again["max"] is None else again["max"],
                 f"{run['frames_lost']} / {run['duplicated_rows']} / {run['unacknowledged_at_end']}",
-                run["emergency_alarms_per_transport"]["more_than_one"],
+                _alarmed_twice(run["emergency_alarms_per_transport"]),
                 "yes" if (run["duties"]["after_kill"] or {}).get("leading") else "no",
                 f"{survivor['cpu_percent']} % / {survivor['rss_mb']}",
                 run["load_average_1min"],
@@ -486,11 +499,14 @@ def _hospital_group() -> str | None:
         "the replica running the duties. Goals: ack p99 ≤ "
         f"{goals['ack_p99_ms']} ms, alarm p99 ≤ {goals['alarm_p99_ms']} ms, every robot of the "
         f"killed replica streaming again within {goals['streaming_again_s']} s, 0 lost, 0 "
-        "duplicated, each Emergency alarmed once, the duties taken over.\n\n"
+        "duplicated, each Emergency alarmed once, the duties taken over. The ack goal is judged "
+        "outside the failover: frames sent from 1 s before the kill to 5 s after it wait for "
+        "their robot's reconnect, which the streaming-again goal judges.\n\n"
         + _table(
             [
                 "robots",
                 "ack p50 / p99 ms",
+                "ack p50 / p99 ms outside the failover",
                 "alarm p50 / p99 ms",
                 "Emergencies on a board",
                 "streaming again after kill -9, max s",
