@@ -203,9 +203,20 @@ def markdown_tables(result: dict) -> str:
     return "\n".join(lines) + "\n"
 
 
+def best_model(results: Path = RESULTS.with_name("detection_urfd.json")) -> str:
+    """The model `make bench-detection` found best (gbt when it has not run)."""
+    if not results.exists():
+        return "gbt"
+    return json.loads(results.read_text()).get("best") or "gbt"
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--model", default="gbt")
+    parser.add_argument(
+        "--model",
+        default=None,
+        help="default: the best model of bench/results/detection_urfd.json (make bench-detection)",
+    )
     parser.add_argument("--seeds", default="0,1,2,3,4", help="comma-separated split seeds")
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--urfd-dir", type=Path, default=None)
@@ -220,6 +231,8 @@ def main(argv: list[str] | None = None) -> int:
         "--table", action="store_true", help="only print the Markdown tables of an existing --out"
     )
     args = parser.parse_args(argv)
+    if args.model is None:
+        args.model = best_model()
     if args.table:
         print(markdown_tables(json.loads(args.out.read_text())), end="")
         return 0

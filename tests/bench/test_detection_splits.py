@@ -74,3 +74,12 @@ def test_tables_name_alarming_activities_and_slow_or_missed_falls():
     assert "adl-02 (2)" in text and "adl-01" not in text
     # fall-01's median (0.5 s) is not above 0.5 s; fall-02 was missed in both splits.
     assert f"fall-02 ({math.inf:.2f})" in text and "fall-01" not in text
+
+
+def test_the_split_study_runs_the_model_bench_detection_found_best(tmp_path):
+    from bench.detection_splits import best_model
+
+    results = tmp_path / "detection_urfd.json"
+    assert best_model(results) == "gbt"  # bench-detection has not run
+    results.write_text('{"best": "rf"}')
+    assert best_model(results) == "rf"
