@@ -76,6 +76,9 @@ class Fanout:
     async def publish_alarm(self, alarm: dict) -> None:
         await self.bus.publish(alarm)
 
+    async def publish_alarms(self, alarms: list[dict]) -> None:
+        await self.bus.publish_many(alarms)
+
     async def push_assignments(self, robot_ids: list[str]) -> None:
         await self.assignments.push_to_robots(robot_ids)
 

@@ -11,7 +11,7 @@ from sqlalchemy import bindparam, select, update
 from sqlalchemy.orm import Session, lazyload
 
 from backend.ingest.bulk import insert_frame_rows
-from backend.ingest.bulk_update import update_rows
+from backend.ingest.bulk_update import one_round_trip, update_rows
 from backend.models.alarms import Alarm, AlarmKind, AlarmState
 from backend.models.robots import Robot, Transport
 from backend.models.videos import Video, widened
@@ -25,6 +25,11 @@ ALARM_KIND_OF_DECISION = {Decision.EMERGENCY: AlarmKind.EMERGENCY, Decision.PAUS
 #: once. Pushing every fold sent a fallen patient's alarm to every board, through Redis, ten
 #: times a second per robot.
 UPDATE_PUSH_S = 1.0
+#: The trailing push waits this much longer than UPDATE_PUSH_S: a robot still deciding
+#: Emergency folds its next frame within a tenth of a second, and the flush that folds it
+#: pushes the alarm anyway. Pushed at the due time itself, a hundred such alarms went to every
+#: board twice a second, once from the flush and once from a reload of their own.
+TRAILING_PUSH_GRACE_S = 0.5
 
 _robots = Robot.__table__
 _AGENT_UPDATE = (
@@ -213,27 +218,12 @@ class IngestContext:
         return self
 
     def write_back(self, session: Session) -> None:
-        """One bulk update per table for the columns the flush changed; the fleet pages are
-        told (after the commit) of the robots whose row changed: a hello, another running
-        model (not a heartbeat repeating it), a behaviour, detection degraded or recovered."""
+        """One bulk update per table and set of columns the flush changed, all sent in one
+        round trip; the fleet pages are told (after the commit) of the robots whose row
+        changed: a hello, another running model (not a heartbeat repeating it), a behaviour,
+        detection degraded or recovered."""
         robots = [r for r in self.robots.values() if r is not None and r.last_seen_at]
         robot_table = Robot.__table__
-        update_rows(
-            session,
-            robot_table,
-            ("id", "last_seq", "last_seen_at"),
-            [(r.id, r.last_seq, r.last_seen_at) for r in robots],
-        )
-        update_rows(
-            session,
-            robot_table,
-            ("id", "running_model_version", "running_model_sha256"),
-            [
-                (r.id, r.running_model_version, r.running_model_sha256)
-                for r in robots
-                if r.running_model_changed
-            ],
-        )
         fleet_news = [
             r.id
             for r in robots
@@ -246,12 +236,6 @@ class IngestContext:
         ]
         if fleet_news:
             fleet_changed(session, fleet_news)
-        update_rows(
-            session,
-            robot_table,
-            ("id", "behaviour_state", "behaviour_since", "behaviour_reason"),
-            [(r.id, *r.behaviour) for r in robots if r.behaviour],
-        )
         hellos = [
             {"robot": r.id, "agent_version": r.agent[0], "inputs": r.agent[1]}
             for r in robots
@@ -264,31 +248,49 @@ class IngestContext:
             for v in self.videos.values()
             if isinstance(v, VideoState) and v.frame_count != v.initial_count
         ]
-        update_rows(
-            session,
-            Video.__table__,
-            ("id", "frame_count", "first_frame_ts", "last_frame_ts"),
-            [(v.id, v.frame_count, v.first_frame_ts, v.last_frame_ts) for v in videos],
-        )
-        for video in videos:
-            video.initial_count = video.frame_count
         transports = [
             t
             for t in self.transports.values()
             if isinstance(t, TransportState) and t.last_frame_at is not None
         ]
-        update_rows(
-            session,
-            Transport.__table__,
-            ("id", "last_frame_at"),
-            [(t.id, t.last_frame_at) for t in transports],
-        )
-        update_rows(
-            session,
-            Transport.__table__,
-            ("id", "last_patient_at"),
-            [(t.id, t.last_patient_at) for t in transports if t.last_patient_at is not None],
-        )
+        with one_round_trip(session):
+            update_rows(
+                session,
+                robot_table,
+                ("id", "last_seq", "last_seen_at"),
+                [(r.id, r.last_seq, r.last_seen_at) for r in robots],
+            )
+            update_rows(
+                session,
+                robot_table,
+                ("id", "running_model_version", "running_model_sha256"),
+                [
+                    (r.id, r.running_model_version, r.running_model_sha256)
+                    for r in robots
+                    if r.running_model_changed
+                ],
+            )
+            update_rows(
+                session,
+                robot_table,
+                ("id", "behaviour_state", "behaviour_since", "behaviour_reason"),
+                [(r.id, *r.behaviour) for r in robots if r.behaviour],
+            )
+            update_rows(
+                session,
+                Video.__table__,
+                ("id", "frame_count", "first_frame_ts", "last_frame_ts"),
+                [(v.id, v.frame_count, v.first_frame_ts, v.last_frame_ts) for v in videos],
+            )
+            update_rows(
+                session,
+                Transport.__table__,
+                ("id", "last_frame_at", "last_patient_at"),
+                [(t.id, t.last_frame_at, t.last_patient_at) for t in transports],
+                keep_stored_if_none=("last_patient_at",),
+            )
+        for video in videos:
+            video.initial_count = video.frame_count
         for robot in robots:
             robot.last_seen_at = None
             if robot.running_model_changed:

@@ -26,7 +26,7 @@ from sqlalchemy.orm import Session, sessionmaker
 from backend.alarms import queries as alarm_queries
 from backend.alarms import service as alarm_service
 from backend.ingest import service
-from backend.ingest.context import IngestContext
+from backend.ingest.context import TRAILING_PUSH_GRACE_S, IngestContext
 from backend.ingest.failopen import FailOpen
 from backend.ingest.received import ReceivedFrame, ReceivedFrames
 from backend.ingest.stall_actions import StallActions
@@ -241,11 +241,12 @@ class FrameWriter:
                 log.exception("storage watch failed")
 
     async def _trailing_pushes(self) -> None:
-        """Alarms whose latest folds were held back (at most one push a second): pushed once
-        their second is up, so every board ends on the alarm's last decision."""
+        """Alarms whose latest folds were held back (at most one push a second) and that no
+        flush pushed since: pushed once their second and the grace are up, so every board ends
+        on the alarm's last decision."""
         if not self._held_back:
             return
-        now = time.monotonic()
+        now = time.monotonic() - TRAILING_PUSH_GRACE_S
         due = [alarm_id for alarm_id, at in self._held_back.items() if at <= now]
         if not due:
             return

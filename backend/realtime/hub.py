@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import asyncio
+import json
 import logging
 from collections import OrderedDict
 from dataclasses import dataclass, field
@@ -20,6 +21,11 @@ log = logging.getLogger(__name__)
 ALARM_VIEWERS = frozenset({Role.NURSE, Role.ENGINEER, Role.ADMIN})
 #: Who is told the fleet changed: whoever may read it (the fleet page, GET /api/fleet).
 FLEET_VIEWERS = PERMISSIONS[("GET", "/api/fleet")]
+
+
+def encode(message: dict) -> str:
+    """JSON text as Starlette's send_json writes it (encoded once for every browser)."""
+    return json.dumps(message, separators=(",", ":"), ensure_ascii=False)
 
 
 def sees(viewer: HasWard, ward: str) -> bool:
@@ -102,14 +108,37 @@ class BrowserHub:
         return len(self._connections)
 
     async def send(self, connection: BrowserConnection, message: dict) -> None:
+        await self._send_texts(connection, [encode(message)])
+
+    async def _send_texts(self, connection: BrowserConnection, texts: list[str]) -> None:
         async with connection.lock:
-            await connection.websocket.send_json(message)
+            for text in texts:
+                await connection.websocket.send_text(text)
 
     async def publish_alarm(self, alarm: dict) -> None:
         """Push one committed alarm to every browser allowed to see it."""
-        self._remember(alarm)
-        message = {"type": "alarm", "alarm": alarm}
-        await self._broadcast([c for c in self._connections if c.can_see(alarm["ward"])], message)
+        await self.publish_encoded([(alarm, encode(alarm))])
+
+    async def publish_encoded(self, alarms: list[tuple[dict, str]]) -> None:
+        """Push alarms (each with its JSON text, encoded once for every browser), in order,
+        to every browser allowed to see them."""
+        for alarm, _ in alarms:
+            self._remember(alarm)
+        targets, texts = [], []
+        for connection in self._connections:
+            seen = [
+                f'{{"type":"alarm","alarm":{text}}}'
+                for alarm, text in alarms
+                if connection.can_see(alarm["ward"])
+            ]
+            if seen:
+                targets.append(connection)
+                texts.append(seen)
+        results = await asyncio.gather(
+            *(self._send_texts(c, t) for c, t in zip(targets, texts, strict=True)),
+            return_exceptions=True,
+        )
+        self._drop_failed(targets, results)
 
     async def publish_fleet(self, robot_ids: list[str]) -> None:
         """Tell every browser that may see the fleet that it changed (these robots' rows, or
@@ -119,9 +148,13 @@ class BrowserHub:
         await self._broadcast([c for c in self._connections if c.role in FLEET_VIEWERS], message)
 
     async def _broadcast(self, targets: list[BrowserConnection], message: dict) -> None:
+        text = encode(message)
         results = await asyncio.gather(
-            *(self.send(c, message) for c in targets), return_exceptions=True
+            *(self._send_texts(c, [text]) for c in targets), return_exceptions=True
         )
+        self._drop_failed(targets, results)
+
+    def _drop_failed(self, targets: list[BrowserConnection], results: list) -> None:
         for connection, result in zip(targets, results, strict=True):
             if isinstance(result, Exception):
                 log.info("dropping browser connection of user %s: %s", connection.user_id, result)

@@ -74,8 +74,8 @@ class FakeSocket:
     def __init__(self) -> None:
         self.sent: list[dict] = []
 
-    async def send_json(self, message: dict) -> None:
-        self.sent.append(message)
+    async def send_text(self, text: str) -> None:
+        self.sent.append(json.loads(text))
 
 
 def test_only_those_who_may_see_the_fleet_are_told():

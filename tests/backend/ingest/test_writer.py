@@ -3,10 +3,13 @@
 from __future__ import annotations
 
 import asyncio
+import time
 
 from sqlalchemy import select
 
 from backend.db import transaction
+from backend.ingest import context
+from backend.ingest import writer as writer_module
 from backend.ingest.received import from_batch
 from backend.ingest.writer import FrameWriter
 from backend.metrics import Metrics
@@ -190,3 +193,56 @@ def test_an_emergency_already_stored_does_not_make_every_message_a_commit(
     writer._alarmed_trust_s = 0.0
     assert submitted(writer, link, 6)
     assert list(writer.fail_open.unstored) == [f"{robot}/t-e/emergency"]
+
+
+class Pushes:
+    """The alarms the writer pushed to the boards, in order."""
+
+    def __init__(self) -> None:
+        self.alarms: list[dict] = []
+
+    async def publish_alarm(self, alarm: dict) -> None:
+        self.alarms.append(alarm)
+
+    async def push_assignments(self, robot_ids: list[str]) -> None:
+        pass
+
+
+def test_a_continuing_emergency_is_pushed_once_per_period_and_ends_on_its_last_decision(
+    client, robot, session_factory, monkeypatch
+):
+    """A robot deciding Emergency ten times a second: its alarm reaches the boards when raised,
+    then at most once per UPDATE_PUSH_S (the flush that folds the next frame pushes it; the
+    storage watch's trailing push does not push it a second time), and once the robot stops,
+    the trailing push brings the boards its last decision."""
+    monkeypatch.setattr(context, "UPDATE_PUSH_S", 0.2)
+    monkeypatch.setattr(writer_module, "TRAILING_PUSH_GRACE_S", 0.3)
+    with client.websocket_connect("/ws/robot") as ws:
+        connect(ws, robot, ROBOT_TOKEN)
+        start(ws, "t-e")
+        send(ws, [frame(0, transport="t-e")])
+        assert ack(ws) == 0
+
+    async def run() -> tuple[list[dict], float, list[dict]]:
+        pushes = Pushes()
+        writer = FrameWriter(session_factory, Metrics(), pushes)
+        link = FakeLink(robot)
+        started = time.monotonic()
+        for seq in range(1, 21):  # 2 s at 10 Hz
+            batch = from_batch(FrameBatch(frames=[frame(seq, "emergency", transport="t-e")]))
+            await writer.submit(link, batch, time.perf_counter())
+            await writer._trailing_pushes()  # the storage watch's tick, then the flush
+            await writer._flush()
+            await asyncio.sleep(0.1)
+        streaming = list(pushes.alarms)
+        elapsed = time.monotonic() - started
+        await asyncio.sleep(0.6)  # the robot stopped: period and grace are up
+        await writer._trailing_pushes()
+        return streaming, elapsed, pushes.alarms[len(streaming) :]
+
+    streaming, elapsed, after = asyncio.run(run())
+    assert {a["id"] for a in streaming + after} == {streaming[0]["id"]}  # one alarm
+    assert streaming[0]["state"] == "open"
+    # raised, then one push per 0.2 s period (the old trailing push made about two)
+    assert len(streaming) <= 2 + elapsed / 0.2
+    assert [a["last_seq"] for a in after] == [20]
