@@ -28,7 +28,9 @@ from threadpoolctl import threadpool_limits
 from vigil.features import FEATURE_VERSION
 from worker.training.cli import make_trainers
 from worker.training.cross_validation import cross_validate
-from worker.training.data import from_urfd, with_emergency_lead
+from worker.training.data import concatenate, from_urfd, with_emergency_lead
+from worker.training.generated import LOOK_ALIKE_EVENTS
+from worker.training.generated import hard_negatives as generated_hard_negatives
 from worker.training.run import INNER_FOLDS, TRAIN_STRIDE
 from worker.training.selection import CURVE_KEYS, StreamScores, operating_curve
 
@@ -39,13 +41,26 @@ CURVE_THRESHOLDS = (0.1, 0.2, 0.3, 0.4, 0.5)
 CURVE_DELAYS_S = tuple(round(0.05 * k, 2) for k in range(2, 17))  # 0.1 .. 0.8 s
 
 
-def _one_split(model: str, seed: int, urfd_dir: Path | None, lead_s: float) -> dict:
+def _one_split(
+    model: str, seed: int, urfd_dir: Path | None, lead_s: float, hard_negatives: int = 0
+) -> dict:
     with threadpool_limits(limits=1):
         data = from_urfd(urfd_dir)
+        train_only = None
+        if hard_negatives:
+            urfd_sequences = len(data.names)
+            data = concatenate(data, generated_hard_negatives(repeats=hard_negatives))
+            train_only = np.arange(urfd_sequences, len(data.names))
         if lead_s:
             data = with_emergency_lead(data, lead_s)
         cv = cross_validate(
-            make_trainers([model])[0], data, FOLDS, INNER_FOLDS, TRAIN_STRIDE, seed=seed
+            make_trainers([model])[0],
+            data,
+            FOLDS,
+            INNER_FOLDS,
+            TRAIN_STRIDE,
+            seed=seed,
+            train_only=train_only,
         )
     return {
         "seed": seed,
@@ -65,12 +80,20 @@ def measure(
     urfd_dir: Path | None = None,
     workers: int = 2,
     emergency_lead_s: float = 0.0,
+    hard_negatives: int = 0,
 ) -> dict:
     start = time.perf_counter()
     n = len(seeds)
     with ProcessPoolExecutor(max_workers=workers) as pool:
         splits = list(
-            pool.map(_one_split, [model] * n, seeds, [urfd_dir] * n, [emergency_lead_s] * n)
+            pool.map(
+                _one_split,
+                [model] * n,
+                seeds,
+                [urfd_dir] * n,
+                [emergency_lead_s] * n,
+                [hard_negatives] * n,
+            )
         )
     data = from_urfd(urfd_dir)
     streams = [
@@ -94,6 +117,13 @@ def measure(
         # Models fitted to Emergency starting this much before the labelled frames (evaluation,
         # thresholds and delays on the labels): worker.training.data.with_emergency_lead.
         "emergency_lead_s": emergency_lead_s,
+        # GENERATED look-alike transports added to every training fold, never scored
+        # (worker.training.generated.hard_negatives): this many per event.
+        "hard_negatives": (
+            {"generated": True, "events": list(LOOK_ALIKE_EVENTS), "per_event": hard_negatives}
+            if hard_negatives
+            else None
+        ),
         "seeds": list(seeds),
         "splits": splits,
         "summary": {
@@ -226,6 +256,12 @@ def main(argv: list[str] | None = None) -> int:
         default=0.0,
         help="fit the models to Emergency starting this many seconds before the labelled frames",
     )
+    parser.add_argument(
+        "--hard-negatives",
+        type=int,
+        default=0,
+        help="GENERATED look-alike transports per event added to every training fold, unscored",
+    )
     parser.add_argument("--out", type=Path, default=RESULTS)
     parser.add_argument(
         "--table", action="store_true", help="only print the Markdown tables of an existing --out"
@@ -246,7 +282,16 @@ def main(argv: list[str] | None = None) -> int:
         parser.error(str(error).replace("--models", "--model"))
     if not args.emergency_lead_s >= 0:
         parser.error(f"--emergency-lead-s: must be >= 0, got {args.emergency_lead_s}")
-    result = measure(args.model, seeds, args.urfd_dir, args.workers, args.emergency_lead_s)
+    if args.hard_negatives < 0:
+        parser.error(f"--hard-negatives: must be >= 0, got {args.hard_negatives}")
+    result = measure(
+        args.model,
+        seeds,
+        args.urfd_dir,
+        args.workers,
+        args.emergency_lead_s,
+        args.hard_negatives,
+    )
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text(json.dumps(result, indent=2, default=_jsonable) + "\n")
     print(json.dumps({k: result[k] for k in ("model", "seeds", "summary", "seconds")}, indent=2))

@@ -1,11 +1,12 @@
 import numpy as np
 
 from vigil.classes import Decision, TransportMode
+from vigil.formats.coco import MOVENET13, movenet13_to_body25
 from vigil.runtime import FrameClassifier
 from vigil.synthetic import generate_transport
 from worker.training.cross_validation import select
 from worker.training.estimators import ModelSpec
-from worker.training.generated import generated_frames, patient_arrays
+from worker.training.generated import generated_frames, hard_negatives, patient_arrays
 from worker.training.publish import publish
 from worker.training.trainers import SklearnTrainer
 
@@ -92,3 +93,19 @@ def test_generated_walking_frames_without_depth_join_real_data_and_say_generated
     manifest = publish(trainer, selected, both, tmp_path / "demo")
     assert manifest.generated_data
     assert list(manifest.inputs) == ["keypoints", "floor"]
+
+
+def test_hard_negatives_are_normal_generated_transports_shown_as_urfd_shows_people():
+    """Only the keypoints URFD's MoveNet gives (and the neck and mid-hip made from them), each
+    with confidence 1, no depth: a model cannot tell them from URFD by those."""
+    data = hard_negatives(repeats=2)
+    assert data.generated and not data.is_positive_sequence.any()
+    assert set(np.unique(data.target)) == {0}  # Normal
+    urfd_slots = movenet13_to_body25(np.ones((1, len(MOVENET13), 3), np.float32))[0, :, 2] > 0
+    for recording in data.recordings:
+        for observation in recording:
+            for person in observation.people:
+                present = person.keypoints[:, 2] > 0
+                assert not (present & ~urfd_slots).any()
+                assert set(np.unique(person.keypoints[:, 2])) <= {0.0, 1.0}
+                assert np.isnan(person.depth).all()

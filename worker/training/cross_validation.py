@@ -73,6 +73,23 @@ class CrossValidation:
     seconds: float = 0.0
 
 
+def outer_folds(
+    is_positive_sequence: np.ndarray,
+    n_folds: int,
+    seed: int,
+    train_only: np.ndarray | None = None,
+) -> list[tuple[np.ndarray, np.ndarray]]:
+    """(train, test) sequence indices of the outer folds; the `train_only` sequences are in
+    every fold's training sequences and never held out (hard negatives from another source:
+    the figures stay those of the other sequences, split as they would be without them)."""
+    extra = np.asarray([] if train_only is None else train_only, np.int64)
+    tested = np.setdiff1d(np.arange(len(is_positive_sequence)), extra)
+    return [
+        (np.concatenate([tested[train], extra]), tested[test])
+        for train, test in grouped_folds(np.asarray(is_positive_sequence)[tested], n_folds, seed)
+    ]
+
+
 def cross_validate(
     trainer: SklearnTrainer,
     data: FrameData,
@@ -81,10 +98,12 @@ def cross_validate(
     stride: int = 2,
     seed: int = 0,
     progress=None,
+    train_only: np.ndarray | None = None,
 ) -> CrossValidation:
+    """`train_only`: see `outer_folds`."""
     start = time.perf_counter()
     cv = CrossValidation(trainer.name)
-    for train, test in grouped_folds(data.is_positive_sequence, n_folds, seed):
+    for train, test in outer_folds(data.is_positive_sequence, n_folds, seed, train_only):
         selected = select(trainer, data, train, n_inner, stride, progress=progress)
         scores = trainer.score(selected.fitted, data, test)
         cv.folds.append(selected)

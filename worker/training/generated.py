@@ -10,6 +10,7 @@ import hashlib
 import numpy as np
 
 from vigil.classes import MODE_CLASSES, TransportMode
+from vigil.formats.coco import MOVENET13, movenet13_to_body25
 from vigil.observation import Observation
 from vigil.skeleton import SkeletonFrame
 from vigil.synthetic import EVENTS_BY_LOCOMOTION, GeneratedTransport, Locomotion, generate_transport
@@ -87,6 +88,56 @@ def generated_recordings(
         recordings.append(Recording(name, observations, target, generated=True))
         digest.update(keypoints.tobytes())
     return recordings, digest.hexdigest()
+
+
+#: Daily activities that end where a fall ends, as far as 2D keypoints tell (issue #34).
+LOOK_ALIKE_EVENTS = ("lying_down_deliberately",)
+
+
+def hard_negatives(
+    events: tuple[str, ...] = LOOK_ALIKE_EVENTS, repeats: int = 10, seed: int = 1000
+) -> FrameData:
+    """GENERATED walking transports of look-alike daily activities (Normal throughout), shown
+    as URFD shows its people: MoveNet's 13 keypoints only, each present one with confidence 1,
+    no depth at the keypoints. Otherwise a keypoints-only model could tell generated from real
+    by the 12 extra keypoints and the generator's confidences instead of by the pose.
+    For training only, never scored (`cross_validate(train_only=...)`)."""
+    urfd_slots = movenet13_to_body25(np.ones((1, len(MOVENET13), 3), np.float32))[0, :, 2] > 0
+    recordings, digest = [], hashlib.sha256()
+    for index, event in enumerate(events):
+        for repeat in range(repeats):
+            transport = generate_transport(
+                Locomotion.WALKING,
+                seed=seed + index * repeats + repeat,
+                duration_s=10.0,
+                events=[event],
+            )
+            keypoints, _, usable, floor = patient_arrays(transport)
+            keypoints = keypoints.copy()
+            present = (keypoints[:, :, 2] > 0) & urfd_slots
+            keypoints[:, :, 2] = present.astype(np.float32)
+            keypoints[~present, :2] = 0.0
+            timestamps = np.arange(transport.n_frames) / transport.fps
+            observations = tuple(
+                Observation(
+                    float(ts),
+                    [SkeletonFrame(keypoints[t], timestamp=float(ts), floor=floor[t])]
+                    if usable[t]
+                    else [],
+                    t,
+                )
+                for t, ts in enumerate(timestamps)
+            )
+            target = np.array(
+                [
+                    MODE_CLASSES[TransportMode.WALKING].index(d)
+                    for d in transport.decisions("walking")
+                ]
+            )
+            name = f"gen-hard-{event}-{transport.seed:04d}"
+            recordings.append(Recording(name, observations, target, generated=True))
+            digest.update(keypoints.tobytes())
+    return build_rows(recordings, TransportMode.WALKING, digest.hexdigest())
 
 
 def generated_frames(
