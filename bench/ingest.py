@@ -37,6 +37,7 @@ from sqlalchemy.exc import DBAPIError
 from websockets.asyncio.client import connect
 
 from backend.db import make_engine, make_session_factory, transaction
+from backend.ingest.context import TRAILING_PUSH_GRACE_S, UPDATE_PUSH_S
 from backend.migrate import upgrade
 from backend.models.robots import Robot
 from backend.models.users import Role, User
@@ -359,7 +360,9 @@ async def _drive(server: BackendProcess, config: RunConfig, nurse_token: str) ->
     load = os.getloadavg()[0]
     stop.set()
     await asyncio.gather(*clients)
-    await asyncio.sleep(0.5)
+    # The window's last folds reach the board with the writer's trailing push (a robot that
+    # stopped sending: UPDATE_PUSH_S and the grace after the alarm's last push).
+    await asyncio.sleep(UPDATE_PUSH_S + TRAILING_PUSH_GRACE_S + 0.5)
     nurse.cancel()
 
     committed = sum(n for s in stats for t, n in s.ack_times if t0 <= t < t1)
