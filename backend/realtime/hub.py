@@ -124,13 +124,10 @@ class BrowserHub:
         to every browser allowed to see them."""
         for alarm, _ in alarms:
             self._remember(alarm)
+        messages = [(alarm["ward"], f'{{"type":"alarm","alarm":{text}}}') for alarm, text in alarms]
         targets, texts = [], []
         for connection in self._connections:
-            seen = [
-                f'{{"type":"alarm","alarm":{text}}}'
-                for alarm, text in alarms
-                if connection.can_see(alarm["ward"])
-            ]
+            seen = [message for ward, message in messages if connection.can_see(ward)]
             if seen:
                 targets.append(connection)
                 texts.append(seen)
