@@ -12,6 +12,16 @@ from backend.ingest.bulk_update import one_round_trip, update_rows
 from backend.models.robots import Robot
 
 
+def robot_rows(session_factory) -> list[tuple]:
+    with session_factory() as session:
+        rows = session.execute(
+            select(
+                Robot.id, Robot.last_seq, Robot.last_seen_at, Robot.running_model_version
+            ).order_by(Robot.id)
+        ).all()
+    return [tuple(row) for row in rows]
+
+
 def test_each_row_gets_its_own_values_and_others_are_untouched(session_factory):
     seen = datetime(2026, 11, 22, 3, 0, tzinfo=UTC)
     with transaction(session_factory) as session:
@@ -26,13 +36,7 @@ def test_each_row_gets_its_own_values_and_others_are_untouched(session_factory):
         )
         update_rows(session, Robot.__table__, ("id", "running_model_version"), [("r2", "m-7")])
         update_rows(session, Robot.__table__, ("id", "last_seq"), [])
-    with session_factory() as session:
-        rows = session.execute(
-            select(
-                Robot.id, Robot.last_seq, Robot.last_seen_at, Robot.running_model_version
-            ).order_by(Robot.id)
-        ).all()
-    assert [tuple(row) for row in rows] == [
+    assert robot_rows(session_factory) == [
         ("r1", 41, seen, None),
         ("r2", 1, None, "m-7"),
         ("r3", None, seen + timedelta(seconds=2), None),
@@ -57,13 +61,7 @@ def test_a_column_kept_where_the_row_says_none_and_statements_sent_together(sess
             keep_stored_if_none=("last_seen_at",),
         )
         update_rows(session, Robot.__table__, ("id", "running_model_version"), [("r1", "m")])
-    with session_factory() as session:
-        rows = session.execute(
-            select(
-                Robot.id, Robot.last_seq, Robot.last_seen_at, Robot.running_model_version
-            ).order_by(Robot.id)
-        ).all()
-    assert [tuple(row) for row in rows] == [("r1", 7, seen, "m"), ("r2", 9, later, None)]
+    assert robot_rows(session_factory) == [("r1", 7, seen, "m"), ("r2", 9, later, None)]
 
 
 def test_an_error_inside_one_round_trip_fails_the_flush(session_factory):

@@ -9,17 +9,15 @@ from __future__ import annotations
 import asyncio
 import json
 import time
-import uuid
 
 import pytest
 
 from backend.models import Robot, Role
-from backend.realtime.bus import AlarmBus
 from backend.realtime.hub import BrowserConnection, BrowserHub
 from backend.unit_of_work import UnitOfWork, fleet_changed, unit_of_work
 from tests.backend.conftest import ROBOT_TOKEN
+from tests.backend.realtime.test_bus import replicas
 from tests.backend.test_first_alarm import frame
-from tests.backend.test_reliability import REDIS_URL
 from tests.backend.test_robot_model_sha import registered  # noqa: F401
 from vigil.protocol import (
     BehaviourChanged,
@@ -182,27 +180,19 @@ def test_a_robot_s_hello_new_model_and_disconnect_reach_the_engineer_only(
 
 
 def test_the_fleet_s_news_crosses_replicas_through_redis():
-    url = REDIS_URL
 
     async def scenario() -> tuple[list[dict], list[dict]]:
-        channel = f"vigil-test-{uuid.uuid4().hex}"
         hub_a, hub_b = BrowserHub(), BrowserHub()
         socket_a, socket_b = FakeSocket(), FakeSocket()
         hub_a.add(BrowserConnection(socket_a, 1, Role.ENGINEER, None))
         hub_b.add(BrowserConnection(socket_b, 2, Role.ENGINEER, None))
-        bus_a, bus_b = AlarmBus(hub_a, url, channel), AlarmBus(hub_b, url, channel)
-        await bus_a.start()
-        await bus_b.start()
-        try:
+        async with replicas(hub_a, hub_b) as (bus_a, _):
             await bus_a.publish_fleet(["robot-a"])
             for _ in range(200):
                 if socket_b.sent:
                     break
                 await asyncio.sleep(0.01)
             await asyncio.sleep(0.1)  # replica A ignores its own message: still one push
-        finally:
-            await bus_a.stop()
-            await bus_b.stop()
         return socket_a.sent, socket_b.sent
 
     on_a, on_b = asyncio.run(scenario())
@@ -213,17 +203,12 @@ def test_a_reconnect_storm_s_news_goes_out_in_a_few_messages_with_every_robot_an
     """A thousand robots saying hello at once (the replica left after a kill -9): the fleet's
     news leaves in a few messages that name every robot, and the alarms published at the same
     time all cross to the other replica (redis-py's pool used to refuse past 100 at once)."""
-    url = REDIS_URL
 
     async def scenario() -> tuple[list[dict], list[dict], list[dict]]:
-        channel = f"vigil-test-{uuid.uuid4().hex}"
         hub_a, hub_b = BrowserHub(), BrowserHub()
         socket_a, socket_b = FakeSocket(), FakeSocket()
         hub_a.add(BrowserConnection(socket_a, 1, Role.ENGINEER, None))
         hub_b.add(BrowserConnection(socket_b, 2, Role.ADMIN, None))
-        bus_a, bus_b = AlarmBus(hub_a, url, channel), AlarmBus(hub_b, url, channel)
-        await bus_a.start()
-        await bus_b.start()
         alarms = [
             {
                 "id": i,
@@ -234,7 +219,7 @@ def test_a_reconnect_storm_s_news_goes_out_in_a_few_messages_with_every_robot_an
             }
             for i in range(300)
         ]
-        try:
+        async with replicas(hub_a, hub_b) as (bus_a, _):
             await asyncio.gather(
                 *(bus_a.publish_fleet([f"robot-{i}"]) for i in range(1000)),
                 *(bus_a.publish(alarm) for alarm in alarms),
@@ -244,9 +229,6 @@ def test_a_reconnect_storm_s_news_goes_out_in_a_few_messages_with_every_robot_an
                 if sum(len(m["robots"]) for m in fleet_b) >= 1000 and len(socket_b.sent) > 300:
                     break
                 await asyncio.sleep(0.01)
-        finally:
-            await bus_a.stop()
-            await bus_b.stop()
         return socket_a.sent, socket_b.sent, alarms
 
     on_a, on_b, alarms = asyncio.run(scenario())

@@ -7,6 +7,8 @@ from __future__ import annotations
 import asyncio
 import json
 import uuid
+from collections.abc import AsyncIterator
+from contextlib import asynccontextmanager
 
 from backend.models import Role
 from backend.realtime.bus import AlarmBus
@@ -25,6 +27,20 @@ class Socket:
         self.sent.append(json.loads(text))
 
 
+@asynccontextmanager
+async def replicas(*hubs: BrowserHub) -> AsyncIterator[list[AlarmBus]]:
+    """One bus per hub on a fresh channel of the real Redis, started and stopped."""
+    channel = f"vigil-test-{uuid.uuid4().hex}"
+    buses = [AlarmBus(hub, REDIS_URL, channel) for hub in hubs]
+    for bus in buses:
+        await bus.start()
+    try:
+        yield buses
+    finally:
+        for bus in buses:
+            await bus.stop()
+
+
 def alarm(i: int, ward: str) -> dict:
     return {"id": i, "robot_id": f"robot-{i}", "ward": ward, "kind": "emergency"}
 
@@ -39,7 +55,6 @@ def test_a_commit_s_alarms_reach_every_allowed_browser_in_order_on_every_replica
     every = [a["id"] for a in alarms]
 
     async def scenario() -> dict[str, Socket]:
-        channel = f"vigil-test-{uuid.uuid4().hex}"
         hub_a, hub_b = BrowserHub(), BrowserHub()
         sockets = {
             "nurse_a": Socket(),
@@ -53,10 +68,7 @@ def test_a_commit_s_alarms_reach_every_allowed_browser_in_order_on_every_replica
         hub_a.add(BrowserConnection(sockets["broken_a"], 3, Role.ENGINEER, None))
         hub_b.add(BrowserConnection(sockets["nurse_b"], 4, Role.NURSE, "ward-a"))
         hub_b.add(BrowserConnection(sockets["engineer_b"], 5, Role.ENGINEER, None))
-        bus_a, bus_b = AlarmBus(hub_a, REDIS_URL, channel), AlarmBus(hub_b, REDIS_URL, channel)
-        await bus_a.start()
-        await bus_b.start()
-        try:
+        async with replicas(hub_a, hub_b) as (bus_a, _):
             await bus_a.publish_many(alarms[:30])
             await bus_a.publish_many(alarms[30:])
             for _ in range(300):
@@ -64,9 +76,6 @@ def test_a_commit_s_alarms_reach_every_allowed_browser_in_order_on_every_replica
                     break
                 await asyncio.sleep(0.01)
             await asyncio.sleep(0.1)  # replica A ignores its own messages: no second copy
-        finally:
-            await bus_a.stop()
-            await bus_b.stop()
         assert hub_a.size == 2  # the broken browser was dropped
         return sockets
 
