@@ -67,27 +67,41 @@ def generated_recordings(
     `has_depth`, and needs the inputs a URFD model needs (keypoints, floor)."""
     mode = TransportMode(mode)
     repeats = repeats or DEFAULT_REPEATS[mode]
-    classes = MODE_CLASSES[mode]
     digest = hashlib.sha256()
     recordings = []
     for transport in generate_for_mode(mode, repeats, seed):
         keypoints, depths, usable, floor = patient_arrays(transport)
         if not depth:
             depths = np.full_like(depths, np.nan)
-        timestamps = np.arange(transport.n_frames) / transport.fps
-        observations = tuple(
-            Observation(
-                float(ts),
-                [SkeletonFrame(keypoints[t], depths[t], float(ts), floor[t])] if usable[t] else [],
-                t,
-            )
-            for t, ts in enumerate(timestamps)
-        )
-        target = np.array([classes.index(d) for d in transport.decisions(mode)])
         name = f"gen-{transport.locomotion.value}-{'+'.join(transport.events)}-{transport.seed:03d}"
-        recordings.append(Recording(name, observations, target, generated=True))
+        recordings.append(_recording(name, transport, mode, keypoints, depths, usable, floor))
         digest.update(keypoints.tobytes())
     return recordings, digest.hexdigest()
+
+
+def _recording(
+    name: str,
+    transport: GeneratedTransport,
+    mode: TransportMode,
+    keypoints: np.ndarray,
+    depths: np.ndarray,
+    usable: np.ndarray,
+    floor: np.ndarray,
+) -> Recording:
+    """One generated transport as the robot would observe it (the patient where usable),
+    targets from the generator's decisions for `mode`."""
+    timestamps = np.arange(transport.n_frames) / transport.fps
+    observations = tuple(
+        Observation(
+            float(ts),
+            [SkeletonFrame(keypoints[t], depths[t], float(ts), floor[t])] if usable[t] else [],
+            t,
+        )
+        for t, ts in enumerate(timestamps)
+    )
+    classes = MODE_CLASSES[mode]
+    target = np.array([classes.index(d) for d in transport.decisions(mode)])
+    return Recording(name, observations, target, generated=True)
 
 
 #: Daily activities that end where a fall ends, as far as 2D keypoints tell (issue #34).
@@ -112,30 +126,16 @@ def hard_negatives(
                 duration_s=10.0,
                 events=[event],
             )
-            keypoints, _, usable, floor = patient_arrays(transport)
+            keypoints, depths, usable, floor = patient_arrays(transport)
             keypoints = keypoints.copy()
             present = (keypoints[:, :, 2] > 0) & urfd_slots
             keypoints[:, :, 2] = present.astype(np.float32)
             keypoints[~present, :2] = 0.0
-            timestamps = np.arange(transport.n_frames) / transport.fps
-            observations = tuple(
-                Observation(
-                    float(ts),
-                    [SkeletonFrame(keypoints[t], timestamp=float(ts), floor=floor[t])]
-                    if usable[t]
-                    else [],
-                    t,
-                )
-                for t, ts in enumerate(timestamps)
-            )
-            target = np.array(
-                [
-                    MODE_CLASSES[TransportMode.WALKING].index(d)
-                    for d in transport.decisions("walking")
-                ]
-            )
+            depths = np.full_like(depths, np.nan)
             name = f"gen-hard-{event}-{transport.seed:04d}"
-            recordings.append(Recording(name, observations, target, generated=True))
+            recordings.append(
+                _recording(name, transport, TransportMode.WALKING, keypoints, depths, usable, floor)
+            )
             digest.update(keypoints.tobytes())
     return build_rows(recordings, TransportMode.WALKING, digest.hexdigest())
 
