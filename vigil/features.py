@@ -30,12 +30,6 @@ and the seconds since then. The decaying peaks forget a fall within seconds, so 
 the floor for a while looked the same whether they fell or lay down slowly; this remembers how
 they got there.
 
-Body descent memory (feature version 7): the same for cameras without floor measures, from the
-keypoints alone and in body sizes: the fastest 0.4 s drop of the body centre since the torso was
-last upright, and the seconds since then. Sitting down ends with the torso upright again and
-forgets the descent; a person who sits and then lies down on a bed went down slowly from an
-upright torso; a fall goes down fast and is not upright since.
-
 Frames with too few keypoints (fewer than MIN_KEYPOINTS; e.g. the pose estimator found nobody)
 repeat the last usable pose with zero motion and set the `held` flag: the decision holds.
 """
@@ -48,7 +42,7 @@ import numpy as np
 
 from vigil.skeleton import INDEX, N_FLOOR, N_KEYPOINTS, SkeletonFrame
 
-FEATURE_VERSION = 7
+FEATURE_VERSION = 6
 MIN_KEYPOINTS = 4
 HORIZONS_S: tuple[float, ...] = (0.2, 0.4, 0.8, 1.6, 3.2)
 DELTA_LIMIT = 5.0  # body sizes (or log units): beyond this a change is a tracking glitch
@@ -58,7 +52,6 @@ MISSING_TAU_S = 1.0  # time constant of the decaying share of frames without a u
 SINCE_SEEN_LIMIT_S = 3.0
 STANDING_TOP_M = 1.0  # the body's top above the floor above this: standing or sitting upright
 SINCE_STANDING_LIMIT_S = 10.0
-UPRIGHT_TORSO = 0.8  # the torso within about 37 degrees of the image's vertical: standing or sitting
 _HIPS = [INDEX["mid_hip"], INDEX["r_hip"], INDEX["l_hip"]]
 _NECK, _MID_HIP = INDEX["neck"], INDEX["mid_hip"]
 _SHOULDERS, _HIP_PAIR = [INDEX["r_shoulder"], INDEX["l_shoulder"]], [INDEX["r_hip"], INDEX["l_hip"]]
@@ -124,16 +117,8 @@ _HORIZON_COLUMNS = {
 _PEAKED = ("d_down", "d_top", "d_upright", "d_visible", "d_floor_top", "d_floor_centre")
 # Stream memory: time since the last usable pose and the decaying share of frames without one;
 # the fastest 0.4 s drop of the top above the floor since it was last at standing height, and
-# the time since then, and the same from the keypoints since the torso was last upright
-# (module docstring).
-_MEMORY = (
-    "since_seen",
-    "missing",
-    "floor_descent",
-    "floor_since_standing",
-    "body_descent",
-    "since_upright",
-)
+# the time since then (module docstring).
+_MEMORY = ("since_seen", "missing", "floor_descent", "floor_since_standing")
 _DESCENT_HORIZON_S = 0.4
 
 
@@ -180,10 +165,7 @@ _MAX_HORIZON = max(HORIZONS_S)
 _HORIZONS = np.array(HORIZONS_S)
 _TEMPORAL_START = FEATURE_NAMES.index(f"{_DELTAS[0]}@{HORIZONS_S[0]}")
 _PEAK_SOURCE = [FEATURE_NAMES.index(f"{p}@0.4") - _TEMPORAL_START for p in _PEAKED]
-_DESCENT_SOURCE = [
-    FEATURE_NAMES.index(f"{d}@{_DESCENT_HORIZON_S}") - _TEMPORAL_START
-    for d in ("d_floor_top", "d_down")
-]
+_DESCENT_SOURCE = FEATURE_NAMES.index(f"d_floor_top@{_DESCENT_HORIZON_S}") - _TEMPORAL_START
 
 
 def _pose_and_state(
@@ -377,15 +359,11 @@ class _Memory:
         self.missing = 0.0
         self.descent = 0.0
         self.standing_at: float | None = None
-        self.body_descent = 0.0
-        self.upright_at: float | None = None
 
     def step(
-        self, state: np.ndarray, usable: bool, dt: float, now: float, drops: np.ndarray
+        self, state: np.ndarray, usable: bool, dt: float, now: float, top_drop: float
     ) -> np.ndarray:
-        """`drops`: this frame's drop of the top above the floor and of the body centre (body
-        sizes) over _DESCENT_HORIZON_S."""
-        top_drop, centre_drop = float(drops[0]), float(drops[1])
+        """`top_drop`: this frame's drop of the top above the floor over _DESCENT_HORIZON_S."""
         keep = float(np.exp(-dt / MISSING_TAU_S))
         self.missing = keep * self.missing + (1.0 - keep) * (0.0 if usable else 1.0)
         self.missing = round(self.missing, 3) if self.missing >= MEMORY_FLOOR else 0.0
@@ -393,23 +371,16 @@ class _Memory:
         if state[_S["has_floor"]] > 0:
             if state[_S["floor_top"]] > STANDING_TOP_M:
                 self.descent, self.standing_at = 0.0, now
-            self.descent = max(self.descent, top_drop)
-        if usable:
-            if state[_S["upright"]] > UPRIGHT_TORSO:
-                self.body_descent, self.upright_at = 0.0, now
-            self.body_descent = max(self.body_descent, centre_drop)
+            self.descent = max(self.descent, float(top_drop))
         since_standing = (
             SINCE_STANDING_LIMIT_S if self.standing_at is None else now - self.standing_at
         )
-        since_upright = SINCE_STANDING_LIMIT_S if self.upright_at is None else now - self.upright_at
         return np.array(
             [
                 min(since_seen, SINCE_SEEN_LIMIT_S),
                 self.missing,
                 self.descent,
                 min(since_standing, SINCE_STANDING_LIMIT_S),
-                self.body_descent,
-                min(since_upright, SINCE_STANDING_LIMIT_S),
             ]
         )
 
@@ -540,8 +511,8 @@ class FeatureExtractor:
             temporal = np.zeros_like(temporal)
         self._peaks = _peak_step(self._peaks, temporal[0, _PEAK_SOURCE], dt)
         held = (~usable).astype(np.float64)[:, None]
-        drops = temporal[0, _DESCENT_SOURCE]
-        memory = self._memory.step(state[0], bool(usable[0]), dt, t, drops)[None]
+        top_drop = temporal[0, _DESCENT_SOURCE]
+        memory = self._memory.step(state[0], bool(usable[0]), dt, t, top_drop)[None]
         features = _assemble(pose, held, temporal, self._peaks.reshape(1, -1), memory)
         return features[0, self.columns_].astype(np.float32)
 
