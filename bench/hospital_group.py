@@ -15,6 +15,8 @@ was not acknowledged after the welcome's last_seq. Measured:
 - per robot of the killed replica: kill -> first ack from the other replica;
 - frames lost (acknowledged but not stored) and duplicated rows, checked in the database;
 - Emergency alarms per transport (each transport decides Emergency once: exactly one alarm);
+- technical alarms the monitor raised for the benchmark's robots (robot offline, stream stalled,
+  patient not seen), by kind;
 - which replica held the duties before and after the kill (/api/health), backend CPU and RSS.
 
 Frames are GENERATED (fixed skeleton): this measures the system, not detection. Results go
@@ -358,6 +360,15 @@ def run(args) -> dict:
                     "GROUP BY robot_id, transport_key"
                 )
             ).all()
+            technical = dict(
+                connection.execute(
+                    text(
+                        "SELECT kind, count(*) FROM alarms WHERE robot_id LIKE 'bench-%' "
+                        "AND kind IN ('robot_offline', 'stream_stalled', 'patient_not_seen') "
+                        "GROUP BY kind"
+                    )
+                ).all()
+            )
             distributed = connection.scalar(
                 text("SELECT count(*) FROM alarm_messages WHERE status = 'delivered'")
             )
@@ -439,6 +450,12 @@ def run(args) -> dict:
             "more_than_one": sum(1 for n in alarms_per_transport if n > 1),
             # Emergency alarms of frames whose transport the backend never heard start
             "without_transport": without_transport,
+        },
+        # Raised by the monitor for the benchmark's robots, which stream their patient
+        # throughout: each one is an outage the boards were shown (the kill's own included).
+        "technical_alarms": {
+            kind: technical.get(kind, 0)
+            for kind in ("robot_offline", "stream_stalled", "patient_not_seen")
         },
         "alarm_messages_delivered": distributed,
         "open_alarms_seeded": args.open_alarms,
