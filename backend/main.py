@@ -46,6 +46,7 @@ from backend.distribution.sender import AlertSender
 from backend.gc_tuning import collector_tuned_for_ingest
 from backend.http_guards import SecurityMiddleware
 from backend.ingest.stall_actions import StallActions, journal_path
+from backend.ingest.waiting import SharedWaiting
 from backend.ingest.writer import FrameWriter
 from backend.leadership import Leadership, lock_for
 from backend.metrics import Metrics
@@ -179,8 +180,17 @@ async def start_services(settings: Settings) -> Services:
         ),
     )
     writer.start()
+    waiting = SharedWaiting(
+        writer.waiting_robots, bus.redis, f"{settings.redis_channel}.waiting.", bus.origin
+    )
+    waiting.start()
     monitor = AlarmMonitor(
-        factory, settings, effects, waiting_robots=writer.waiting_robots, viewers=hub.viewers
+        factory,
+        settings,
+        effects,
+        waiting_robots=writer.waiting_robots,
+        waiting_elsewhere=waiting.elsewhere,
+        viewers=hub.viewers,
     )
     distribution = build_distribution(settings, factory, effects)
     if distribution is not None:
@@ -205,6 +215,7 @@ async def start_services(settings: Settings) -> Services:
         assignments=assignments,
         effects=effects,
         writer=writer,
+        waiting=waiting,
         monitor=monitor,
         login_gate=HashingGate(
             settings.login_hash_concurrency,
@@ -277,6 +288,7 @@ def build_distribution(settings: Settings, factory, effects) -> Distribution | N
 async def stop_services(services: Services) -> None:
     await services.leadership.stop()  # the duties stop with it
     await services.writer.stop()
+    await services.waiting.stop()
     await services.bus.stop()
     services.login_gate.close()
     services.labelling.close()

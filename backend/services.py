@@ -20,6 +20,7 @@ from backend.alarms.monitor import AlarmMonitor
 from backend.distribution.listener import StatusListener
 from backend.distribution.routing import Routing
 from backend.distribution.sender import AlertSender
+from backend.ingest.waiting import SharedWaiting
 from backend.ingest.writer import FrameWriter
 from backend.labelling.probability import LaneComputer
 from backend.labelling.rgb import FrameCache, JpegCache
@@ -136,6 +137,7 @@ class Services:
     assignments: AssignmentPusher
     effects: Fanout
     writer: FrameWriter
+    waiting: SharedWaiting
     monitor: AlarmMonitor
     login_gate: HashingGate
     login_throttle: LoginThrottle

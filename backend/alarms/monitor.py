@@ -3,8 +3,10 @@
 - raises technical alarms for transports under way whose robot fell silent (robot offline),
   whose frame stream stopped while the robot still talks (stream stalled), or whose frames flow
   but have not shown the patient for `patient_unseen_seconds` (patient not seen: the robot lost
-  its patient, or never found them), one per outage; a robot whose messages wait in the frame
-  writer (storage stalled) is none of them;
+  its patient, or never found them; only frames stored after the last one with the patient
+  say so, so a stream that is merely behind is a stalled stream, not a lost patient), one per
+  outage; a robot whose messages wait in a frame writer, this replica's or another's (storage
+  behind or stalled), is none of them;
 - clears (resolves, as the system, transition `clear`) such an alarm, open or acknowledged,
   once its cause ended: the robot talks again, frames flow again, the patient is seen again,
   or the transport ended.
@@ -25,7 +27,7 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import logging
-from collections.abc import Callable, Collection
+from collections.abc import Awaitable, Callable, Collection
 from datetime import datetime, timedelta
 
 from sqlalchemy import Row
@@ -50,6 +52,7 @@ class AlarmMonitor:
         settings: Settings,
         effects: Effects,
         waiting_robots: Callable[[], Collection[str]] = frozenset,
+        waiting_elsewhere: Callable[[], Awaitable[Collection[str]]] | None = None,
         viewers: Callable[[], list[Viewer]] = list,
     ) -> None:
         self._session_factory = session_factory
@@ -58,6 +61,8 @@ class AlarmMonitor:
         # Robots whose messages arrived but are not stored yet: their stored last_seen_at and
         # last_frame_at are stale because storage is, not because the robot fell silent.
         self._waiting_robots = waiting_robots
+        # The same on the other replicas (backend.ingest.waiting), asked once per pass.
+        self._waiting_elsewhere = waiting_elsewhere
         # Who has a board open: an escalation's audit entry names them.
         self._viewers = viewers
         self._task: asyncio.Task | None = None
@@ -80,7 +85,10 @@ class AlarmMonitor:
                 log.exception("alarm monitor pass failed")
 
     async def tick(self, now: datetime | None = None) -> list[dict]:
-        unit = await asyncio.to_thread(self._check, now or utcnow(), self._viewers())
+        elsewhere = await self._waiting_elsewhere() if self._waiting_elsewhere else frozenset()
+        unit = await asyncio.to_thread(
+            self._check, now or utcnow(), self._viewers(), frozenset(elsewhere)
+        )
         await unit.run_after_commit(self._effects)
         return unit.published_alarms
 
@@ -88,20 +96,27 @@ class AlarmMonitor:
         """One pass in one transaction; returns the changed alarms as pushed to browsers."""
         return self._check(now, viewers).published_alarms
 
-    def _check(self, now: datetime, viewers: list[Viewer] | None = None) -> UnitOfWork:
+    def _check(
+        self,
+        now: datetime,
+        viewers: list[Viewer] | None = None,
+        waiting_elsewhere: frozenset[str] = frozenset(),
+    ) -> UnitOfWork:
         """One pass in one unit of work; the alarm service registers each change on it."""
         with unit_of_work(self._session_factory) as unit:
             session = unit.session
             self._cleared(session, now)
-            self._technical(session, now)
+            self._technical(session, now, waiting_elsewhere)
             self._escalations(session, now, viewers or [])
             self._missed_escalations(session, now)
             self._realarms(session, now)
         return unit
 
-    def _technical(self, session: Session, now: datetime) -> list[Alarm]:
+    def _technical(
+        self, session: Session, now: datetime, waiting_elsewhere: frozenset[str] = frozenset()
+    ) -> list[Alarm]:
         settings = self._settings
-        waiting = self._waiting_robots()
+        waiting = waiting_elsewhere | frozenset(self._waiting_robots())
         outages = []
         for transport, robot in queries.active_transports(session):
             if robot.id in waiting:
@@ -114,8 +129,13 @@ class AlarmMonitor:
                 kind, silent_since = AlarmKind.ROBOT_OFFLINE, last_seen or transport.started_at
             elif now - last_frame > timedelta(seconds=settings.stream_stall_seconds):
                 kind, silent_since = AlarmKind.STREAM_STALLED, last_frame
-            elif now - (last_patient := transport.last_patient_at or transport.started_at) > (
-                timedelta(seconds=settings.patient_unseen_seconds)
+            elif (
+                transport.last_frame_at is not None
+                # frames came after the last one with the patient: a stream that is behind,
+                # every frame it brought showing the patient, is not a patient lost
+                and transport.last_frame_at
+                > (last_patient := transport.last_patient_at or transport.started_at)
+                and now - last_patient > timedelta(seconds=settings.patient_unseen_seconds)
             ):
                 kind, silent_since = AlarmKind.PATIENT_NOT_SEEN, last_patient
             else:

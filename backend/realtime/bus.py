@@ -76,6 +76,12 @@ class AlarmBus:
     def configured(self) -> bool:
         return bool(self._redis_url)
 
+    @property
+    def redis(self):
+        """The started Redis client (None without `redis_url`), for the replicas' other
+        shared state (backend.ingest.waiting)."""
+        return self._redis
+
     async def ping(self) -> None:
         """Raise unless Redis answers (readiness); nothing to check without `redis_url`."""
         if not self._redis_url:

@@ -4,17 +4,22 @@ the monitor, resolve verdicts, illegal transitions (409) and the audit trail."""
 from __future__ import annotations
 
 import json
+import uuid
 from datetime import timedelta
 
 import pytest
+from fastapi.testclient import TestClient
 from sqlalchemy import select
 
 from backend.db import transaction
+from backend.ingest.waiting import SharedWaiting
+from backend.main import create_app
 from backend.models import Alarm, AlarmEvent, AlarmKind, AlarmState, Robot, Role
 from backend.models._types import utcnow
 from backend.security import hash_robot_token
 from tests.backend.conftest import ROBOT_TOKEN
 from tests.backend.test_first_alarm import frame
+from tests.backend.test_reliability import REDIS_URL
 from vigil.protocol import FrameBatch, Heartbeat, Hello, TransportEnd, TransportStart
 
 
@@ -632,3 +637,41 @@ def test_the_monitor_asks_about_many_outages_in_a_few_queries_and_raises_each_on
 
     assert counted_tick(utcnow() + timedelta(seconds=5)) == []  # one alarm per outage
     assert len(statements) <= 12, statements
+
+
+def test_a_robot_whose_frames_wait_on_another_replica_raises_no_patient_not_seen(
+    settings, session_factory, robot
+):
+    """The monitor runs on one replica; a robot streaming to another whose writer is behind
+    has stale stored times there. While that replica says the robot's messages wait, the
+    monitor raises nothing for it; once it no longer does, the outage is alarmed."""
+    settings.patient_unseen_seconds = 4
+    settings.redis_url = REDIS_URL
+    settings.redis_channel = f"vigil-test-{uuid.uuid4().hex}"
+    with TestClient(create_app(settings)) as client:
+        stream(client, robot, ROBOT_TOKEN, "t-1", unseen(0), end=False)
+        started = utcnow()
+        other = SharedWaiting(
+            lambda: frozenset({robot}),
+            client.app.state.services.bus.redis,
+            f"{settings.redis_channel}.waiting.",
+            "other-replica",
+        )
+        client.portal.call(other.publish)
+        assert tick(client, started + timedelta(seconds=4.5)) == []
+        client.portal.call(other.stop)
+        assert [a["kind"] for a in tick(client, started + timedelta(seconds=4.5))] == [
+            "patient_not_seen"
+        ]
+
+
+def test_a_stream_that_is_behind_is_a_stalled_stream_not_a_lost_patient(client, robot, settings):
+    """Every frame stored shows the patient, and then none arrive for a while (the robot's
+    link or the server is behind): that is no evidence the patient was lost. The monitor
+    raises no patient_not_seen, and stream_stalled once the stream is stalled long enough."""
+    settings.patient_unseen_seconds = 4
+    stream(client, robot, ROBOT_TOKEN, "t-1", frame(0, "normal", "t-1"), end=False)
+    stream(client, robot, ROBOT_TOKEN, "t-1", frame(1, "normal", "t-1"), end=False)
+    seen_at = utcnow()
+    assert tick(client, seen_at + timedelta(seconds=4.5)) == []
+    assert [a["kind"] for a in tick(client, seen_at + timedelta(seconds=5.5))] == ["stream_stalled"]

@@ -1,0 +1,101 @@
+"""Which robots' messages wait in a frame writer, on this replica and on the others.
+
+The alarm monitor raises "robot offline", "stream stalled" and "patient not seen" from what is
+stored, so it skips the robots whose messages arrived but are not committed yet: their stored
+times are stale because storage is behind, not because the robot fell silent (the writer's own
+storage-stall actions make that visible). Only one replica runs the monitor, and a robot
+streams to whichever replica it reached; without the others' waiting robots, a replica whose
+writer ran seconds behind had the monitor raise "patient not seen" for patients its robots were
+watching.
+
+Each replica writes its writer's waiting robots to Redis every `PUBLISH_S` under a key of its
+own that expires after `TTL_S`: a replica killed with -9 stops counting within seconds, and its
+unacknowledged frames come again from the robots through another replica. Without Redis, or
+while it does not answer, the monitor sees this replica's waiting robots only, which raises
+more technical alarms, never fewer.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import json
+import logging
+from collections.abc import Callable
+
+log = logging.getLogger(__name__)
+
+PUBLISH_S = 0.5
+TTL_S = 3.0
+
+
+class SharedWaiting:
+    def __init__(
+        self,
+        local: Callable[[], frozenset[str]],
+        redis,
+        prefix: str,
+        replica: str,
+        publish_s: float = PUBLISH_S,
+        ttl_s: float = TTL_S,
+    ) -> None:
+        self._local = local
+        self._redis = redis  # redis.asyncio.Redis, or None: this replica alone
+        self._prefix = prefix
+        self._key = f"{prefix}{replica}"
+        self._publish_s = publish_s
+        self._ttl_ms = int(ttl_s * 1000)
+        self._task: asyncio.Task | None = None
+        self._failing = False
+
+    def start(self) -> None:
+        if self._redis is not None:
+            self._task = asyncio.create_task(self._run(), name="shared-waiting")
+
+    async def stop(self) -> None:
+        """Stop publishing and take this replica's robots away at once."""
+        if self._task is not None:
+            self._task.cancel()
+            with contextlib.suppress(asyncio.CancelledError):
+                await self._task
+        if self._redis is not None:
+            with contextlib.suppress(Exception):
+                await self._redis.delete(self._key)
+
+    async def _run(self) -> None:
+        while True:
+            await self.publish()
+            await asyncio.sleep(self._publish_s)
+
+    async def publish(self) -> None:
+        try:
+            await self._redis.set(self._key, json.dumps(sorted(self._local())), px=self._ttl_ms)
+        except Exception as error:  # Redis away: the bus and readiness report it
+            self._note_failure("publish", error)
+        else:
+            self._failing = False
+
+    async def elsewhere(self) -> frozenset[str]:
+        """The robots waiting in the other replicas' writers (empty without Redis)."""
+        if self._redis is None:
+            return frozenset()
+        try:
+            keys = [
+                key
+                async for key in self._redis.scan_iter(match=f"{self._prefix}*")
+                if _text(key) != self._key
+            ]
+            values = await self._redis.mget(keys) if keys else []
+        except Exception as error:
+            self._note_failure("read", error)
+            return frozenset()
+        return frozenset(robot for value in values if value for robot in json.loads(value))
+
+    def _note_failure(self, what: str, error: Exception) -> None:
+        if not self._failing:
+            log.warning("cannot %s the waiting robots in Redis: %s", what, error)
+        self._failing = True
+
+
+def _text(key: bytes | str) -> str:
+    return key.decode() if isinstance(key, bytes) else key
