@@ -9,7 +9,8 @@ writer ran seconds behind had the monitor raise "patient not seen" for patients 
 watching.
 
 Each replica writes its writer's waiting robots to Redis every `PUBLISH_S` under a key of its
-own that expires after `TTL_S`: a replica killed with -9 stops counting within seconds, and its
+own that expires after `TTL_S`, and its name into a set of replicas (so the reader asks for a
+few keys, never scans Redis): a replica killed with -9 stops counting within seconds, and its
 unacknowledged frames come again from the robots through another replica. Without Redis, or
 while it does not answer, the monitor sees this replica's waiting robots only, which raises
 more technical alarms, never fewer.
@@ -27,6 +28,7 @@ log = logging.getLogger(__name__)
 
 PUBLISH_S = 0.5
 TTL_S = 3.0
+MEMBERS_TTL_S = 60  # the set of replicas goes when none has published for this long
 
 
 class SharedWaiting:
@@ -42,7 +44,8 @@ class SharedWaiting:
         self._local = local
         self._redis = redis  # redis.asyncio.Redis, or None: this replica alone
         self._prefix = prefix
-        self._key = f"{prefix}{replica}"
+        self._replica = replica
+        self._members = f"{prefix}replicas"  # the replicas that published (a set)
         self._publish_s = publish_s
         self._ttl_ms = int(ttl_s * 1000)
         self._task: asyncio.Task | None = None
@@ -60,16 +63,26 @@ class SharedWaiting:
                 await self._task
         if self._redis is not None:
             with contextlib.suppress(Exception):
-                await self._redis.delete(self._key)
+                await self._redis.delete(self._key(self._replica))
+                await self._redis.srem(self._members, self._replica)
 
     async def _run(self) -> None:
         while True:
             await self.publish()
             await asyncio.sleep(self._publish_s)
 
+    def _key(self, replica: str) -> str:
+        return f"{self._prefix}of.{replica}"
+
     async def publish(self) -> None:
         try:
-            await self._redis.set(self._key, json.dumps(sorted(self._local())), px=self._ttl_ms)
+            async with self._redis.pipeline(transaction=False) as pipeline:
+                pipeline.set(
+                    self._key(self._replica), json.dumps(sorted(self._local())), px=self._ttl_ms
+                )
+                pipeline.sadd(self._members, self._replica)
+                pipeline.expire(self._members, MEMBERS_TTL_S)
+                await pipeline.execute()
         except Exception as error:  # Redis away: the bus and readiness report it
             self._note_failure("publish", error)
         else:
@@ -80,12 +93,12 @@ class SharedWaiting:
         if self._redis is None:
             return frozenset()
         try:
-            keys = [
-                key
-                async for key in self._redis.scan_iter(match=f"{self._prefix}*")
-                if _text(key) != self._key
-            ]
-            values = await self._redis.mget(keys) if keys else []
+            others = sorted(_text(m) for m in await self._redis.smembers(self._members))
+            others = [replica for replica in others if replica != self._replica]
+            values = await self._redis.mget([self._key(r) for r in others]) if others else []
+            gone = [replica for replica, value in zip(others, values, strict=True) if not value]
+            if gone:  # expired: killed, or stopped
+                await self._redis.srem(self._members, *gone)
         except Exception as error:
             self._note_failure("read", error)
             return frozenset()

@@ -57,12 +57,14 @@ def test_a_killed_replica_s_waiting_robots_expire():
         before = await survivor.elsewhere()
         await asyncio.sleep(0.5)
         after = await survivor.elsewhere()
+        members = await client.smembers(f"{prefix}replicas")
         await client.aclose()
-        return before, after
+        return before, after, members
 
-    before, after = asyncio.run(scenario())
+    before, after, members = asyncio.run(scenario())
     assert before == {"robot-1"}
     assert after == set()
+    assert members == set()  # the expired replica left the set of replicas
 
 
 def test_without_redis_or_with_redis_gone_a_replica_sees_none_and_keeps_going(caplog):
