@@ -4,9 +4,8 @@ The alarm monitor raises "robot offline", "stream stalled" and "patient not seen
 stored, so it skips the robots whose messages arrived but are not committed yet: their stored
 times are stale because storage is behind, not because the robot fell silent (the writer's own
 storage-stall actions make that visible). Only one replica runs the monitor, and a robot
-streams to whichever replica it reached; without the others' waiting robots, a replica whose
-writer ran seconds behind had the monitor raise "patient not seen" for patients its robots were
-watching.
+streams to whichever replica it reached; without the others' waiting robots, the monitor
+would raise them for robots streaming to a replica whose writer is behind.
 
 Each replica writes its writer's waiting robots to Redis every `PUBLISH_S` under a key of its
 own that expires after `TTL_S`, and its name into a set of replicas (so the reader asks for a
@@ -29,6 +28,8 @@ log = logging.getLogger(__name__)
 PUBLISH_S = 0.5
 TTL_S = 3.0
 MEMBERS_TTL_S = 60  # the set of replicas goes when none has published for this long
+#: The monitor waits no longer than this for Redis: a hung Redis must not hold up escalations.
+READ_TIMEOUT_S = 0.5
 
 
 class SharedWaiting:
@@ -89,19 +90,23 @@ class SharedWaiting:
             self._failing = False
 
     async def elsewhere(self) -> frozenset[str]:
-        """The robots waiting in the other replicas' writers (empty without Redis)."""
+        """The robots waiting in the other replicas' writers (empty without Redis, or when it
+        does not answer within READ_TIMEOUT_S)."""
         if self._redis is None:
             return frozenset()
         try:
-            others = sorted(_text(m) for m in await self._redis.smembers(self._members))
-            others = [replica for replica in others if replica != self._replica]
-            values = await self._redis.mget([self._key(r) for r in others]) if others else []
-            gone = [replica for replica, value in zip(others, values, strict=True) if not value]
-            if gone:  # expired: killed, or stopped
-                await self._redis.srem(self._members, *gone)
+            return await asyncio.wait_for(self._read(), READ_TIMEOUT_S)
         except Exception as error:
             self._note_failure("read", error)
             return frozenset()
+
+    async def _read(self) -> frozenset[str]:
+        others = sorted(_text(m) for m in await self._redis.smembers(self._members))
+        others = [replica for replica in others if replica != self._replica]
+        values = await self._redis.mget([self._key(r) for r in others]) if others else []
+        gone = [replica for replica, value in zip(others, values, strict=True) if not value]
+        if gone:  # expired: killed, or stopped
+            await self._redis.srem(self._members, *gone)
         return frozenset(robot for value in values if value for robot in json.loads(value))
 
     def _note_failure(self, what: str, error: Exception) -> None:

@@ -9,7 +9,7 @@ import uuid
 
 import redis.asyncio as redis
 
-from backend.ingest.waiting import SharedWaiting
+from backend.ingest.waiting import READ_TIMEOUT_S, SharedWaiting
 from tests.backend.test_reliability import REDIS_URL
 
 
@@ -85,3 +85,24 @@ def test_without_redis_or_with_redis_gone_a_replica_sees_none_and_keeps_going(ca
     warnings = [r.getMessage() for r in caplog.records if "waiting robots" in r.getMessage()]
     # One warning when Redis went away, not one per publish or read of the same outage.
     assert len(warnings) == 1 and warnings[0].startswith("cannot publish")
+
+
+def test_a_hung_redis_holds_the_monitor_s_read_no_longer_than_the_timeout():
+    """Redis accepts the connection and never answers: the monitor's pass (and with it every
+    escalation) must not wait for it."""
+
+    async def scenario():
+        async def swallow(reader, writer):
+            await reader.read()  # reads, never answers
+
+        server = await asyncio.start_server(swallow, "127.0.0.1", 0)
+        port = server.sockets[0].getsockname()[1]
+        client = redis.Redis(host="127.0.0.1", port=port)
+        waiting = shared(client, "p.", "monitor", set())
+        # Without its own timeout the read would wait forever: this one would then fail.
+        seen = await asyncio.wait_for(waiting.elsewhere(), 10 * READ_TIMEOUT_S)
+        await client.aclose()
+        server.close()
+        return seen
+
+    assert asyncio.run(scenario()) == set()
