@@ -64,8 +64,11 @@ class SharedWaiting:
                 await self._task
         if self._redis is not None:
             with contextlib.suppress(Exception):
-                await self._redis.delete(self._key(self._replica))
-                await self._redis.srem(self._members, self._replica)
+                await asyncio.wait_for(self._withdraw(), READ_TIMEOUT_S)
+
+    async def _withdraw(self) -> None:
+        await self._redis.delete(self._key(self._replica))
+        await self._redis.srem(self._members, self._replica)
 
     async def _run(self) -> None:
         while True:
