@@ -651,6 +651,7 @@ def test_a_robot_whose_frames_wait_on_another_replica_raises_no_patient_not_seen
     with TestClient(create_app(settings)) as client:
         stream(client, robot, ROBOT_TOKEN, "t-1", unseen(0), end=False)
         started = utcnow()
+        stream(client, robot, ROBOT_TOKEN, "t-1", unseen(1), end=False)
         other = SharedWaiting(
             lambda: frozenset({robot}),
             client.app.state.services.bus.redis,
