@@ -1,29 +1,32 @@
-"""`make bench-hospital-group`: a hospital group on one server pair (issue 36). Two backend
-replicas (uvicorn processes) over one PostgreSQL and Redis, robots streaming at 10 Hz over real
-websockets from several client processes, nurse boards on both replicas, open alarms on the
-boards, the alarm distribution to an Alert Manager (the simulator, real MLLP) and one retention
-run during the window; in the middle of it the replica that runs the duties (alarm monitor,
-alarm distribution) is killed with -9.
+"""`make bench-hospital-group`: a hospital group on one server (issue 36). Backend replicas
+(uvicorn processes; two unless `--replicas`) over one PostgreSQL and Redis, robots streaming at
+10 Hz over real websockets from several client processes, nurse boards spread over the
+replicas, open alarms on the boards, the alarm distribution to an Alert Manager (the simulator,
+real MLLP) and one retention run during the window; in the middle of it the replica that runs
+the duties (alarm monitor, alarm distribution) is killed with -9.
 
-Each robot is given both replicas (half of them prefer each) and, like the agent
-(robot_agent/client.py), goes to the other at once when its connection drops, resending what
+Each robot is given every replica (each preferring one in turn) and, like the agent
+(robot_agent/client.py), goes to the next at once when its connection drops, resending what
 was not acknowledged after the welcome's last_seq. Measured:
 - ack latency (frame sent -> ack covering it) and alarm latency (Emergency frame sent -> a
   board receives the alarm covering it), p50/p99, over the whole window including the kill;
   the ack goal is judged outside the failover (frames sent from 1 s before the kill to 5 s
   after it wait for their robot's reconnect, which the streaming-again goal judges);
-- per robot of the killed replica: kill -> first ack from the other replica;
+- per robot of the killed replica: kill -> first ack from another replica;
 - frames lost (acknowledged but not stored) and duplicated rows, checked in the database;
 - Emergency alarms per transport (each transport decides Emergency once: exactly one alarm);
 - technical alarms the monitor raised for the benchmark's robots (robot offline, stream stalled,
   patient not seen), by kind;
-- which replica held the duties before and after the kill (/api/health), backend CPU and RSS.
+- which replica held the duties before and after the kill (/api/health; exactly one after it),
+  the surviving replicas' CPU and RSS (summed).
 
 Frames are GENERATED (fixed skeleton): this measures the system, not detection. Results go
-into bench/results/ingest.json under "hospital_group" by robot count (the other runs there are
-kept); `make bench-hospital-group` runs 100 and 1,000 robots.
+into bench/results/ingest.json under "hospital_group" by robot count, and replica count where
+it is not two (the other runs there are kept); `make bench-hospital-group` runs 100, 300 and
+1,000 robots on two replicas. On a server with more cores (the robots' client processes best on
+another machine), e.g. `--robots 1000 --replicas 8`.
 
-    python -m bench.hospital_group [--robots 1000] [--processes 4] [--seconds 40]
+    python -m bench.hospital_group [--robots 1000] [--processes 4] [--replicas 2] [--seconds 40]
 """
 
 from __future__ import annotations
@@ -72,7 +75,7 @@ async def _robot(index: int, urls: list[str], hz: float, stop_at: float, emergen
     connections: list[tuple[float, str, float | None]] = []  # (connected at, url, first ack)
     # Like the agent's outbox: the start is resent on every connection until an ack on a
     # connection that carried it confirms it (a replica killed before committing it loses it).
-    seq, url_index, start_confirmed = 0, index % 2, False
+    seq, url_index, start_confirmed = 0, index % len(urls), False
     while time.time() < stop_at:
         url = urls[url_index]
         try:
@@ -192,7 +195,7 @@ async def _boards(urls, token, stop_at) -> list:
     arrivals: list = []
     readies = [asyncio.Event() for _ in range(5)]
     tasks = [
-        asyncio.create_task(_board(urls[i % 2], token, arrivals, stop_at, readies[i]))
+        asyncio.create_task(_board(urls[i % len(urls)], token, arrivals, stop_at, readies[i]))
         for i in range(5)
     ]
     await asyncio.gather(*tasks)
@@ -251,7 +254,18 @@ def _percentiles(values) -> dict:
     return {"p50": p50, "p99": p99}
 
 
+def replica_names(count: int) -> list[str]:
+    """a, b, c, ... (the names README's runs were made with), then r27, r28, ..."""
+    return [chr(ord("a") + i) if i < 26 else f"r{i + 1}" for i in range(count)]
+
+
+def run_key(robots: int, replicas: int) -> str:
+    """Where a run goes in ingest.json's hospital_group: two replicas are the runs of record."""
+    return f"{robots}_robots" if replicas == 2 else f"{robots}_robots_{replicas}_replicas"
+
+
 def run(args) -> dict:
+    servers: dict[str, BackendProcess] = {}
     url, drop = _prepare_database("postgresql", Path("/tmp"), args.robots)
     manager = ThreadedAlertManager(free_port())
     manager.start()
@@ -269,15 +283,22 @@ def run(args) -> dict:
         }
         logs = Path(args.log_dir)
         logs.mkdir(parents=True, exist_ok=True)
-        a = BackendProcess({**env, "VIGIL_REPLICA_NAME": "a"}, log_path=logs / "a.log").start(60)
-        b = BackendProcess({**env, "VIGIL_REPLICA_NAME": "b"}, log_path=logs / "b.log").start(60)
-        duties_before = {"a": _duties(a), "b": _duties(b)}
-        leader, other = (a, b) if (duties_before["a"] or {}).get("leading") else (b, a)
+        for name in replica_names(args.replicas):
+            servers[name] = BackendProcess(
+                {**env, "VIGIL_REPLICA_NAME": name}, log_path=logs / f"{name}.log"
+            ).start(60)
+        duties_before = {name: _duties(server) for name, server in servers.items()}
+        leader_name = next(
+            (name for name, duties in duties_before.items() if (duties or {}).get("leading")),
+            list(servers)[-1],
+        )
+        leader = servers[leader_name]
+        survivors = {name: s for name, s in servers.items() if name != leader_name}
         start = time.time() + 5
         stop_at = start + args.warmup_s + args.seconds
         kill_at = start + args.warmup_s + args.seconds / 2
         emergency_at = start + args.warmup_s + args.seconds / 4
-        urls = [a.ws, b.ws]
+        urls = [server.ws for server in servers.values()]
         chunks = np.array_split(np.arange(args.robots), args.processes)
         outs = [logs / f"clients-{i}.json" for i in range(len(chunks))]
         clients = [
@@ -291,7 +312,7 @@ def run(args) -> dict:
             client.start()
         nurse_token = create_access_token(SECRET, 1, 120)
         retention = None
-        cpu0 = {name: _cpu_seconds(s.process.pid) for name, s in (("a", a), ("b", b))}
+        cpu0 = {name: _cpu_seconds(server.process.pid) for name, server in servers.items()}
 
         async def watch() -> tuple[list, float]:
             boards = asyncio.create_task(_boards(urls, nurse_token, stop_at))
@@ -328,15 +349,20 @@ def run(args) -> dict:
         (arrivals, window_started), _ = asyncio.run(both())
         for client in clients:
             client.join(120)
-        survivor_name = "a" if other is a else "b"
-        survivor_rss = _rss_bytes(other.process.pid)
-        cpu_seconds = _cpu_seconds(other.process.pid) - cpu0[survivor_name]
-        duties_after = _duties(other)
+        # summed over the surviving replicas (one, with the default two)
+        survivor_rss = sum(_rss_bytes(s.process.pid) for s in survivors.values())
+        cpu_seconds = sum(_cpu_seconds(s.process.pid) - cpu0[name] for name, s in survivors.items())
+        duties_after_by_replica = {name: _duties(s) for name, s in survivors.items()}
+        duties_after = next(
+            (d for d in duties_after_by_replica.values() if (d or {}).get("leading")),
+            next(iter(duties_after_by_replica.values())),
+        )
+        leaders_after = sum(1 for d in duties_after_by_replica.values() if (d or {}).get("leading"))
         retention_output = retention.communicate(timeout=120)[0][-500:] if retention else None
         robots = [r for out in outs for r in json.loads(out.read_text())]
         killed_url = leader.ws
-        leader_name = "a" if leader is a else "b"
-        other.stop()
+        for server in survivors.values():
+            server.stop()
         # -- the database's view
         engine = make_engine(url)
         with engine.connect() as connection:
@@ -375,9 +401,8 @@ def run(args) -> dict:
         engine.dispose()
     finally:
         manager.stop()
-        for server in (locals().get("a"), locals().get("b")):
-            if server is not None:
-                server.stop()
+        for server in servers.values():
+            server.stop()
         drop()
 
     window = (window_started, stop_at)
@@ -461,7 +486,12 @@ def run(args) -> dict:
         "open_alarms_seeded": args.open_alarms,
         "boards": 5,
         "retention": retention_output,
-        "duties": {"before": duties_before, "after_kill": duties_after},
+        "replicas": args.replicas,
+        "duties": {
+            "before": duties_before,
+            "after_kill": duties_after,
+            "replicas_leading_after_kill": leaders_after,
+        },
         "surviving_backend": {
             "cpu_percent": round(100 * cpu_seconds / (time.time() - window[0]), 1),
             "rss_mb": round(survivor_rss / 2**20, 1),
@@ -482,6 +512,7 @@ def run(args) -> dict:
         and measured["emergency_alarms_per_transport"]["without_transport"] == 0
         and duties_after
         and duties_after.get("leading")
+        and leaders_after == 1
     )
     return measured
 
@@ -491,12 +522,20 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--robots", type=int, default=1000)
     parser.add_argument("--hz", type=float, default=10)
     parser.add_argument("--processes", type=int, default=4, help="robot client processes")
+    parser.add_argument(
+        "--replicas",
+        type=int,
+        default=2,
+        help="backend replicas (at least 2; the one running the duties is killed)",
+    )
     parser.add_argument("--seconds", type=float, default=40, help="measured window")
     parser.add_argument("--warmup-s", type=float, default=10)
     parser.add_argument("--open-alarms", type=int, default=500)
     parser.add_argument("--log-dir", default="/tmp/vigil-bench-hospital-group")
     parser.add_argument("--output", type=Path, default=RESULTS)
     args = parser.parse_args(argv)
+    if args.replicas < 2:
+        parser.error("--replicas: at least 2 (one is killed, another takes over)")
     result = run(args)
     result["machine"] = {
         "cpus": os.cpu_count(),
@@ -505,7 +544,7 @@ def main(argv: list[str] | None = None) -> int:
     }
     result["measured_at"] = time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())
     existing = json.loads(args.output.read_text()) if args.output.exists() else {}
-    existing.setdefault("hospital_group", {})[f"{args.robots}_robots"] = result
+    existing.setdefault("hospital_group", {})[run_key(args.robots, args.replicas)] = result
     args.output.parent.mkdir(parents=True, exist_ok=True)
     args.output.write_text(json.dumps(existing, indent=2) + "\n")
     print(json.dumps(result, indent=2))
