@@ -463,9 +463,7 @@ def _alarmed_twice(per_transport: dict) -> str:
     return twice if without is None else f"{twice} (without a transport: {without})"
 
 
-def _technical(counts: dict | None) -> str:
-    if counts is None:  # a run from before the benchmark counted them
-        return "not counted"
+def _technical(counts: dict) -> str:
     return " / ".join(
         str(counts[k]) for k in ("robot_offline", "stream_stalled", "patient_not_seen")
     )
@@ -492,7 +490,7 @@ def _hospital_group() -> str | None:
                 "none within the window" if again["max"] is None else again["max"],
                 f"{run['frames_lost']} / {run['duplicated_rows']} / {run['unacknowledged_at_end']}",
                 _alarmed_twice(run["emergency_alarms_per_transport"]),
-                _technical(run.get("technical_alarms")),
+                _technical(run["technical_alarms"]),
                 "yes" if (run["duties"]["after_kill"] or {}).get("leading") else "no",
                 f"{survivor['cpu_percent']} % / {survivor['rss_mb']}",
                 run["load_average_1min"],
